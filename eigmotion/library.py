@@ -1,0 +1,371 @@
+"""The library of basic motions: a TOML manifest of labelled, trimmed motion clips.
+
+The bundled manifest is ``database/motions/library.toml``; each ``[[motion]]`` table
+names one basic motion::
+
+    [[motion]]
+    name = "pick_up_02_06_a"           # unique, letters, digits, "_" and "-"
+    label = "pick_up"                  # one of LABELS (or DISTRACTOR_LABELS)
+    source = ["cmu/amc/02_06.amc", "cmu/asf/02.asf"]   # or "authored/x.bvh"
+    frame_range = [30, 235]            # [start, stop): 0-based frames of the source
+    performer = "cmu_02"
+    variation = "first repetition"
+    licence = "CMU mocap: free for research and commercial use"
+    attribution = "mocap.cs.cmu.edu, NSF EIA-0196217"
+    role = "basic"                     # optional: "basic" (default) or "distractor"
+
+Paths are relative to the manifest's folder.  ``frame_range`` counts the frames of
+the file as read (frame 0 is the first frame of an AMC file, whatever number the file
+gives it) and is half-open, as :meth:`eigmotion.motion.Motion.trim`; without it the
+whole file is used.  Motions with ``role = "distractor"`` are real motions that are
+*not* basic motions: they are left out of the default library and serve to test that
+unknown motions are rejected.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import InvalidParameterError
+from .motion import Motion
+
+#: The basic-motion labels: the patent's six examples, then those of the CMU clips.
+LABELS = (
+    "lift",
+    "pick_up",
+    "sit_down",
+    "cover_head",
+    "walk",
+    "fall_down",
+    "run",
+    "jump",
+    "wave",
+    "kick",
+    "punch",
+    "turn",
+)
+
+#: Labels of distractor motions (not basic motions; kept to test rejection).
+DISTRACTOR_LABELS = ("duck", "block")
+
+#: Roles a manifest entry may have.
+ROLES = ("basic", "distractor")
+
+#: The bundled manifest (in the source tree, next to the motion files it lists).
+DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "database" / "motions" / "library.toml"
+
+_NAME = re.compile(r"[A-Za-z0-9_-]+")
+_TEXT_FIELDS = ("performer", "variation", "licence", "attribution")
+_KNOWN_FIELDS = {"name", "label", "source", "frame_range", "role", *_TEXT_FIELDS}
+
+
+@dataclass(frozen=True)
+class ManifestEntry:
+    """One ``[[motion]]`` table of a manifest, checked, motion not loaded.
+
+    Attributes
+    ----------
+    name, label : str
+    source : tuple of Path
+        Absolute paths: ``(bvh,)`` or ``(amc, asf)``.
+    frame_range : (int, int) or None
+        ``[start, stop)`` in the source's frames, or ``None`` for the whole file.
+    performer, variation, licence, attribution : str
+    role : str
+        ``"basic"`` or ``"distractor"``.
+    """
+
+    name: str
+    label: str
+    source: tuple[Path, ...]
+    frame_range: tuple[int, int] | None
+    performer: str
+    variation: str
+    licence: str
+    attribution: str
+    role: str
+
+
+@dataclass(frozen=True, eq=False)
+class LibraryMotion:
+    """A basic motion of the library, loaded and trimmed.
+
+    Attributes
+    ----------
+    name : str
+        Unique name in the library.
+    label : str
+        What the motion is (one of :data:`LABELS`, or :data:`DISTRACTOR_LABELS`).
+    motion : Motion
+        The trimmed motion, named ``name``, on the source file's own skeleton.
+    source : tuple of Path
+        The file(s) it was read from.
+    performer, variation, licence, attribution : str
+    role : str
+        ``"basic"`` or ``"distractor"``.
+    frame_range : (int, int) or None
+        The frames of the source that were kept.
+    """
+
+    name: str
+    label: str
+    motion: Motion
+    source: tuple[Path, ...]
+    performer: str
+    variation: str
+    licence: str
+    role: str
+    attribution: str = ""
+    frame_range: tuple[int, int] | None = None
+
+
+def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
+    """Read and check a library manifest without loading any motion.
+
+    Parameters
+    ----------
+    manifest : str or Path, optional
+        A ``library.toml``; default :data:`DEFAULT_MANIFEST`.
+
+    Returns
+    -------
+    list of ManifestEntry
+        In file order.
+
+    Raises
+    ------
+    InvalidParameterError
+        The manifest is missing or not valid TOML, or an entry lacks a field, has a
+        field of the wrong type, an unknown label or role, a duplicate name, or a
+        source that is neither one ``.bvh`` nor an ``.amc`` with its ``.asf``.
+    """
+    path = Path(DEFAULT_MANIFEST if manifest is None else manifest)
+    if not path.is_file():
+        raise InvalidParameterError(f"motion library manifest not found: {path}")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InvalidParameterError(f"{path}: not a valid TOML manifest: {exc}") from None
+    tables = data.get("motion", [])
+    if not isinstance(tables, list) or not tables:
+        raise InvalidParameterError(f"{path}: expected one or more [[motion]] tables")
+    entries = []
+    seen: set[str] = set()
+    for i, table in enumerate(tables, start=1):
+        entry = _entry(table, path, i)
+        if entry.name in seen:
+            raise InvalidParameterError(f"{path}: motion #{i}: duplicate name {entry.name!r}")
+        seen.add(entry.name)
+        entries.append(entry)
+    return entries
+
+
+def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
+    where = f"{path}: motion #{index}"
+    if not isinstance(table, dict):
+        raise InvalidParameterError(f"{where}: expected a table")
+    if isinstance(table.get("name"), str):
+        where += f" ({table['name']})"
+    unknown = sorted(set(table) - _KNOWN_FIELDS)
+    if unknown:
+        raise InvalidParameterError(
+            f"{where}: unknown field(s) {unknown}; known: {sorted(_KNOWN_FIELDS)}"
+        )
+    fields = {}
+    for key in ("name", "label", *_TEXT_FIELDS):
+        value = table.get(key)
+        if not isinstance(value, str) or not value.strip():
+            raise InvalidParameterError(f"{where}: field {key!r} must be a non-empty string")
+        fields[key] = value
+    if not _NAME.fullmatch(fields["name"]):
+        raise InvalidParameterError(
+            f"{where}: name {fields['name']!r} may hold only letters, digits, '_' and '-'"
+        )
+    role = table.get("role", "basic")
+    if role not in ROLES:
+        raise InvalidParameterError(f"{where}: role must be one of {list(ROLES)}, got {role!r}")
+    allowed = LABELS if role == "basic" else DISTRACTOR_LABELS
+    if fields["label"] not in allowed:
+        raise InvalidParameterError(
+            f"{where}: label {fields['label']!r} is not a known {role} label; "
+            f"known: {', '.join(allowed)}"
+        )
+    return ManifestEntry(
+        name=fields["name"],
+        label=fields["label"],
+        source=_source(table.get("source"), path.parent, where),
+        frame_range=_frame_range(table.get("frame_range"), where),
+        performer=fields["performer"],
+        variation=fields["variation"],
+        licence=fields["licence"],
+        attribution=fields["attribution"],
+        role=role,
+    )
+
+
+def _source(value, base: Path, where: str) -> tuple[Path, ...]:
+    items = [value] if isinstance(value, str) else value
+    if not isinstance(items, list) or not all(isinstance(s, str) and s for s in items):
+        raise InvalidParameterError(
+            f"{where}: source must be a path or a list of paths, got {value!r}"
+        )
+    suffixes = sorted(Path(s).suffix.lower() for s in items)
+    if suffixes not in ([".bvh"], [".amc", ".asf"]):
+        raise InvalidParameterError(
+            f"{where}: source must be one .bvh file or an .amc file with its .asf, got {items}"
+        )
+    paths = sorted((base / s for s in items), key=lambda p: p.suffix.lower())
+    return tuple(p.resolve() for p in paths)
+
+
+def _frame_range(value, where: str) -> tuple[int, int] | None:
+    if value is None:
+        return None
+    ok = (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+        and 0 <= value[0] < value[1]
+    )
+    if not ok:
+        raise InvalidParameterError(
+            f"{where}: frame_range must be [start, stop] with 0 <= start < stop, got {value!r}"
+        )
+    return int(value[0]), int(value[1])
+
+
+def load_entry(entry: ManifestEntry) -> LibraryMotion:
+    """Read one manifest entry's motion and trim it.
+
+    Raises
+    ------
+    InvalidParameterError
+        A source file is missing, or ``frame_range`` runs past the end of the file.
+    MotionFormatError
+        A source file cannot be parsed.
+    """
+    for p in entry.source:
+        if not p.is_file():
+            raise InvalidParameterError(f"library motion {entry.name!r}: file not found: {p}")
+    motion = _read_motion_file(*entry.source)
+    if entry.frame_range is not None:
+        start, stop = entry.frame_range
+        if stop > motion.n_frames:
+            raise InvalidParameterError(
+                f"library motion {entry.name!r}: frame_range [{start}, {stop}] runs past the "
+                f"end of {entry.source[0]} ({motion.n_frames} frames)"
+            )
+        motion = motion.trim(start, stop)
+    return LibraryMotion(
+        name=entry.name,
+        label=entry.label,
+        motion=motion.replace(name=entry.name),
+        source=entry.source,
+        performer=entry.performer,
+        variation=entry.variation,
+        licence=entry.licence,
+        role=entry.role,
+        attribution=entry.attribution,
+        frame_range=entry.frame_range,
+    )
+
+
+def load_library(
+    manifest: str | Path | None = None, include_distractors: bool = False
+) -> list[LibraryMotion]:
+    """Load every motion of a library manifest.
+
+    Parameters
+    ----------
+    manifest : str or Path, optional
+        Default :data:`DEFAULT_MANIFEST`.
+    include_distractors : bool
+        Also load the entries with ``role = "distractor"``.
+
+    Returns
+    -------
+    list of LibraryMotion
+        In manifest order.
+    """
+    return [
+        load_entry(e)
+        for e in read_manifest(manifest)
+        if include_distractors or e.role != "distractor"
+    ]
+
+
+def motion_names(manifest: str | Path | None = None, include_distractors: bool = True) -> list[str]:
+    """Names of the motions in a manifest, in file order."""
+    return [
+        e.name for e in read_manifest(manifest) if include_distractors or e.role != "distractor"
+    ]
+
+
+def find_motion(
+    name_or_path: str | Path,
+    asf: str | Path | None = None,
+    manifest: str | Path | None = None,
+) -> Motion:
+    """A motion by library name, or read from a ``.bvh`` / ``.amc`` file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A name from the manifest (distractors included), or a path to a ``.bvh`` file
+        or an ``.amc`` file.
+    asf : str or Path, optional
+        The ``.asf`` skeleton of an ``.amc`` file (required for one).
+    manifest : str or Path, optional
+        Default :data:`DEFAULT_MANIFEST`.
+
+    Returns
+    -------
+    Motion
+        A library motion comes trimmed and named after its entry; a file as read.
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown name (the message lists the known ones), a missing file, an
+        ``.amc`` without ``asf``, or an unsupported extension.
+    """
+    text = str(name_or_path)
+    suffix = Path(text).suffix.lower()
+    if suffix in (".bvh", ".amc"):
+        path = Path(text)
+        if not path.is_file():
+            raise InvalidParameterError(f"motion file not found: {path}")
+        if suffix == ".amc":
+            if asf is None:
+                raise InvalidParameterError(
+                    f"{path}: an .amc motion needs its skeleton: pass the .asf file (asf=...)"
+                )
+            if not Path(asf).is_file():
+                raise InvalidParameterError(f"skeleton file not found: {asf}")
+            return _read_motion_file(path, Path(asf))
+        return _read_motion_file(path)
+    if suffix:
+        raise InvalidParameterError(
+            f"{text}: unsupported motion file type {suffix!r}; expected .bvh or .amc "
+            "(with --asf), or a library motion name"
+        )
+    entries = {e.name: e for e in read_manifest(manifest)}
+    if text not in entries:
+        raise InvalidParameterError(
+            f"no motion named {text!r} in the library; known motions: {', '.join(entries)}"
+        )
+    return load_entry(entries[text]).motion
+
+
+def _read_motion_file(path: Path, asf: Path | None = None) -> Motion:
+    """Read a ``.bvh`` file, or an ``.amc`` file with its ``.asf``."""
+    if path.suffix.lower() == ".amc":
+        from .asf_amc import read_amc
+
+        return read_amc(path, asf)
+    from .bvh import read_bvh
+
+    return read_bvh(path)

@@ -1,0 +1,360 @@
+"""Reading and writing clips: video files, image folders and GIFs.
+
+Every clip in eigmotion is an array of RGB frames, ``(F, H, W, 3) uint8``, plus a frame
+rate in frames per second.  Videos are decoded and encoded by the FFmpeg build bundled
+with OpenCV (``cv2.VideoCapture`` / ``cv2.VideoWriter``), GIFs and still images by
+Pillow.
+
+What can be written here:
+
+* ``.mp4`` / ``.mov`` — H.264 (``avc1``) when the FFmpeg build can encode it, else
+  MPEG-4 part 2 (``mp4v``); the pip wheels of ``opencv-python-headless`` ship without an
+  H.264 encoder, so ``mp4v`` is what they write.  Both are lossy.
+* ``.avi`` — Motion-JPEG (``MJPG``), lossy, every frame independent.
+* For these three, an odd width or height is padded by repeating the last column or
+  row (the encoders need even sizes and would otherwise drop it).
+* ``.gif`` — Pillow, an adaptive 256-colour palette per frame, looping forever.  The
+  GIF encoder merges identical consecutive frames into one longer frame (the timing is
+  kept, the frame count is not), and GIF delays are whole centiseconds, so the frame
+  rate read back is ``100 / round(100 / fps)``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InvalidParameterError, VideoError
+
+#: Extensions read and written through OpenCV's FFmpeg backend.
+VIDEO_EXTENSIONS = (".mp4", ".avi", ".mov", ".mkv")
+#: Extensions of the still images an image folder may hold.
+IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+#: Extensions :func:`write_video` accepts.
+WRITABLE_EXTENSIONS = (".mp4", ".mov", ".avi", ".gif")
+#: Frame rate reported for an image folder, and for a file that stores none, frames/s.
+DEFAULT_FPS = 30.0
+
+_NUMBER = re.compile(r"(\d+)")
+
+
+def read_frames(
+    path: str | os.PathLike,
+    fps: float | None = None,
+    max_frames: int | None = None,
+) -> tuple[np.ndarray, float]:
+    """Read a whole clip into memory.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        A video file (``.mp4``, ``.avi``, ``.mov``, ``.mkv``), an animated ``.gif``, or a
+        folder of still images (``.png``, ``.jpg``, …) taken in name order, with digit
+        runs compared as numbers (``f2.png`` before ``f10.png``).
+    fps : float, optional
+        Frame rate to report, frames/s.  For an image folder it defaults to
+        :data:`DEFAULT_FPS`; for a file it overrides the rate stored in the file.
+    max_frames : int, optional
+        Stop after this many frames.
+
+    Returns
+    -------
+    frames : (F, H, W, 3) uint8
+        RGB frames, ``F >= 1``.
+    fps : float
+        Frames per second.
+
+    Raises
+    ------
+    VideoError
+        The path is missing, of an unknown kind, unreadable, holds no frames, or holds
+        frames of different sizes.
+    InvalidParameterError
+        ``fps`` or ``max_frames`` is not positive.
+    """
+    path = Path(path)
+    if fps is not None and not (np.isfinite(fps) and fps > 0):
+        raise InvalidParameterError(f"fps must be > 0 frames/s, got {fps!r}")
+    if max_frames is not None and int(max_frames) < 1:
+        raise InvalidParameterError(f"max_frames must be >= 1, got {max_frames!r}")
+    if not path.exists():
+        raise VideoError(f"{path}: no such file or folder")
+    if path.is_dir():
+        frames, stored_fps = _read_folder(path, max_frames)
+    elif path.suffix.lower() == ".gif":
+        frames, stored_fps = _read_gif(path, max_frames)
+    elif path.suffix.lower() in VIDEO_EXTENSIONS:
+        frames, stored_fps = _read_video(path, max_frames)
+    else:
+        raise VideoError(
+            f"{path}: unknown clip type {path.suffix!r}; expected a folder of images or "
+            f"one of {', '.join(VIDEO_EXTENSIONS + ('.gif',))}"
+        )
+    return frames, float(fps if fps is not None else stored_fps)
+
+
+def _stack(frames: list[np.ndarray], path: Path, names: list[str] | None = None) -> np.ndarray:
+    if not frames:
+        raise VideoError(f"{path}: holds no frames")
+    first = frames[0].shape
+    for i, frame in enumerate(frames):
+        if frame.shape != first:
+            what = names[i] if names is not None else f"frame {i}"
+            raise VideoError(
+                f"{path}: {what} is {frame.shape[1]}×{frame.shape[0]} pixels, but the "
+                f"first frame is {first[1]}×{first[0]}; all frames must have one size"
+            )
+    return np.stack(frames)
+
+
+def _read_video(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
+    import cv2
+
+    capture = cv2.VideoCapture(str(path))
+    try:
+        if not capture.isOpened():
+            raise VideoError(f"{path}: cannot be opened as a video (corrupt or unsupported)")
+        stored_fps = capture.get(cv2.CAP_PROP_FPS)
+        frames = []
+        while max_frames is None or len(frames) < max_frames:
+            ok, bgr = capture.read()
+            if not ok:
+                break
+            frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+    finally:
+        capture.release()
+    if not frames:
+        raise VideoError(f"{path}: no frame could be decoded (empty or corrupt video)")
+    if not (np.isfinite(stored_fps) and stored_fps > 0):
+        stored_fps = DEFAULT_FPS
+    return _stack(frames, path), float(stored_fps)
+
+
+def _read_gif(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
+    from PIL import Image, ImageSequence, UnidentifiedImageError
+
+    frames, durations_ms = [], []
+    try:
+        with Image.open(path) as image:
+            for frame in ImageSequence.Iterator(image):
+                frames.append(np.asarray(frame.convert("RGB")))
+                durations_ms.append(float(frame.info.get("duration", 0) or 0))
+                if max_frames is not None and len(frames) >= max_frames:
+                    break
+    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+        raise VideoError(f"{path}: not a readable GIF ({exc})") from None
+    positive = [d for d in durations_ms if d > 0]
+    fps = 1000.0 / float(np.mean(positive)) if positive else DEFAULT_FPS
+    return _stack(frames, path), fps
+
+
+def _natural_key(name: str) -> list:
+    return [int(part) if part.isdigit() else part.lower() for part in _NUMBER.split(name)]
+
+
+def image_files(folder: str | os.PathLike) -> list[Path]:
+    """The still images of a folder in frame order.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+
+    Returns
+    -------
+    list of Path
+        Files with an extension in :data:`IMAGE_EXTENSIONS`, sorted by name with digit
+        runs compared as numbers; possibly empty.
+    """
+    folder = Path(folder)
+    files = [p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS]
+    return sorted(files, key=lambda p: _natural_key(p.name))
+
+
+def _read_folder(folder: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
+    from PIL import Image, UnidentifiedImageError
+
+    files = image_files(folder)
+    if not files:
+        raise VideoError(
+            f"{folder}: holds no frames (no files ending in {', '.join(IMAGE_EXTENSIONS)})"
+        )
+    if max_frames is not None:
+        files = files[:max_frames]
+    frames = []
+    for file in files:
+        try:
+            with Image.open(file) as image:
+                frames.append(np.asarray(image.convert("RGB")))
+        except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+            raise VideoError(f"{file}: not a readable image ({exc})") from None
+    return _stack(frames, folder, [f.name for f in files]), DEFAULT_FPS
+
+
+def as_rgb_frames(frames: np.ndarray) -> np.ndarray:
+    """Frames of any supported kind as RGB, for writing or display.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8, (F, H, W) uint8 or (F, H, W) bool
+        RGB frames, grey frames, or masks (``True`` becomes white).
+
+    Returns
+    -------
+    (F, H, W, 3) uint8
+
+    Raises
+    ------
+    InvalidParameterError
+        Another shape or dtype, or no frame at all.
+    """
+    frames = np.asarray(frames)
+    if frames.dtype == np.bool_:
+        frames = frames.astype(np.uint8) * np.uint8(255)
+    if frames.dtype != np.uint8:
+        raise InvalidParameterError(
+            f"frames must be uint8 (RGB or grey) or bool (masks), got dtype {frames.dtype}"
+        )
+    if frames.ndim == 3:
+        frames = np.repeat(frames[..., None], 3, axis=-1)
+    if frames.ndim != 4 or frames.shape[-1] != 3:
+        raise InvalidParameterError(
+            f"frames must have shape (F, H, W, 3) or (F, H, W), got {frames.shape}"
+        )
+    if frames.shape[0] == 0 or frames.shape[1] == 0 or frames.shape[2] == 0:
+        raise InvalidParameterError(
+            f"frames must hold at least one non-empty frame, got {frames.shape}"
+        )
+    return frames
+
+
+def write_video(frames: np.ndarray, path: str | os.PathLike, fps: float = DEFAULT_FPS) -> Path:
+    """Write frames as a video file or an animated GIF.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8, (F, H, W) uint8 or (F, H, W) bool
+        RGB frames, grey frames or masks (``True`` written white).
+    path : str or PathLike
+        Output file; its extension picks the format (see the module docstring):
+        ``.mp4``, ``.mov``, ``.avi`` or ``.gif``.  Missing parent folders are created.
+        Video files get odd sizes padded to even ones (last row/column repeated).
+    fps : float
+        Frames per second.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InvalidParameterError
+        Bad frames or ``fps``.
+    VideoError
+        Unknown extension, or the encoder could not be opened.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in WRITABLE_EXTENSIONS:
+        raise VideoError(
+            f"{path}: cannot write {suffix or 'a file without extension'!r}; expected one "
+            f"of {', '.join(WRITABLE_EXTENSIONS)}"
+        )
+    if not (np.isfinite(fps) and fps > 0):
+        raise InvalidParameterError(f"fps must be > 0 frames/s, got {fps!r}")
+    frames = as_rgb_frames(frames)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".gif":
+        _write_gif(frames, path, fps)
+    else:
+        fourcc = "MJPG" if suffix == ".avi" else mp4_fourcc()
+        _write_cv2(frames, path, fps, fourcc)
+    return path
+
+
+def _write_cv2(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> None:
+    import cv2
+
+    # The FFmpeg encoders drop an odd last row or column; pad instead, so nothing is lost.
+    pad_rows, pad_cols = frames.shape[1] % 2, frames.shape[2] % 2
+    if pad_rows or pad_cols:
+        frames = np.pad(frames, ((0, 0), (0, pad_rows), (0, pad_cols), (0, 0)), mode="edge")
+    height, width = frames.shape[1:3]
+    writer = cv2.VideoWriter(
+        str(path), cv2.VideoWriter_fourcc(*fourcc), float(fps), (width, height)
+    )
+    try:
+        if not writer.isOpened():
+            raise VideoError(
+                f"{path}: the {fourcc!r} encoder could not be opened for {width}×{height} "
+                f"frames at {fps} frames/s"
+            )
+        for frame in frames:
+            writer.write(np.ascontiguousarray(frame[..., ::-1]))
+    finally:
+        writer.release()
+
+
+def _write_gif(frames: np.ndarray, path: Path, fps: float) -> None:
+    from PIL import Image
+
+    duration_ms = max(10, int(round(100.0 / fps)) * 10)  # GIF delays are centiseconds
+    images = [Image.fromarray(frame) for frame in frames]
+    images[0].save(
+        path,
+        save_all=True,
+        append_images=images[1:],
+        duration=duration_ms,
+        loop=0,
+        optimize=False,
+    )
+
+
+@lru_cache(maxsize=1)
+def mp4_fourcc() -> str:
+    """The FourCC :func:`write_video` uses for ``.mp4``/``.mov``: ``avc1`` or ``mp4v``.
+
+    H.264 (``avc1``) plays everywhere, but OpenCV's pip wheels cannot encode it; the
+    answer is found once per process by opening a tiny writer.  FFmpeg reports the
+    failed attempt on the process's stderr, which is silenced for that moment only.
+
+    Returns
+    -------
+    str
+    """
+    import cv2
+
+    with tempfile.TemporaryDirectory() as tmp, _quiet_stderr():
+        probe = Path(tmp) / "probe.mp4"
+        writer = cv2.VideoWriter(str(probe), cv2.VideoWriter_fourcc(*"avc1"), 30.0, (16, 16))
+        ok = writer.isOpened()
+        if ok:
+            writer.write(np.zeros((16, 16, 3), np.uint8))
+        writer.release()
+    return "avc1" if ok else "mp4v"
+
+
+class _quiet_stderr:
+    """Redirect file descriptor 2 to /dev/null (native libraries write there directly)."""
+
+    def __enter__(self):
+        self._saved = None
+        try:
+            self._saved = os.dup(2)
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, 2)
+            os.close(devnull)
+        except OSError:  # no fd 2 to redirect: nothing to silence
+            self._saved = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._saved is not None:
+            os.dup2(self._saved, 2)
+            os.close(self._saved)
+        return False

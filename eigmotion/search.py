@@ -1,0 +1,763 @@
+"""Exact nearest-neighbour search through the key tree.
+
+Step 6 of the retrieval engine.  The patent looks a query's point up under its own
+K-digit key and takes the nearest point of that one bin; once ``R >= 8`` the true
+nearest neighbour usually sits in a neighbouring bin and is missed.  :class:`TreeIndex`
+instead returns exactly what brute force over every entry returns — the same ids and
+the same distances, ties broken by the smaller id — while computing distances to a
+small fraction of the entries.
+
+The tree (held in memory, built from the store's arrays; the B-tree stays the index of
+record):
+
+* levels 1 … K follow the key digits: a node of level ``d`` holds every entry whose key
+  starts with one ``d``-digit prefix (a contiguous range of the sorted B-tree keys),
+  its children split it by the next digit; level K nodes are the bins, the B-tree's
+  occupied keys;
+* a bin larger than ``leaf_size`` entries is split further at the median of its widest
+  coordinate (any of the k axes, not only the K key axes) until every leaf holds at
+  most ``leaf_size`` entries; a key-prefix node that is already that small is a leaf;
+* every node keeps the tight bounding box of its entries over all k coordinates, so
+  ``Σ_a gap_a(h, box)²`` is a lower bound on the squared distance from a query ``h``
+  to anything in it, usually far tighter than the section boundaries alone, and it
+  covers the axes beyond K;
+* nodes with a single child are skipped.
+
+A query (all steps vectorised over queries and nodes with numpy):
+
+1. *Key lookup*: the query's own key (the patent's step) finds the deepest occupied
+   key prefix; from there the child with the smallest bound is followed down to a
+   leaf, whose entries give a first k-th best distance.
+2. *Pruned descent*: from the root, level by level, every child whose bound does not
+   exceed the current k-th best distance is kept; leaves are collected.
+3. *Leaves in bound order*: each query's leaves are examined nearest bound first, in
+   growing batches; after each batch the k-th best distance shrinks and leaves whose
+   bound exceeds it are dropped.
+
+Distances are computed as ``Σ_a (p_a − h_a)²`` in float64 from the float32 points by one
+function shared with :class:`BruteForceIndex`, and bounds by the same arithmetic, so
+bound ≤ distance holds in floating point and the answers agree bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Integral
+
+import numpy as np
+
+from .errors import InvalidParameterError
+from .keys import Quantizer, key_prefix
+
+#: Relative slack on pruning comparisons; bounds are exact lower bounds in floating
+#: point already, this only guards against a different summation order.
+_SLACK = 1.0 + 1e-9
+
+#: Unit roundoff of float32.
+_U32 = 2.0**-24
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """Nearest entries of a batch of queries.
+
+    Attributes
+    ----------
+    ids : (Q, top_k) int64
+        Entry ids, nearest first; equal distances in increasing id order.
+    distances : (Q, top_k) float64
+        Euclidean distances (not squared) in eigen-coordinate units.
+    examined : (Q,) int64
+        Entries whose distance to the query was computed.
+    """
+
+    ids: np.ndarray
+    distances: np.ndarray
+    examined: np.ndarray
+
+
+# -- shared arithmetic -------------------------------------------------------------
+
+
+def _pair_sq_distances(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Squared distances of row pairs, (m, k) and (m, k) or (k,) float32 → (m,) float32.
+
+    The single distance formula of this module: brute force and the tree both call it,
+    so equal pairs give bit-identical distances.
+    """
+    diff = points - queries
+    diff *= diff
+    return diff.sum(axis=1)
+
+
+def _check_points(points, name: str = "points") -> np.ndarray:
+    p = np.asarray(points)
+    if p.ndim != 2 or p.shape[1] < 1:
+        raise InvalidParameterError(f"{name} must be 2-D (N, k), got shape {p.shape}")
+    if not np.issubdtype(p.dtype, np.floating):
+        raise InvalidParameterError(f"{name} must be floating point, got dtype {p.dtype}")
+    p = np.ascontiguousarray(p, dtype=np.float32)
+    if not np.all(np.isfinite(p)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+        raise InvalidParameterError(f"{name} row {row} holds NaN or infinity (as float32)")
+    return p
+
+
+def _check_ids(ids, n: int) -> np.ndarray:
+    i = np.asarray(ids)
+    if i.shape != (n,) or (n and not np.issubdtype(i.dtype, np.integer)):
+        raise InvalidParameterError(f"ids must be ({n},) integers, got {i.dtype} {i.shape}")
+    i = i.astype(np.int64)
+    if np.unique(i).size != n:
+        raise InvalidParameterError("ids must be unique")
+    return i
+
+
+def _check_queries(queries, n_dims: int) -> np.ndarray:
+    q = np.asarray(queries)
+    if q.ndim == 1:
+        q = q[None, :]
+    if q.ndim != 2 or q.shape[1] != n_dims:
+        raise InvalidParameterError(
+            f"queries must be ({n_dims},) or (Q, {n_dims}), got shape {np.shape(queries)}"
+        )
+    if not (np.issubdtype(q.dtype, np.floating) or np.issubdtype(q.dtype, np.integer)):
+        raise InvalidParameterError(f"queries must be real numbers, got dtype {q.dtype}")
+    q = np.ascontiguousarray(q, dtype=np.float32)
+    if not np.all(np.isfinite(q)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(q), axis=1))[0])
+        raise InvalidParameterError(f"query {row} holds NaN or infinity (as float32)")
+    return q
+
+
+def _check_top_k(top_k, n_entries: int) -> int:
+    if isinstance(top_k, bool) or not isinstance(top_k, Integral) or top_k < 1:
+        raise InvalidParameterError(f"top_k must be a positive integer, got {top_k!r}")
+    if top_k > n_entries:
+        raise InvalidParameterError(f"top_k={top_k} exceeds the {n_entries} entries")
+    return int(top_k)
+
+
+class _TopK:
+    """Running k best (squared distance, id) per query, ties by smaller id."""
+
+    def __init__(self, n_queries: int, top_k: int):
+        self.top_k = top_k
+        self.sq = np.full((n_queries, top_k), np.inf)
+        self.ids = np.zeros((n_queries, top_k), dtype=np.int64)
+        self.examined = np.zeros(n_queries, dtype=np.int64)
+
+    def bound(self) -> np.ndarray:
+        """(Q,) float64: the k-th best squared distance so far (inf until k found)."""
+        return self.sq[:, -1]
+
+    def add(self, q: np.ndarray, sq: np.ndarray, ids: np.ndarray) -> None:
+        """Merge candidates ``(q, sq, ids)``, each (m,), into the running best."""
+        if q.size == 0:
+            return
+        if self.sq.shape[0] == 1:  # one query: no grouping needed
+            self.examined[0] += q.size
+            have = np.isfinite(self.sq[0])
+            all_sq = np.concatenate([self.sq[0, have], sq])
+            all_ids = np.concatenate([self.ids[0, have], ids])
+            order = np.lexsort((all_ids, all_sq))[: self.top_k]
+            self.sq[0, : order.size] = all_sq[order]
+            self.ids[0, : order.size] = all_ids[order]
+            return
+        self.examined += np.bincount(q, minlength=self.examined.size)
+        rows = np.unique(q)
+        old_sq, old_ids = self.sq[rows], self.ids[rows]
+        have = np.isfinite(old_sq)
+        old_q = np.broadcast_to(rows[:, None], old_sq.shape)[have]
+        all_q = np.concatenate([old_q, q])
+        all_sq = np.concatenate([old_sq[have], sq])
+        all_ids = np.concatenate([old_ids[have], ids])
+        order = np.lexsort((all_ids, all_sq, all_q))
+        all_q, all_sq, all_ids = all_q[order], all_sq[order], all_ids[order]
+        rank = _rank_in_groups(all_q)
+        keep = rank < self.top_k
+        self.sq[rows] = np.inf
+        self.sq[all_q[keep], rank[keep]] = all_sq[keep]
+        self.ids[all_q[keep], rank[keep]] = all_ids[keep]
+
+    def result(self) -> SearchResult:
+        return SearchResult(self.ids.copy(), np.sqrt(self.sq), self.examined.copy())
+
+
+def _rank_in_groups(groups: np.ndarray) -> np.ndarray:
+    """Position of each element within its run of equal values, for a sorted (m,) array."""
+    n = groups.size
+    if n == 0 or groups[0] == groups[-1]:
+        return np.arange(n)
+    first = np.empty(n, dtype=bool)
+    first[0] = True
+    np.not_equal(groups[1:], groups[:-1], out=first[1:])
+    index = np.arange(n)
+    return index - np.maximum.accumulate(np.where(first, index, 0))
+
+
+def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Concatenate ``arange(s, s + c)`` over pairs; (m,) and (m,) → (Σc,) int64."""
+    total = int(counts.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    offsets = np.cumsum(counts) - counts
+    return np.repeat(starts - offsets, counts) + np.arange(total)
+
+
+# -- brute force -------------------------------------------------------------------
+
+
+class BruteForceIndex:
+    """Exact nearest neighbours by scanning every entry (the reference).
+
+    Distances are screened with one float32 matrix product per block (``‖p‖² − 2 p·h``
+    against a rigorous rounding-error margin), then every entry that could be among
+    the k best is re-measured with the exact formula shared with :class:`TreeIndex`.
+
+    Use :meth:`from_arrays` to build one.
+
+    Attributes
+    ----------
+    points : (N, k) float32
+    ids : (N,) int64
+    """
+
+    #: Queries per screening block, fewest entries per block, and most scores per
+    #: block (16 MiB of float32).
+    query_block = 512
+    entry_block = 8192
+    block_scores = 1 << 22
+
+    def __init__(self, points: np.ndarray, ids: np.ndarray):
+        self.points = points
+        self.ids = ids
+        self._sq_norms = np.einsum("ij,ij->i", points, points, dtype=np.float64).astype(np.float32)
+        self._max_norm = float(np.sqrt(self._sq_norms.max())) if len(points) else 0.0
+
+    @classmethod
+    def from_arrays(cls, points, ids) -> BruteForceIndex:
+        """An index over ``points`` (N, k) float and their unique ``ids`` (N,) int."""
+        p = _check_points(points)
+        return cls(p, _check_ids(ids, p.shape[0]))
+
+    @property
+    def n_entries(self) -> int:
+        return self.points.shape[0]
+
+    def search(self, queries, top_k: int = 1) -> SearchResult:
+        """The ``top_k`` nearest entries of each query, by scanning all of them.
+
+        Parameters
+        ----------
+        queries : (k,) or (Q, k) array of float
+        top_k : int
+            At most the number of entries.
+
+        Returns
+        -------
+        SearchResult
+            ``examined`` is ``N`` for every query.
+        """
+        q = _check_queries(queries, self.points.shape[1])
+        top_k = _check_top_k(top_k, self.n_entries)
+        best = _TopK(q.shape[0], top_k)
+        for lo in range(0, q.shape[0], self.query_block):
+            block = q[lo : lo + self.query_block]
+            cand_q, cand_i = self._screen(block, top_k)
+            sq = _pair_sq_distances(self.points[cand_i], block[cand_q])
+            best.add(cand_q + lo, sq, self.ids[cand_i])
+        best.examined[:] = self.n_entries
+        return best.result()
+
+    def _screen(self, queries: np.ndarray, top_k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (query row, entry index) that may be among each query's k best."""
+        n_q, n_dims = queries.shape
+        minus_2q = queries * np.float32(-2.0)  # exact scaling
+        q_norm = np.sqrt(np.einsum("ij,ij->i", queries, queries, dtype=np.float64))
+        # Every float32 operation of s = ‖p‖² − 2 p·h errs by at most u (‖p‖ + ‖h‖)²
+        # whatever the summation order; a generous count of them keeps the screen
+        # rigorous: a true k-best entry always scores within 2 margins of the k-th
+        # smallest score.
+        margin = (4.0 * (n_dims + 8) * _U32 * (self._max_norm + q_norm) ** 2).astype(np.float32)
+        kth = np.full((n_q, top_k), np.inf, dtype=np.float32)
+        width = max(self.entry_block, self.block_scores // n_q)
+        found_q, found_i, found_s = [], [], []
+        for lo in range(0, self.n_entries, width):
+            scores = minus_2q @ self.points[lo : lo + width].T
+            scores += self._sq_norms[lo : lo + width]
+            if top_k == 1:
+                np.minimum(kth[:, 0], scores.min(axis=1), out=kth[:, 0])
+            else:
+                part = min(top_k, scores.shape[1])
+                smallest = np.partition(scores, part - 1, axis=1)[:, :part]
+                kth = np.partition(np.hstack([kth, smallest]), top_k - 1, axis=1)[:, :top_k]
+            threshold = kth.max(axis=1) + 2.0 * margin
+            flat = np.flatnonzero(scores <= threshold[:, None])
+            rows, cols = np.divmod(flat, scores.shape[1])
+            found_q.append(rows)
+            found_i.append(cols + lo)
+            found_s.append(scores.ravel()[flat])
+        rows, cols, scores = map(np.concatenate, (found_q, found_i, found_s))
+        keep = scores <= (kth.max(axis=1) + 2.0 * margin)[rows]
+        return rows[keep], cols[keep]
+
+
+def brute_force(points, ids, queries, top_k: int = 1) -> SearchResult:
+    """Exact nearest neighbours by scanning every entry.
+
+    Parameters
+    ----------
+    points : (N, k) array of float
+        Entry points (used as float32).
+    ids : (N,) array of int
+        Unique entry ids.
+    queries : (k,) or (Q, k) array of float
+    top_k : int
+
+    Returns
+    -------
+    SearchResult
+        The reference :meth:`TreeIndex.search` must equal.
+    """
+    return BruteForceIndex.from_arrays(points, ids).search(queries, top_k)
+
+
+# -- the tree ----------------------------------------------------------------------
+
+
+class TreeIndex:
+    """Exact nearest-neighbour search over the key tree (see the module docstring).
+
+    Build with :meth:`from_arrays` or :meth:`from_store`; query with :meth:`search`.
+
+    Attributes
+    ----------
+    n_sections, n_axes : int
+        ``R`` and ``K`` of the keys.
+    leaf_size : int
+        Most entries in a leaf.
+    points : (N, k) float32
+        Entry points in tree order.
+    ids : (N,) int64
+        Entry ids in tree order (keys ascending).
+    keys : (N,) int64
+        Entry keys in tree order.
+    quantizer : Quantizer
+        The quantizer that made the keys (gives a query its own key).
+    depth : int
+        Levels below the root before skipping single-child nodes.
+    """
+
+    def __init__(self):
+        raise TypeError("build a TreeIndex with TreeIndex.from_arrays() or from_store()")
+
+    # -- building ---------------------------------------------------------------------
+    @classmethod
+    def from_store(cls, store, leaf_size: int = 32) -> TreeIndex:
+        """The tree of a database: the store's in-memory arrays and quantizer.
+
+        Parameters
+        ----------
+        store : eigmotion.store.Store
+            An open store (anything with ``arrays()`` and ``quantizer()``).
+        leaf_size : int
+        """
+        arrays = store.arrays()
+        return cls.from_arrays(
+            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size=leaf_size
+        )
+
+    @classmethod
+    def from_arrays(cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 32) -> TreeIndex:
+        """Build the tree over entries.
+
+        Parameters
+        ----------
+        keys : (N,) array of int
+            Each entry's B-tree key; must equal ``quantizer.keys(points)``.
+        points : (N, k) array of float
+            Eigen-coordinates (used as float32), ``k >= quantizer.n_axes``.
+        ids : (N,) array of int
+            Unique entry ids (they break distance ties).
+        quantizer : Quantizer
+            The fitted quantizer that made the keys.
+        leaf_size : int
+            Most entries per leaf, >= 1.  Smaller leaves examine fewer entries but
+            visit more nodes; 32 suits k = 20 … 50.
+
+        Raises
+        ------
+        InvalidParameterError
+            Inconsistent shapes, duplicate ids, non-finite points, or keys that differ
+            from the quantizer's keys of the points.
+        """
+        if not isinstance(quantizer, Quantizer):
+            raise InvalidParameterError(f"quantizer must be a Quantizer, got {type(quantizer)}")
+        if isinstance(leaf_size, bool) or not isinstance(leaf_size, Integral) or leaf_size < 1:
+            raise InvalidParameterError(f"leaf_size must be a positive integer, got {leaf_size!r}")
+        p = _check_points(points)
+        n = p.shape[0]
+        i = _check_ids(ids, n)
+        k = np.asarray(keys)
+        if k.shape != (n,) or (n and not np.issubdtype(k.dtype, np.integer)):
+            raise InvalidParameterError(f"keys must be ({n},) integers, got {k.dtype} {k.shape}")
+        k = k.astype(np.int64)
+        if n:
+            expected = quantizer.keys(p)
+            wrong = np.flatnonzero(expected != k)
+            if wrong.size:
+                raise InvalidParameterError(
+                    f"{wrong.size} of {n} keys differ from the quantizer's keys of their "
+                    f"points (first: id {int(i[wrong[0]])} has key {int(k[wrong[0]])}, "
+                    f"expected {int(expected[wrong[0]])})"
+                )
+        self = object.__new__(cls)
+        self.n_sections = int(quantizer.n_sections)
+        self.n_axes = int(quantizer.n_axes)
+        self.leaf_size = int(leaf_size)
+        self.quantizer = quantizer
+        self._build(k, p, i)
+        return self
+
+    def _build(self, keys: np.ndarray, points: np.ndarray, ids: np.ndarray) -> None:
+        n, n_dims = points.shape
+        if n and np.all(ids[1:] > ids[:-1]):
+            order = np.argsort(keys, kind="stable")
+        else:
+            order = np.lexsort((ids, keys))
+        keys, ids = keys[order], ids[order]
+        # Coordinates are worked on transposed, (k, N): reductions over segments of
+        # entries then run along contiguous memory.
+        coords = np.ascontiguousarray(points[order].T)
+        R, K, leaf = self.n_sections, self.n_axes, self.leaf_size
+
+        # The current level's partition of the sorted entries into segments: where
+        # each starts, which node it is, and whether it is still to be split.
+        starts = np.zeros(1, dtype=np.int64)
+        seg_node = np.zeros(1, dtype=np.int64)
+        seg_active = np.array([n > leaf])
+        seg_lo = coords.min(axis=1, keepdims=True) if n else np.zeros((n_dims, 1), np.float32)
+        seg_hi = coords.max(axis=1, keepdims=True) if n else np.zeros((n_dims, 1), np.float32)
+        node_start, node_end, node_parent = [starts], [np.array([n])], [np.array([-1])]
+        node_lo, node_hi = [seg_lo], [seg_hi]
+        prefix_levels = []  # per key digit d = 1..K: (prefixes, nodes) created at level d
+        n_nodes, level = 1, 0
+        while seg_active.any():
+            ends = np.append(starts[1:], n)
+            if level < K:
+                prefix = key_prefix(keys, R, K, level + 1)
+                cuts = np.flatnonzero(prefix[1:] != prefix[:-1]) + 1
+                owner = np.searchsorted(starts, cuts, side="right") - 1
+                cuts = cuts[seg_active[owner] & (starts[owner] != cuts)]
+            else:
+                # Below the bins: halve each large segment at the median of its widest
+                # coordinate.  Sorting by (segment, scaled coordinate) reorders entries
+                # inside the segments being split and leaves the others in place.
+                sizes = ends - starts
+                split = np.flatnonzero(seg_active)
+                axis = np.argmax(seg_hi[:, split] - seg_lo[:, split], axis=0)
+                seg_of = np.repeat(np.arange(starts.size), sizes)
+                rank = seg_of.astype(np.float64)
+                moving = np.flatnonzero(seg_active[seg_of])
+                axis_of = np.zeros(starts.size, dtype=np.int64)
+                axis_of[split] = axis
+                low = seg_lo[axis_of[seg_of[moving]], seg_of[moving]].astype(np.float64)
+                span = seg_hi[axis_of[seg_of[moving]], seg_of[moving]] - low
+                value = coords[axis_of[seg_of[moving]], moving] - low
+                rank[moving] += 0.5 * np.divide(
+                    value, span, out=np.zeros_like(span), where=span > 0
+                )
+                reorder = np.argsort(rank, kind="stable")
+                keys, ids, coords = keys[reorder], ids[reorder], coords[:, reorder]
+                cuts = starts[split] + sizes[split] // 2
+            new_starts = np.sort(np.concatenate([starts, cuts]))
+            new_ends = np.append(new_starts[1:], n)
+            parent_seg = np.searchsorted(starts, new_starts, side="right") - 1
+            fresh = seg_active[parent_seg]
+            created = np.arange(n_nodes, n_nodes + int(fresh.sum()))
+            seg_lo = np.minimum.reduceat(coords, new_starts, axis=1)
+            seg_hi = np.maximum.reduceat(coords, new_starts, axis=1)
+            node_start.append(new_starts[fresh])
+            node_end.append(new_ends[fresh])
+            node_parent.append(seg_node[parent_seg[fresh]])
+            node_lo.append(seg_lo[:, fresh])
+            node_hi.append(seg_hi[:, fresh])
+            if level < K:
+                digits = key_prefix(keys[new_starts[fresh]], R, K, level + 1)
+                prefix_levels.append((digits, created))
+            seg_node = seg_node[parent_seg]
+            seg_node[fresh] = created
+            seg_active = fresh & (new_ends - new_starts > leaf)
+            starts = new_starts
+            n_nodes += created.size
+            level += 1
+
+        self.keys, self.ids = keys, ids
+        self.points = np.ascontiguousarray(coords.T)
+        self.depth = level
+        self._start = np.concatenate(node_start)
+        self._end = np.concatenate(node_end)
+        self._size = self._end - self._start
+        self._lo = np.ascontiguousarray(np.concatenate(node_lo, axis=1).T)
+        self._hi = np.ascontiguousarray(np.concatenate(node_hi, axis=1).T)
+        # The binary/R-ary tree as built.  Nodes are numbered level by level in entry
+        # order, so every node's children are consecutive numbers.
+        parent = np.concatenate(node_parent)
+        self._base_count = np.bincount(parent[1:], minlength=n_nodes)
+        self._base_first = np.concatenate([[1], 1 + np.cumsum(self._base_count)[:-1]])
+        self._is_leaf = self._base_count == 0
+        self._prefix_levels = prefix_levels
+        self._flatten()
+
+    #: A search-tree node's children are its highest descendants with at most
+    #: 1/_FANOUT of its entries (or leaves): about _FANOUT children per node, so a
+    #: query takes few vectorised steps however deep the built tree is.
+    _FANOUT = 16
+
+    def _flatten(self) -> None:
+        """Search-tree children (CSR over node ids) of every node reachable from the root."""
+        n_nodes = self._size.size
+        first = np.zeros(n_nodes, dtype=np.int64)
+        count = np.zeros(n_nodes, dtype=np.int64)
+        lists, offset = [], 0
+        level = np.zeros(0 if self._is_leaf[0] else 1, dtype=np.int64)
+        while level.size:
+            limit = self._size[level] // self._FANOUT
+            owner = np.repeat(np.arange(level.size), self._base_count[level])
+            node = _expand_ranges(self._base_first[level], self._base_count[level])
+            done_owner, done_node = [], []
+            while node.size:
+                deeper = ~self._is_leaf[node] & (self._size[node] > limit[owner])
+                done_owner.append(owner[~deeper])
+                done_node.append(node[~deeper])
+                owner, node = owner[deeper], node[deeper]
+                owner = np.repeat(owner, self._base_count[node])
+                node = _expand_ranges(self._base_first[node], self._base_count[node])
+            owner, node = np.concatenate(done_owner), np.concatenate(done_node)
+            order = np.lexsort((self._start[node], owner))
+            owner, node = owner[order], node[order]
+            counts = np.bincount(owner, minlength=level.size)
+            first[level] = offset + np.cumsum(counts) - counts
+            count[level] = counts
+            lists.append(node)
+            offset += node.size
+            level = node[~self._is_leaf[node]]
+        self._child_first = first
+        self._child_count = count
+        self._child_list = np.concatenate(lists) if lists else np.zeros(0, dtype=np.int64)
+
+    # -- description ----------------------------------------------------------------
+    @property
+    def n_entries(self) -> int:
+        """N, the number of entries."""
+        return self.points.shape[0]
+
+    @property
+    def n_dims(self) -> int:
+        """k, the number of eigen-coordinates per point."""
+        return self.points.shape[1]
+
+    @property
+    def n_bins(self) -> int:
+        """Occupied keys (bins of the B-tree)."""
+        if self.n_entries == 0:
+            return 0
+        return int(np.count_nonzero(self.keys[1:] != self.keys[:-1])) + 1
+
+    @property
+    def n_leaves(self) -> int:
+        """Leaves of the tree."""
+        return int(np.count_nonzero(self._is_leaf[self._reachable()]))
+
+    def _reachable(self) -> np.ndarray:
+        """Nodes of the search tree, level by level."""
+        nodes = [np.array([0])]
+        while True:
+            last = nodes[-1][~self._is_leaf[nodes[-1]]]
+            if last.size == 0:
+                break
+            nodes.append(
+                self._child_list[_expand_ranges(self._child_first[last], self._child_count[last])]
+            )
+        return np.concatenate(nodes)
+
+    def __repr__(self) -> str:
+        return (
+            f"TreeIndex({self.n_entries} entries, k={self.n_dims}, R={self.n_sections}, "
+            f"K={self.n_axes}, {self.n_bins} bins, leaf_size={self.leaf_size})"
+        )
+
+    def check(self) -> None:
+        """Verify the tree's invariants, as ``BTrees``' ``_check()`` does (for tests).
+
+        Raises
+        ------
+        InvalidParameterError
+            Entries out of key order, a node whose box is not the tight box of its
+            entries, children that do not tile their parent, or a leaf larger than
+            ``leaf_size``.
+        """
+        problems = []
+        if np.any(np.diff(self.keys) < 0):
+            problems.append("entries are not in key order")
+        for node in self._reachable():
+            s, e = self._start[node], self._end[node]
+            if s >= e:
+                problems.append(f"node {node} is empty")
+                continue
+            block = self.points[s:e]
+            if not (
+                np.array_equal(block.min(0), self._lo[node])
+                and np.array_equal(block.max(0), self._hi[node])
+            ):
+                problems.append(f"node {node}: box is not the tight box of its entries")
+            if self._is_leaf[node]:
+                if e - s > self.leaf_size:
+                    problems.append(f"leaf {node} holds {e - s} > {self.leaf_size} entries")
+                continue
+            first = self._child_first[node]
+            kids = self._child_list[first : first + self._child_count[node]]
+            if (
+                kids.size == 0
+                or self._start[kids[0]] != s
+                or self._end[kids[-1]] != e
+                or np.any(self._start[kids[1:]] != self._end[kids[:-1]])
+            ):
+                problems.append(f"children of node {node} do not tile it")
+        if problems:
+            raise InvalidParameterError("; ".join(problems[:5]))
+
+    # -- searching --------------------------------------------------------------------
+    #: Queries searched together (bounds the size of the working arrays).
+    query_block = 512
+
+    def search(self, queries, top_k: int = 1) -> SearchResult:
+        """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
+
+        Parameters
+        ----------
+        queries : (k,) or (Q, k) array of float
+            Points in the eigenspace (``Eigenspace.transform`` of query images).
+        top_k : int
+            At most the number of entries.
+
+        Returns
+        -------
+        SearchResult
+            ``ids`` and ``distances`` (Q, top_k) equal to :func:`brute_force`'s;
+            ``examined`` counts the entries whose distance was computed.
+        """
+        q = _check_queries(queries, self.n_dims)
+        top_k = _check_top_k(top_k, self.n_entries)
+        parts = [
+            self._search_block(q[lo : lo + self.query_block], top_k)
+            for lo in range(0, q.shape[0], self.query_block)
+        ]
+        if len(parts) == 1:
+            return parts[0]
+        return SearchResult(
+            np.concatenate([p.ids for p in parts]),
+            np.concatenate([p.distances for p in parts]),
+            np.concatenate([p.examined for p in parts]),
+        )
+
+    def _lower_bounds(self, nodes: np.ndarray, rows: np.ndarray, queries: np.ndarray):
+        """(m,) float64 squared distance from query ``rows`` to the boxes of ``nodes``."""
+        qq = queries[0] if queries.shape[0] == 1 else queries[rows]
+        gap = self._lo[nodes] - qq
+        np.maximum(gap, qq - self._hi[nodes], out=gap)
+        np.maximum(gap, 0.0, out=gap)
+        gap *= gap
+        return gap.sum(axis=1)
+
+    def _examine(self, best: _TopK, rows: np.ndarray, nodes: np.ndarray, queries) -> None:
+        counts = self._size[nodes]
+        entries = _expand_ranges(self._start[nodes], counts)
+        rows = np.repeat(rows, counts)
+        qq = queries[0] if queries.shape[0] == 1 else queries[rows]
+        best.add(rows, _pair_sq_distances(self.points[entries], qq), self.ids[entries])
+
+    #: The first node a query examines holds at most this many leaves' worth of entries.
+    _GREEDY_LEAVES = 8
+
+    def _greedy(self, queries: np.ndarray, top_k: int) -> np.ndarray:
+        """(Q,) a small node near each query, examined first for a first k-th distance.
+
+        The query's own key (the patent's lookup) finds the deepest occupied key prefix
+        holding >= top_k entries; below it, the child with the smallest bound is
+        followed until the node is small.
+        """
+        current = np.zeros(queries.shape[0], dtype=np.int64)
+        prefix = np.zeros(queries.shape[0], dtype=np.int64)
+        edges = self.quantizer.edges_
+        for depth, (digits, nodes) in enumerate(self._prefix_levels):
+            section = np.searchsorted(edges[depth], queries[:, depth], side="right")
+            prefix = prefix * self.n_sections + section
+            if digits.size:
+                pos = np.minimum(np.searchsorted(digits, prefix), digits.size - 1)
+                node = nodes[pos]
+                ok = (digits[pos] == prefix) & (self._size[node] >= top_k)
+                current[ok] = node[ok]
+        budget = max(top_k, self._GREEDY_LEAVES * self.leaf_size)
+        active = np.flatnonzero(~self._is_leaf[current] & (self._size[current] > budget))
+        while active.size:
+            counts = self._base_count[current[active]]
+            kids = _expand_ranges(self._base_first[current[active]], counts)
+            rows = np.repeat(active, counts)
+            bound = self._lower_bounds(kids, rows, queries)
+            bound[self._size[kids] < top_k] = np.inf
+            first = np.cumsum(counts) - counts
+            best = np.lexsort((bound, rows))[first]
+            moved = np.isfinite(bound[best])
+            current[active[moved]] = kids[best[moved]]
+            active = active[moved]
+            active = active[
+                ~self._is_leaf[current[active]] & (self._size[current[active]] > budget)
+            ]
+        return current
+
+    def _search_block(self, queries: np.ndarray, top_k: int) -> SearchResult:
+        n_q = queries.shape[0]
+        best = _TopK(n_q, top_k)
+        rows = np.arange(n_q)
+        greedy = self._greedy(queries, top_k)
+        self._examine(best, rows, greedy, queries)
+        if self._is_leaf[0] or np.all(self._size[greedy] == self.n_entries):
+            return best.result()
+        g_start, g_end = self._start[greedy], self._end[greedy]
+        bound = best.bound() * _SLACK
+
+        # Pruned descent: keep every child whose box may hold a better entry.
+        leaf_rows, leaf_nodes, leaf_bounds = [], [], []
+        f_rows, f_nodes = rows, np.zeros(n_q, dtype=np.int64)
+        while f_rows.size:
+            counts = self._child_count[f_nodes]
+            c_nodes = self._child_list[_expand_ranges(self._child_first[f_nodes], counts)]
+            c_rows = np.repeat(f_rows, counts)
+            lb = self._lower_bounds(c_nodes, c_rows, queries)
+            keep = lb <= bound[c_rows]
+            c_rows, c_nodes, lb = c_rows[keep], c_nodes[keep], lb[keep]
+            leaf = self._is_leaf[c_nodes]
+            leaf_rows.append(c_rows[leaf])
+            leaf_nodes.append(c_nodes[leaf])
+            leaf_bounds.append(lb[leaf])
+            f_rows, f_nodes = c_rows[~leaf], c_nodes[~leaf]
+
+        # Leaves nearest bound first, in growing batches, re-pruning after each; the
+        # leaves inside the first node were examined already.
+        l_rows, l_nodes, l_bounds = map(np.concatenate, (leaf_rows, leaf_nodes, leaf_bounds))
+        fresh = (self._start[l_nodes] < g_start[l_rows]) | (self._end[l_nodes] > g_end[l_rows])
+        l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
+        order = np.lexsort((l_bounds, l_rows))
+        l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
+        batch = 2
+        while l_rows.size:
+            take = _rank_in_groups(l_rows) < batch
+            self._examine(best, l_rows[take], l_nodes[take], queries)
+            bound = best.bound() * _SLACK
+            rest = ~take
+            rest[rest] = l_bounds[rest] <= bound[l_rows[rest]]
+            l_rows, l_nodes, l_bounds = l_rows[rest], l_nodes[rest], l_bounds[rest]
+            batch *= 4
+        return best.result()

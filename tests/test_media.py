@@ -1,0 +1,214 @@
+"""Clip I/O: video files, GIFs and image folders written and read back; bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.media import (
+    as_rgb_frames,
+    image_files,
+    mp4_fourcc,
+    read_frames,
+    write_video,
+)
+
+
+def _smooth_clip(n_frames=8, height=48, width=64):
+    """(F, H, W, 3) uint8: colour ramps that drift over time (easy on lossy codecs)."""
+    yy, xx = np.mgrid[0:height, 0:width].astype(np.float64)
+    frames = []
+    for f in range(n_frames):
+        r = 40 + 160 * xx / width + 4 * f
+        g = 30 + 180 * yy / height
+        b = 60 + 100 * np.sin(0.1 * xx + 0.3 * f) ** 2
+        frames.append(np.stack([r, g, b], axis=-1))
+    return np.clip(np.round(frames), 0, 255).astype(np.uint8)
+
+
+# -- round trips ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "suffix, max_mean_error",
+    [(".mp4", 4.0), (".mov", 4.0), (".avi", 4.0), (".gif", 6.0)],
+)
+def test_video_round_trip(tmp_path, suffix, max_mean_error):
+    clip = _smooth_clip()
+    path = write_video(clip, tmp_path / f"clip{suffix}", fps=25.0)
+    frames, fps = read_frames(path)
+    assert frames.shape == clip.shape and frames.dtype == np.uint8
+    error = np.abs(frames.astype(np.int16) - clip.astype(np.int16))
+    assert error.mean() < max_mean_error
+    # every frame must be closest to its own original (frames neither lost nor reordered)
+    for f in range(len(clip)):
+        errors = [np.abs(frames[f].astype(int) - c.astype(int)).mean() for c in clip]
+        assert int(np.argmin(errors)) == f
+    assert fps == pytest.approx(25.0, rel=1e-3)
+
+
+def test_mp4_codec_is_known_and_stays_the_same():
+    assert mp4_fourcc() in ("avc1", "mp4v")
+    assert mp4_fourcc() == mp4_fourcc()
+
+
+@pytest.mark.parametrize("suffix", [".avi", ".gif", ".mp4"])
+def test_masks_round_trip_as_white_on_black(tmp_path, suffix):
+    masks = np.zeros((4, 40, 48), dtype=bool)
+    for f in range(4):
+        masks[f, 8 + 2 * f : 30, 10 : 20 + 4 * f] = True
+    frames, _ = read_frames(write_video(masks, tmp_path / f"masks{suffix}", fps=10))
+    assert frames.shape == (4, 40, 48, 3)
+    recovered = frames.mean(axis=-1) > 127
+    assert (recovered == masks).mean() > 0.99
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".avi"])
+@pytest.mark.parametrize("height, width", [(47, 64), (48, 65), (31, 33)])
+def test_odd_sizes_are_padded_not_cropped(tmp_path, suffix, height, width):
+    clip = _smooth_clip(3, height, width)
+    frames, _ = read_frames(write_video(clip, tmp_path / f"odd{suffix}"))
+    assert frames.shape == (3, height + height % 2, width + width % 2, 3)
+    error = np.abs(frames[:, :height, :width].astype(int) - clip.astype(int)).mean()
+    assert error < 5.0
+
+
+def test_gif_frame_rate_is_whole_centiseconds(tmp_path):
+    path = write_video(_smooth_clip(3), tmp_path / "rate.gif", fps=30.0)
+    _, fps = read_frames(path)
+    assert fps == pytest.approx(100.0 / 3.0)
+
+
+def test_image_folder_in_natural_order(tmp_path):
+    clip = _smooth_clip(12, 20, 24)
+    for f in range(len(clip)):  # f1.png … f12.png: plain sorting would put f10 after f1
+        Image.fromarray(clip[f]).save(tmp_path / f"f{f + 1}.png")
+    (tmp_path / "notes.txt").write_text("not a frame")
+    assert [p.name for p in image_files(tmp_path)][:3] == ["f1.png", "f2.png", "f3.png"]
+    frames, fps = read_frames(tmp_path)
+    np.testing.assert_array_equal(frames, clip)
+    assert fps == 30.0
+    assert read_frames(tmp_path, fps=12.5)[1] == 12.5
+
+
+def test_image_folder_converts_grey_and_rgba(tmp_path):
+    grey = np.full((10, 12), 77, np.uint8)
+    Image.fromarray(grey).save(tmp_path / "a.png")
+    rgba = np.zeros((10, 12, 4), np.uint8)
+    rgba[..., 0] = 200
+    rgba[..., 3] = 255
+    Image.fromarray(rgba).save(tmp_path / "b.png")
+    frames, _ = read_frames(tmp_path)
+    assert frames.shape == (2, 10, 12, 3)
+    assert np.all(frames[0] == 77) and np.all(frames[1] == [200, 0, 0])
+
+
+@pytest.mark.parametrize("suffix", [".avi", ".gif"])
+def test_max_frames(tmp_path, suffix):
+    path = write_video(_smooth_clip(6), tmp_path / f"clip{suffix}")
+    frames, _ = read_frames(path, max_frames=2)
+    assert len(frames) == 2
+
+
+def test_fps_override_for_files(tmp_path):
+    path = write_video(_smooth_clip(2), tmp_path / "clip.avi", fps=24)
+    assert read_frames(path, fps=50.0)[1] == 50.0
+
+
+def test_as_rgb_frames_kinds():
+    grey = np.arange(12, dtype=np.uint8).reshape(1, 3, 4)
+    assert as_rgb_frames(grey).shape == (1, 3, 4, 3)
+    assert as_rgb_frames(grey)[0, 2, 3].tolist() == [11, 11, 11]
+    assert as_rgb_frames(np.ones((1, 2, 2), bool)).max() == 255
+
+
+# -- errors --------------------------------------------------------------------------------
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(VideoError, match="no such file"):
+        read_frames(tmp_path / "nothing.mp4")
+
+
+def test_empty_folder(tmp_path):
+    with pytest.raises(VideoError, match="holds no frames"):
+        read_frames(tmp_path)
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".avi", ".mov"])
+@pytest.mark.parametrize("content", [b"", b"\x00\x01garbage" * 300])
+def test_empty_or_corrupt_video(tmp_path, suffix, content):
+    path = tmp_path / f"bad{suffix}"
+    path.write_bytes(content)
+    with pytest.raises(VideoError, match=str(path.name)):
+        read_frames(path)
+
+
+def test_truncated_video_keeps_what_decodes_or_fails_cleanly(tmp_path):
+    path = write_video(_smooth_clip(10), tmp_path / "cut.avi")
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    try:
+        frames, _ = read_frames(path)
+    except VideoError:
+        return
+    assert 1 <= len(frames) <= 10 and frames.shape[1:] == (48, 64, 3)
+
+
+def test_corrupt_gif(tmp_path):
+    path = tmp_path / "bad.gif"
+    path.write_bytes(b"GIF89a" + b"\xff" * 50)
+    with pytest.raises(VideoError, match="bad.gif"):
+        read_frames(path)
+
+
+def test_unknown_extension(tmp_path):
+    path = tmp_path / "clip.txt"
+    path.write_text("hello")
+    with pytest.raises(VideoError, match="unknown clip type"):
+        read_frames(path)
+    with pytest.raises(VideoError, match="cannot write"):
+        write_video(_smooth_clip(2), tmp_path / "out.webm")
+
+
+def test_inconsistent_frame_sizes_name_the_file(tmp_path):
+    Image.fromarray(np.zeros((10, 12, 3), np.uint8)).save(tmp_path / "0.png")
+    Image.fromarray(np.zeros((11, 12, 3), np.uint8)).save(tmp_path / "1.png")
+    with pytest.raises(VideoError, match=r"1\.png is 12×11"):
+        read_frames(tmp_path)
+
+
+def test_unreadable_image_in_folder(tmp_path):
+    Image.fromarray(np.zeros((10, 12, 3), np.uint8)).save(tmp_path / "0.png")
+    (tmp_path / "1.png").write_bytes(b"not a png")
+    with pytest.raises(VideoError, match=r"1\.png"):
+        read_frames(tmp_path)
+
+
+@pytest.mark.parametrize(
+    "frames",
+    [
+        np.zeros((2, 8, 8, 3), np.float32),
+        np.zeros((2, 8, 8, 4), np.uint8),
+        np.zeros((8, 8), np.uint8),
+        np.zeros((0, 8, 8, 3), np.uint8),
+    ],
+)
+def test_bad_frames_to_write(tmp_path, frames):
+    with pytest.raises(InvalidParameterError):
+        write_video(frames, tmp_path / "out.avi")
+
+
+@pytest.mark.parametrize("fps", [0.0, -1.0, float("nan")])
+def test_bad_fps(tmp_path, fps):
+    with pytest.raises(InvalidParameterError, match="fps"):
+        write_video(_smooth_clip(2), tmp_path / "out.avi", fps=fps)
+    with pytest.raises(InvalidParameterError, match="fps"):
+        read_frames(tmp_path, fps=fps)
+
+
+def test_video_error_is_a_value_error(tmp_path):
+    with pytest.raises(ValueError):
+        read_frames(tmp_path / "missing.avi")
