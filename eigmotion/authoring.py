@@ -43,7 +43,7 @@ from .canonical import canonical_skeleton
 from .errors import InvalidParameterError
 from .kinematics import rest_points
 from .motion import Motion, Skeleton
-from .rotations import check_euler_order, euler_to_matrix
+from .rotations import check_euler_order, euler_to_matrix, matrix_to_euler
 
 #: Euler order of key rotations unless :func:`animate` is told otherwise.
 KEY_EULER_ORDER = "ZXY"
@@ -183,10 +183,12 @@ def foot_targets(
     skeleton: Skeleton | None = None,
     extra_width_m: float = 0.0,
     toe_out_deg: float = 0.0,
+    heel_raise_deg: float = 0.0,
     shift_m: Sequence[float] = (0.0, 0.0, 0.0),
     feet: tuple[str, str] = ("LeftFoot", "RightFoot"),
+    order: str = KEY_EULER_ORDER,
 ) -> dict[str, Target]:
-    """Targets that plant both feet flat on the floor.
+    """Targets that plant both feet on the floor.
 
     Parameters
     ----------
@@ -196,24 +198,42 @@ def foot_targets(
         Each foot moves this far outwards (±X) from its rest place, metres.
     toe_out_deg : float
         Each foot turns its toes outwards by this angle about Y, degrees.
+    heel_raise_deg : float
+        Each foot pitches heel-up by this angle about the ball of the foot (its first
+        child joint), which stays on the floor, degrees; key the toe joints by
+        ``(-heel_raise_deg, 0, 0)`` to keep the toes flat.
     shift_m : (3,) float
         Moves both feet (e.g. a step back), metres.
     feet : (str, str)
         The left and right ankle joints.
+    order : str
+        Euler order in which the targets' ``rotation_deg`` are written (the key order).
 
     Returns
     -------
     dict of str to Target
-        Ankle joint → world target with ``rotation_deg`` set (flat foot).
+        Ankle joint → world target with ``rotation_deg`` set.
     """
     skeleton = skeleton or canonical_skeleton()
+    order = check_euler_order(order)
     rest = rest_positions_m(skeleton)
     shift = np.asarray(shift_m, dtype=np.float64)
     out = {}
     for side, joint in zip((1.0, -1.0), feet, strict=True):
-        pos = rest[joint] + [side * extra_width_m, 0.0, 0.0] + shift
+        children = skeleton.children(skeleton.index(joint))
+        if not children:
+            raise InvalidParameterError(f"foot joint {joint!r} has no child (the ball of the foot)")
+        ankle = rest[joint]
+        ball = rest[skeleton.names[children[0]]]
         # Positive Y turns the toes (+Z) towards +X: outwards for the left foot.
-        out[joint] = Target(tuple(pos), rotation_deg=(0.0, side * toe_out_deg, 0.0))
+        yaw = euler_to_matrix([0.0, side * toe_out_deg, 0.0], "XYZ")
+        pitch = euler_to_matrix([heel_raise_deg, 0.0, 0.0], "XYZ")
+        rot = yaw @ pitch
+        ball_world = ankle + yaw @ (ball - ankle)
+        pos = ball_world + rot @ (ankle - ball) + [side * extra_width_m, 0.0, 0.0] + shift
+        angles = matrix_to_euler(rot, order)
+        xyz = tuple(float(angles[order.index(a)]) for a in "XYZ")
+        out[joint] = Target(tuple(pos), rotation_deg=xyz)
     return out
 
 

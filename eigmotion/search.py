@@ -420,6 +420,9 @@ class TreeIndex:
         self._build(k, p, i)
         return self
 
+    #: Entries sampled per segment to pick the coordinate a bin is split along.
+    _SPLIT_SAMPLES = 16
+
     def _build(self, keys: np.ndarray, points: np.ndarray, ids: np.ndarray) -> None:
         n, n_dims = points.shape
         if n and np.all(ids[1:] > ids[:-1]):
@@ -437,10 +440,8 @@ class TreeIndex:
         starts = np.zeros(1, dtype=np.int64)
         seg_node = np.zeros(1, dtype=np.int64)
         seg_active = np.array([n > leaf])
-        seg_lo = coords.min(axis=1, keepdims=True) if n else np.zeros((n_dims, 1), np.float32)
-        seg_hi = coords.max(axis=1, keepdims=True) if n else np.zeros((n_dims, 1), np.float32)
         node_start, node_end, node_parent = [starts], [np.array([n])], [np.array([-1])]
-        node_lo, node_hi = [seg_lo], [seg_hi]
+        level_first = [0, 1]  # level l holds nodes level_first[l] … level_first[l+1]-1
         prefix_levels = []  # per key digit d = 1..K: (prefixes, nodes) created at level d
         n_nodes, level = 1, 0
         while seg_active.any():
@@ -451,38 +452,28 @@ class TreeIndex:
                 owner = np.searchsorted(starts, cuts, side="right") - 1
                 cuts = cuts[seg_active[owner] & (starts[owner] != cuts)]
             else:
-                # Below the bins: halve each large segment at the median of its widest
-                # coordinate.  Sorting by (segment, scaled coordinate) reorders entries
-                # inside the segments being split and leaves the others in place.
-                sizes = ends - starts
+                # Below the bins: halve each large segment at the median of the
+                # coordinate that spreads widest over a sample of its entries.
                 split = np.flatnonzero(seg_active)
-                axis = np.argmax(seg_hi[:, split] - seg_lo[:, split], axis=0)
-                seg_of = np.repeat(np.arange(starts.size), sizes)
-                rank = seg_of.astype(np.float64)
-                moving = np.flatnonzero(seg_active[seg_of])
-                axis_of = np.zeros(starts.size, dtype=np.int64)
-                axis_of[split] = axis
-                low = seg_lo[axis_of[seg_of[moving]], seg_of[moving]].astype(np.float64)
-                span = seg_hi[axis_of[seg_of[moving]], seg_of[moving]] - low
-                value = coords[axis_of[seg_of[moving]], moving] - low
-                rank[moving] += 0.5 * np.divide(
-                    value, span, out=np.zeros_like(span), where=span > 0
-                )
-                reorder = np.argsort(rank, kind="stable")
-                keys, ids, coords = keys[reorder], ids[reorder], coords[:, reorder]
-                cuts = starts[split] + sizes[split] // 2
+                sizes = (ends - starts)[split]
+                steps = np.arange(self._SPLIT_SAMPLES)
+                sample = coords[:, starts[split, None] + steps * sizes[:, None] // steps.size]
+                axis = np.argmax(sample.max(axis=2) - sample.min(axis=2), axis=0)
+                moving = _expand_ranges(starts[split], sizes)
+                segment = np.repeat(np.arange(split.size), sizes)
+                value = coords[np.repeat(axis, sizes), moving]
+                moved = moving[np.lexsort((value, segment))]
+                keys[moving], ids[moving] = keys[moved], ids[moved]
+                coords[:, moving] = coords[:, moved]
+                cuts = starts[split] + sizes // 2
             new_starts = np.sort(np.concatenate([starts, cuts]))
             new_ends = np.append(new_starts[1:], n)
             parent_seg = np.searchsorted(starts, new_starts, side="right") - 1
             fresh = seg_active[parent_seg]
             created = np.arange(n_nodes, n_nodes + int(fresh.sum()))
-            seg_lo = np.minimum.reduceat(coords, new_starts, axis=1)
-            seg_hi = np.maximum.reduceat(coords, new_starts, axis=1)
             node_start.append(new_starts[fresh])
             node_end.append(new_ends[fresh])
             node_parent.append(seg_node[parent_seg[fresh]])
-            node_lo.append(seg_lo[:, fresh])
-            node_hi.append(seg_hi[:, fresh])
             if level < K:
                 digits = key_prefix(keys[new_starts[fresh]], R, K, level + 1)
                 prefix_levels.append((digits, created))
@@ -491,6 +482,7 @@ class TreeIndex:
             seg_active = fresh & (new_ends - new_starts > leaf)
             starts = new_starts
             n_nodes += created.size
+            level_first.append(n_nodes)
             level += 1
 
         self.keys, self.ids = keys, ids
@@ -499,8 +491,6 @@ class TreeIndex:
         self._start = np.concatenate(node_start)
         self._end = np.concatenate(node_end)
         self._size = self._end - self._start
-        self._lo = np.ascontiguousarray(np.concatenate(node_lo, axis=1).T)
-        self._hi = np.ascontiguousarray(np.concatenate(node_hi, axis=1).T)
         # The binary/R-ary tree as built.  Nodes are numbered level by level in entry
         # order, so every node's children are consecutive numbers.
         parent = np.concatenate(node_parent)
@@ -508,7 +498,25 @@ class TreeIndex:
         self._base_first = np.concatenate([[1], 1 + np.cumsum(self._base_count)[:-1]])
         self._is_leaf = self._base_count == 0
         self._prefix_levels = prefix_levels
+        self._boxes(coords, starts, seg_node, level_first)
         self._flatten()
+
+    def _boxes(self, coords, starts, leaf_of_segment, level_first) -> None:
+        """Tight boxes: leaves from their entries, then every parent from its children."""
+        n_nodes, n_dims = self._size.size, coords.shape[0]
+        lo = np.zeros((n_nodes, n_dims), dtype=np.float32)
+        hi = np.zeros((n_nodes, n_dims), dtype=np.float32)
+        if self.n_entries:
+            lo[leaf_of_segment] = np.minimum.reduceat(coords, starts, axis=1).T
+            hi[leaf_of_segment] = np.maximum.reduceat(coords, starts, axis=1).T
+        for level in range(len(level_first) - 3, -1, -1):
+            first, stop, below = level_first[level : level + 3]
+            inner = np.arange(first, stop)[~self._is_leaf[first:stop]]
+            if inner.size:
+                offsets = self._base_first[inner] - stop
+                lo[inner] = np.minimum.reduceat(lo[stop:below], offsets, axis=0)
+                hi[inner] = np.maximum.reduceat(hi[stop:below], offsets, axis=0)
+        self._lo, self._hi = lo, hi
 
     #: A search-tree node's children are its highest descendants with at most
     #: 1/_FANOUT of its entries (or leaves): about _FANOUT children per node, so a

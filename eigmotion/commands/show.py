@@ -2,8 +2,9 @@
 
 The output's extension picks the product:
 
-* ``.png`` / ``.jpg`` — a contact sheet of ``--frames`` evenly spaced frames, each
-  labelled with its time;
+* ``.png`` / ``.jpg`` — a contact sheet of ``--frames`` evenly spaced frames (the first
+  and the last included; the middle one alone for ``--frames 1``), each labelled with
+  its time;
 * ``.gif`` / ``.mp4`` / ``.mov`` / ``.avi`` — the whole motion, resampled to ``--fps``.
 
 Framing (``--framing``, see :func:`eigmotion.render.frame_cameras`): ``fixed`` is one
@@ -15,7 +16,6 @@ along with the body; ``auto`` (default) follows when the body travels more than
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -104,18 +104,24 @@ def run(args: argparse.Namespace) -> int:
 
     from ..avatar import load_default_avatar
     from ..library import find_motion
+    from ..retarget import retarget
 
     motion = find_motion(args.motion, asf=args.asf)
     avatar = load_default_avatar()
     if sheet:
-        anim, _ = avatar.animate(motion)
-        frames = np.unique(np.round(np.linspace(0, motion.n_frames - 1, args.frames)).astype(int))
+        anim = retarget(motion, avatar)  # the whole clip: it sets the floor contact
+        if args.frames == 1:  # one frame: the middle one
+            frames = np.array([motion.n_frames // 2])
+        else:
+            frames = np.linspace(0, motion.n_frames - 1, args.frames)
+            frames = np.unique(np.round(frames).astype(int))
         vertices = avatar.skin(anim.joint_rotations[frames], anim.joint_positions[frames])
         times_s = frames * motion.frame_time_s
     else:
         motion = motion.resample(args.fps)
         anim, vertices = avatar.animate(motion)
         times_s = np.arange(motion.n_frames) * motion.frame_time_s
+
     from ..render import Renderer, frame_cameras
 
     cameras = frame_cameras(vertices, times_s, az, el, width, height, args.framing)
@@ -137,13 +143,16 @@ def run(args: argparse.Namespace) -> int:
         labels = [f"{t:.2f} s" for t in times_s]
         title = f"{name}: {motion.n_frames} frames at {motion.fps:g} fps, view az {az:g} el {el:g}"
         save_image(contact_sheet(list(images), args.cols, labels, title), out)
-        print(f"wrote {out}: {len(images)} frames of {name} on a contact sheet")
+        print(f"wrote {out}: {_frames(len(images))} of {name} on a contact sheet")
     else:
         from ..media import write_video
 
         write_video(images, out, args.fps)
         print(
-            f"wrote {out}: {len(images)} frames of {name}, {width}×{height} at {args.fps:g} fps",
+            f"wrote {out}: {_frames(len(images))} of {name}, {width}×{height} at {args.fps:g} fps",
         )
-    sys.stdout.flush()
     return 0
+
+
+def _frames(n: int) -> str:
+    return f"{n} frame" if n == 1 else f"{n} frames"

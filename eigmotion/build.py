@@ -1,0 +1,288 @@
+"""Database build, the imaging half: library × rig → silhouettes → motion images.
+
+For every basic motion and every virtual camera of a rig, the motion drives the
+avatar (low-poly copy, see :meth:`eigmotion.avatar.Avatar.decimated`), the rig is
+re-aimed at the motion (:meth:`eigmotion.cameras.CameraRig.fitted`), the CPU
+rasteriser renders one silhouette per frame, and :func:`eigmotion.motion_image.
+motion_image` turns the whole motion and each sliding window of it into one unit
+vector.  The windows let part of a motion (a clip that starts mid-walk) still match.
+
+The work is split over processes by (motion, view); the vectors then go to
+:mod:`eigmotion.database`, which fits the eigenspace and writes the store.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field, fields
+from functools import lru_cache
+
+import numpy as np
+
+from .cameras import CameraRig
+from .errors import InvalidParameterError, VideoError
+from .library import LibraryMotion
+from .motion_image import MotionImageConfig, motion_image
+
+#: Body shapes of the default build: (height in metres or None for the avatar's own,
+#: girth factor).  Several shapes stand in for several people.
+DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
+
+
+@dataclass(frozen=True)
+class BuildConfig:
+    """How a database is built; stored with it so queries preprocess identically.
+
+    Parameters
+    ----------
+    motion_image : MotionImageConfig
+        Step 3 of the method, shared by build and query.
+    render_fps : float
+        Frames per second the motions are resampled to before rendering, > 0.
+    window_s : float
+        Length of the sliding windows, seconds (> 0).  A motion shorter than this
+        gives only its whole-motion entry.
+    window_step_s : float
+        Stride between window starts, seconds (> 0).
+    n_components : int or None
+        Eigen-dimensions k; ``None`` picks k by ``explained_variance``.
+    explained_variance : float
+        Fraction of variance kept when ``n_components`` is ``None``, in (0, 1].
+    key_axes : int
+        K, the eigen-axes in a B-tree key.
+    key_sections : int
+        R, sections per axis.
+    key_method : {"quantile", "equal"}
+        Section boundaries (see :mod:`eigmotion.keys`).
+    low_poly_faces : int
+        Triangles of the avatar copy used for silhouettes.
+    body_shapes : tuple of (float or None, float)
+        Body (height_m, girth) variations rendered for every motion and view.
+    """
+
+    motion_image: MotionImageConfig = field(default_factory=MotionImageConfig)
+    render_fps: float = 30.0
+    window_s: float = 1.5
+    window_step_s: float = 0.5
+    n_components: int | None = 40
+    explained_variance: float = 0.95
+    key_axes: int = 4
+    key_sections: int = 8
+    key_method: str = "quantile"
+    low_poly_faces: int = 4000
+    body_shapes: tuple[tuple[float | None, float], ...] = DEFAULT_BODY_SHAPES
+
+    def __post_init__(self):
+        for name in ("render_fps", "window_s", "window_step_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
+        if self.n_components is not None and self.n_components < 1:
+            raise InvalidParameterError(
+                f"n_components must be >= 1 or None, got {self.n_components!r}"
+            )
+        if not 0 < self.explained_variance <= 1:
+            raise InvalidParameterError(
+                f"explained_variance must be in (0, 1], got {self.explained_variance!r}"
+            )
+        if not self.body_shapes:
+            raise InvalidParameterError("body_shapes must hold at least one (height_m, girth)")
+        shapes = tuple((None if h is None else float(h), float(g)) for h, g in self.body_shapes)
+        object.__setattr__(self, "body_shapes", shapes)
+
+    def to_dict(self) -> dict:
+        """Plain values only, for the store."""
+        out = asdict(self)
+        out["motion_image"] = self.motion_image.to_dict()
+        out["body_shapes"] = [[-1.0 if h is None else h, g] for h, g in self.body_shapes]
+        if self.n_components is None:
+            out["n_components"] = 0
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict) -> BuildConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise InvalidParameterError(f"build config: unknown key(s) {unknown}")
+        data = dict(data)
+        if "motion_image" in data:
+            data["motion_image"] = MotionImageConfig.from_dict(dict(data["motion_image"]))
+        if "body_shapes" in data:
+            data["body_shapes"] = tuple((None if h < 0 else h, g) for h, g in data["body_shapes"])
+        if data.get("n_components") == 0:
+            data["n_components"] = None
+        return cls(**data)
+
+
+@dataclass(frozen=True)
+class ViewImages:
+    """The motion images of one (motion, body shape, view).
+
+    Attributes
+    ----------
+    motion_index : int
+        Position of the motion in the list given to :func:`render_views`.
+    view_index : int
+        Camera index in the rig.
+    shape_index : int
+        Index into ``BuildConfig.body_shapes``.
+    windows : (W, 2) int64
+        ``[start, stop)`` frames of each image in the motion's own frames; the first
+        row is the whole motion.
+    vectors : (W, D) float32
+        Unit motion-image vectors, one per window.
+    """
+
+    motion_index: int
+    view_index: int
+    shape_index: int
+    windows: np.ndarray
+    vectors: np.ndarray
+
+
+def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> np.ndarray:
+    """``[start, stop)`` frame windows: the whole clip, then sliding windows.
+
+    Parameters
+    ----------
+    n_frames : int
+    fps : float
+        Frame rate of the frames counted, frames per second.
+    window_s, step_s : float
+        Window length and stride, seconds.
+
+    Returns
+    -------
+    (W, 2) int64
+        First row ``[0, n_frames)``; then windows of ``round(window_s * fps)`` frames
+        every ``round(step_s * fps)`` frames, the last one ending at the clip's end.
+        Clips no longer than 1.25 windows give the whole-clip row only.
+    """
+    length = max(2, int(round(window_s * fps)))
+    step = max(1, int(round(step_s * fps)))
+    rows = [(0, n_frames)]
+    if n_frames > 1.25 * length:
+        starts = list(range(0, n_frames - length + 1, step))
+        if starts[-1] + length < n_frames:
+            starts.append(n_frames - length)
+        rows += [(s, s + length) for s in starts]
+    return np.asarray(rows, dtype=np.int64)
+
+
+@lru_cache(maxsize=4)
+def _body(shape: tuple[float | None, float], low_poly_faces: int):
+    from .avatar import load_default_avatar
+
+    avatar = load_default_avatar()
+    height, girth = shape
+    if height is not None or girth != 1.0:
+        avatar = avatar.with_shape(height_m=height, girth=girth)
+    return avatar.decimated(low_poly_faces)
+
+
+@lru_cache(maxsize=2)
+def _posed(motion_index: int, shape_index: int):
+    """Vertices of a motion on a body, cached per worker process (views share it)."""
+    library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
+    body = _body(config.body_shapes[shape_index], config.low_poly_faces)
+    motion = library[motion_index].motion.resample(config.render_fps)
+    _, vertices = body.animate(motion)
+    return vertices, body.faces
+
+
+_WORKER_STATE: dict = {}
+
+
+def _init_worker(library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig):
+    # Each process renders with one core; BLAS threads would only fight each other.
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    _WORKER_STATE.update(library=library, rig=rig, config=config)
+    _posed.cache_clear()
+
+
+def _render_task(task: tuple[int, int, int]) -> ViewImages:
+    from .silhouettes import render_masks
+
+    motion_index, shape_index, view_index = task
+    library, rig, config = _WORKER_STATE["library"], _WORKER_STATE["rig"], _WORKER_STATE["config"]
+    vertices, faces = _posed(motion_index, shape_index)
+    camera = rig.fitted(vertices[:, ::7].reshape(-1, 3))[view_index]
+    masks = render_masks(vertices, faces, camera)
+    windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
+    vectors = []
+    kept = []
+    for start, stop in windows:
+        try:
+            vectors.append(
+                motion_image(masks[start:stop], config.motion_image, clip_fps=config.render_fps)
+            )
+            kept.append((start, stop))
+        except VideoError:
+            continue  # a window where nothing moves (a held pose) carries no motion image
+    motion = library[motion_index].motion
+    to_source = motion.fps / config.render_fps
+    source_windows = np.round(np.asarray(kept, dtype=np.float64) * to_source).astype(np.int64)
+    source_windows = np.minimum(source_windows, motion.n_frames)
+    dims = config.motion_image.n_dims
+    return ViewImages(
+        motion_index,
+        view_index,
+        shape_index,
+        source_windows.reshape(-1, 2),
+        np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
+    )
+
+
+def render_views(
+    library: Sequence[LibraryMotion],
+    rig: CameraRig,
+    config: BuildConfig,
+    workers: int | None = None,
+    progress: bool = True,
+) -> Iterator[ViewImages]:
+    """Motion images of every (motion, body shape, view), computed in parallel.
+
+    Parameters
+    ----------
+    library : sequence of LibraryMotion
+    rig : CameraRig
+        Virtual cameras (with azimuth and elevation).
+    config : BuildConfig
+    workers : int, optional
+        Processes; default the number of CPU cores.  ``1`` runs in this process.
+    progress : bool
+        A progress bar on stderr.
+
+    Yields
+    ------
+    ViewImages
+        In (motion, shape, view) order.
+    """
+    from tqdm import tqdm
+
+    tasks = [
+        (m, s, v)
+        for m in range(len(library))
+        for s in range(len(config.body_shapes))
+        for v in range(len(rig))
+    ]
+    bar = tqdm(total=len(tasks), desc="rendering views", unit="view", disable=not progress)
+    workers = workers or os.cpu_count() or 1
+    try:
+        if workers == 1:
+            _init_worker(library, rig, config)
+            for task in tasks:
+                yield _render_task(task)
+                bar.update()
+        else:
+            with ProcessPoolExecutor(
+                workers, initializer=_init_worker, initargs=(library, rig, config)
+            ) as pool:
+                for result in pool.map(_render_task, tasks, chunksize=len(rig)):
+                    yield result
+                    bar.update()
+    finally:
+        bar.close()
