@@ -109,8 +109,10 @@ def main() -> int:
     retarget_s, anim = best_time(lambda: retarget(motion, avatar), args.repeats)
     rot, pos = anim.joint_rotations, anim.joint_positions
 
-    print(f"default avatar: {avatar.n_vertices} vertices, {avatar.n_faces} faces, "
-          f"{avatar.n_joints} joints; loaded in {load_s:.2f} s (cached afterwards)")
+    print(
+        f"default avatar: {avatar.n_vertices} vertices, {avatar.n_faces} faces, "
+        f"{avatar.n_joints} joints; loaded in {load_s:.2f} s (cached afterwards)"
+    )
     print(f"CMU {args.clip}: {n} frames; one core (OMP/OPENBLAS/MKL_NUM_THREADS=1)")
     print(f"retarget(): {retarget_s * 1e3:.1f} ms = {n / retarget_s:.0f} frames/s")
     avatar.skin(rot[:2], pos[:2])  # builds the cached sparse matrix
@@ -129,13 +131,17 @@ def main() -> int:
     t, out = best_time(lambda: low.skin(rot, pos), args.repeats)
     rows.append((f"Avatar.skin, decimated to {low.n_faces} faces", low, n, t, None))
 
-    print(f"{'method':<40} {'vertices':>8} {'frames':>6} {'frames/s':>10} "
-          f"{'× baseline':>10} {'max |Δ| m':>10}")
+    print(
+        f"{'method':<40} {'vertices':>8} {'frames':>6} {'frames/s':>10} "
+        f"{'× baseline':>10} {'max |Δ| m':>10}"
+    )
     for label, mesh, frames, seconds, verts in rows:
         fps = frames / seconds
         diff = "" if verts is None else f"{np.abs(verts - ours[:frames]).max():.1e}"
-        print(f"{label:<40} {mesh.n_vertices:>8} {frames:>6} {fps:>10.0f} "
-              f"{fps / baseline_fps:>10.1f} {diff:>10}")
+        print(
+            f"{label:<40} {mesh.n_vertices:>8} {frames:>6} {fps:>10.0f} "
+            f"{fps / baseline_fps:>10.1f} {diff:>10}"
+        )
     return 0
 
 

@@ -446,7 +446,9 @@ class Avatar:
         """(V, V) CSR matrix averaging each vertex's mesh neighbours."""
         from scipy import sparse
 
-        edges = np.concatenate([self.faces[:, [0, 1]], self.faces[:, [1, 2]], self.faces[:, [2, 0]]])
+        edges = np.concatenate(
+            [self.faces[:, [0, 1]], self.faces[:, [1, 2]], self.faces[:, [2, 0]]]
+        )
         edges = np.concatenate([edges, edges[:, ::-1]]).astype(np.int64)
         adj = sparse.csr_matrix(
             (np.ones(len(edges)), (edges[:, 0], edges[:, 1])),
@@ -749,8 +751,7 @@ def read_weights(
         idx = pairs[:, 0].astype(np.int64)
         if len(idx) and (idx.min() < 0 or idx.max() >= n_file_vertices):
             raise InvalidParameterError(
-                f"{path}: bone {name!r} weights vertex {idx.max()}, the mesh has "
-                f"{n_file_vertices}"
+                f"{path}: bone {name!r} weights vertex {idx.max()}, the mesh has {n_file_vertices}"
             )
         np.add.at(full[:, j], idx, pairs[:, 1])
     w = full[kept]

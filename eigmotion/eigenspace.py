@@ -63,8 +63,7 @@ def pack_array(array: np.ndarray) -> dict:
     dtype = a.dtype.newbyteorder("<") if a.dtype.kind in "fiub" else a.dtype
     if dtype.str not in _PACKED_DTYPES:
         raise InvalidParameterError(
-            f"pack_array: dtype {a.dtype} is not one of float32, float64, int32, int64, "
-            "uint8, bool"
+            f"pack_array: dtype {a.dtype} is not one of float32, float64, int32, int64, uint8, bool"
         )
     data = np.ascontiguousarray(a, dtype=dtype).tobytes()
     return {"dtype": dtype.str, "shape": tuple(int(n) for n in a.shape), "data": data}
@@ -104,8 +103,7 @@ def unpack_array(state: dict, name: str = "array") -> np.ndarray:
     if not isinstance(data, bytes | bytearray) or len(data) != expected:
         got = len(data) if isinstance(data, bytes | bytearray) else type(data).__name__
         raise InvalidParameterError(
-            f"{name}: {got} bytes of data for shape {shape} and dtype {dtype} "
-            f"(expected {expected})"
+            f"{name}: {got} bytes of data for shape {shape} and dtype {dtype} (expected {expected})"
         )
     return np.frombuffer(data, dtype=dtype).reshape(shape).astype(dtype.newbyteorder("="))
 
@@ -416,8 +414,7 @@ class Eigenspace:
         ratio = unpack_array(state["explained_variance_ratio"], "eigenspace variance ratio")
         if components.ndim != 2 or mean.shape != (components.shape[1],):
             raise InvalidParameterError(
-                f"eigenspace state: components {components.shape} and mean {mean.shape} "
-                "disagree"
+                f"eigenspace state: components {components.shape} and mean {mean.shape} disagree"
             )
         k = components.shape[0]
         if eigenvalues.shape != (k,) or ratio.shape != (k,):
@@ -436,8 +433,7 @@ class Eigenspace:
 
     def __repr__(self) -> str:
         params = (
-            f"n_components={self.n_components!r}, "
-            f"explained_variance={self.explained_variance!r}"
+            f"n_components={self.n_components!r}, explained_variance={self.explained_variance!r}"
         )
         if hasattr(self, "components_"):
             return f"Eigenspace({params}) fitted: k={self.n_components_}, D={self.n_features_in_}"

@@ -315,8 +315,11 @@ class Quantizer:
         """
         if not isinstance(state, dict):
             raise InvalidParameterError(f"quantizer state must be a dict, got {type(state)}")
-        missing = [n for n in ("state_version", "n_axes", "n_sections", "method", "edges")
-                   if n not in state]
+        missing = [
+            n
+            for n in ("state_version", "n_axes", "n_sections", "method", "edges")
+            if n not in state
+        ]
         if missing:
             raise InvalidParameterError(f"quantizer state lacks {missing}")
         if state["state_version"] != STATE_VERSION:

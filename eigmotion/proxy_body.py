@@ -112,7 +112,8 @@ def capsule_mesh(
             f"{tail_radius_m}"
         )
     angle = 2 * np.pi * np.arange(n_sides) / n_sides
-    circle = np.stack([np.cos(angle), np.zeros(n_sides), -np.sin(angle)], axis=1)
+    # Clockwise about +Y, so that the faces below wind counter-clockwise outside.
+    circle = np.stack([np.cos(angle), np.zeros(n_sides), np.sin(angle)], axis=1)
     # Latitudes from the head pole (-90°) to the equator, then equator to tail pole.
     lat = np.linspace(-np.pi / 2, 0.0, n_cap + 1)[1:]
     rings = []

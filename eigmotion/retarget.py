@@ -294,7 +294,13 @@ def rest_alignment(
             for a, b in pairs
             if np.linalg.norm(a) > COINCIDENT_M and np.linalg.norm(b) > COINCIDENT_M
         ]
-        out[j] = _fit_rotation(pairs, parent_q)
+        # Twist is handed down a limb from bone to bone, but not through a bone that
+        # leaves a branching joint (collar bone, hip bone, first spine and neck
+        # bones): the upper arm's twist is relative to the chest, not to the collar
+        # bone, whose rest direction may differ a lot between skeletons.
+        grand = avatar.parents[parent] if j > 0 else -1
+        reference = out[grand] if grand >= 0 and len(children[grand]) > 1 else parent_q
+        out[j] = _fit_rotation(pairs, reference, parent_q)
     return out
 
 
@@ -305,21 +311,23 @@ def _subtree(children: list[list[int]], j: int) -> set[int]:
     return out
 
 
-def _fit_rotation(pairs: list[tuple[np.ndarray, np.ndarray]], parent_q: np.ndarray) -> np.ndarray:
+def _fit_rotation(
+    pairs: list[tuple[np.ndarray, np.ndarray]], reference_q: np.ndarray, parent_q: np.ndarray
+) -> np.ndarray:
     """Rotation taking avatar rest directions onto source rest directions.
 
     The first (primary) direction is matched exactly by the smallest rotation after
-    the parent's alignment, which hands the parent's twist about the bone down the
-    chain.  Further directions, when they are not collinear with the primary one in
-    both skeletons, set the twist about it: the angle that best turns their
-    components perpendicular to the primary direction onto the source's.  No
-    direction at all: the parent's alignment.
+    the reference alignment (the parent's or the branching joint's), which keeps
+    the reference's twist about the bone.  Further directions, when they are not
+    collinear with the primary one in both skeletons, set the twist about it: the
+    angle that best turns their components perpendicular to the primary direction
+    onto the source's.  No direction at all: the parent's alignment.
     """
     if not pairs:
         return parent_q
     a = np.array([p[0] / np.linalg.norm(p[0]) for p in pairs])
     b = np.array([p[1] / np.linalg.norm(p[1]) for p in pairs])
-    swing = rotation_between(parent_q @ a[0], b[0]) @ parent_q
+    swing = rotation_between(reference_q @ a[0], b[0]) @ reference_q
     if len(pairs) < 2 or _spread(a) <= COLLINEAR_SINE or _spread(b) <= COLLINEAR_SINE:
         return swing
     axis = b[0]

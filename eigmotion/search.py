@@ -108,8 +108,11 @@ def _check_ids(ids, n: int) -> np.ndarray:
     if i.shape != (n,) or (n and not np.issubdtype(i.dtype, np.integer)):
         raise InvalidParameterError(f"ids must be ({n},) integers, got {i.dtype} {i.shape}")
     i = i.astype(np.int64)
-    if np.unique(i).size != n:
-        raise InvalidParameterError("ids must be unique")
+    if n > 1 and not np.all(i[1:] > i[:-1]):
+        ordered = np.sort(i)
+        same = np.flatnonzero(ordered[1:] == ordered[:-1])
+        if same.size:
+            raise InvalidParameterError(f"ids must be unique; {int(ordered[same[0]])} repeats")
     return i
 
 
@@ -429,10 +432,7 @@ class TreeIndex:
             order = np.argsort(keys, kind="stable")
         else:
             order = np.lexsort((ids, keys))
-        keys, ids = keys[order], ids[order]
-        # Coordinates are worked on transposed, (k, N): reductions over segments of
-        # entries then run along contiguous memory.
-        coords = np.ascontiguousarray(points[order].T)
+        keys, ids, points = keys[order], ids[order], points[order]
         R, K, leaf = self.n_sections, self.n_axes, self.leaf_size
 
         # The current level's partition of the sorted entries into segments: where
@@ -457,14 +457,14 @@ class TreeIndex:
                 split = np.flatnonzero(seg_active)
                 sizes = (ends - starts)[split]
                 steps = np.arange(self._SPLIT_SAMPLES)
-                sample = coords[:, starts[split, None] + steps * sizes[:, None] // steps.size]
-                axis = np.argmax(sample.max(axis=2) - sample.min(axis=2), axis=0)
+                sample = points[starts[split, None] + steps * sizes[:, None] // steps.size]
+                axis = np.argmax(sample.max(axis=1) - sample.min(axis=1), axis=1)
                 moving = _expand_ranges(starts[split], sizes)
                 segment = np.repeat(np.arange(split.size), sizes)
-                value = coords[np.repeat(axis, sizes), moving]
+                value = points[moving, np.repeat(axis, sizes)]
                 moved = moving[np.lexsort((value, segment))]
                 keys[moving], ids[moving] = keys[moved], ids[moved]
-                coords[:, moving] = coords[:, moved]
+                points[moving] = points[moved]
                 cuts = starts[split] + sizes // 2
             new_starts = np.sort(np.concatenate([starts, cuts]))
             new_ends = np.append(new_starts[1:], n)
@@ -486,7 +486,7 @@ class TreeIndex:
             level += 1
 
         self.keys, self.ids = keys, ids
-        self.points = np.ascontiguousarray(coords.T)
+        self.points = points
         self.depth = level
         self._start = np.concatenate(node_start)
         self._end = np.concatenate(node_end)
@@ -498,15 +498,17 @@ class TreeIndex:
         self._base_first = np.concatenate([[1], 1 + np.cumsum(self._base_count)[:-1]])
         self._is_leaf = self._base_count == 0
         self._prefix_levels = prefix_levels
-        self._boxes(coords, starts, seg_node, level_first)
+        self._boxes(starts, seg_node, level_first)
         self._flatten()
 
-    def _boxes(self, coords, starts, leaf_of_segment, level_first) -> None:
+    def _boxes(self, starts, leaf_of_segment, level_first) -> None:
         """Tight boxes: leaves from their entries, then every parent from its children."""
-        n_nodes, n_dims = self._size.size, coords.shape[0]
+        n_nodes, n_dims = self._size.size, self.n_dims
         lo = np.zeros((n_nodes, n_dims), dtype=np.float32)
         hi = np.zeros((n_nodes, n_dims), dtype=np.float32)
         if self.n_entries:
+            # Reductions over segments run along contiguous memory when transposed.
+            coords = np.ascontiguousarray(self.points.T)
             lo[leaf_of_segment] = np.minimum.reduceat(coords, starts, axis=1).T
             hi[leaf_of_segment] = np.maximum.reduceat(coords, starts, axis=1).T
         for level in range(len(level_first) - 3, -1, -1):

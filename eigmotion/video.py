@@ -98,7 +98,7 @@ class SilhouetteConfig:
     close_px: int = 5
     min_person_frac: float = 0.002
     keep_piece_frac: float = 0.05
-    small_hole_frac: float = 0.02
+    small_hole_frac: float = 0.01
 
     def __post_init__(self):
         if self.background not in BACKGROUND_METHODS:
@@ -491,7 +491,8 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
         mask = _person_blob(mask, min_area, config.keep_piece_frac, cv2)
         if not mask.any():
             continue
-        mask = _fill_holes(mask, smoothed[i], low, config.small_hole_frac, cv2)
+        # Holes are judged pixel by pixel: smoothing bleeds the legs into the gap between.
+        mask = _fill_holes(mask, raw[i], low_raw, config.small_hole_frac, cv2)
         if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
             interior = cv2.erode(mask.astype(np.uint8), inner).astype(bool)
             mask &= interior | ((raw[i] > low_raw) & ~shadow)

@@ -104,9 +104,11 @@ def test_rig_sits_inside_the_body(avatar):
     # Every joint (hip inside the pelvis, ankles, knees, fingers …) and every bone
     # tail but the top of the head lies inside the closed body mesh.
     inside = winding_numbers(avatar.joint_positions, avatar.vertices, avatar.faces)
-    assert np.all(inside > 0.5), [n for n, w in zip(avatar.joint_names, inside) if w < 0.5]
+    assert np.all(inside > 0.5), [
+        n for n, w in zip(avatar.joint_names, inside, strict=True) if w < 0.5
+    ]
     tails = winding_numbers(avatar.bone_tails, avatar.vertices, avatar.faces)
-    outside = {n for n, w in zip(avatar.joint_names, tails) if w < 0.5}
+    outside = {n for n, w in zip(avatar.joint_names, tails, strict=True) if w < 0.5}
     assert outside <= {"Head"}
 
 
@@ -123,7 +125,9 @@ def test_rest_pose_skins_to_the_rest_mesh(avatar, low, which):
 def test_root_translation_moves_every_vertex(avatar, shift):
     rot, pos = rest_transforms(avatar)
     posed = avatar.skin(rot, pos + np.asarray(shift))[0]
-    np.testing.assert_allclose(posed - avatar.vertices, np.broadcast_to(shift, posed.shape), atol=2e-5)
+    np.testing.assert_allclose(
+        posed - avatar.vertices, np.broadcast_to(shift, posed.shape), atol=2e-5
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -151,9 +155,7 @@ def test_skin_subset_matches_full(avatar):
     rot = Rotation.random(4 * 31, random_state=3).as_matrix().reshape(4, 31, 3, 3)
     pos = rng.normal(size=(4, 31, 3))
     ids = np.array([0, 17, 4000, 13379])
-    np.testing.assert_allclose(
-        avatar.skin(rot, pos, ids), avatar.skin(rot, pos)[:, ids], atol=1e-6
-    )
+    np.testing.assert_allclose(avatar.skin(rot, pos, ids), avatar.skin(rot, pos)[:, ids], atol=1e-6)
 
 
 def test_skin_rejects_bad_shapes(avatar):
@@ -227,7 +229,9 @@ def posed_transforms(avatar: Avatar, local_deg: dict[str, tuple[str, float]]):
     skeleton = avatar.skeleton()
     local = np.broadcast_to(np.eye(3), (1, avatar.n_joints, 3, 3)).copy()
     for name, (axis, angle) in local_deg.items():
-        local[0, avatar.joint_index(name)] = Rotation.from_euler(axis, angle, degrees=True).as_matrix()
+        local[0, avatar.joint_index(name)] = Rotation.from_euler(
+            axis, angle, degrees=True
+        ).as_matrix()
     motion = Motion.from_local_transforms(
         skeleton, local, avatar.joint_positions[:1], 1 / 30, length_unit_m=1.0
     )

@@ -283,7 +283,9 @@ def test_bad_renderer_parameters(kwargs):
 
 
 def test_importing_does_not_load_pyrender():
-    code = "import eigmotion.render, eigmotion.cli, sys; sys.exit('pyrender' in sys.modules)"
+    code = (
+        "import eigmotion.render, eigmotion.commands.show, sys; sys.exit('pyrender' in sys.modules)"
+    )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 

@@ -119,8 +119,9 @@ def test_single_camera_aligns_a_known_motion(cmu):
     assert np.median(err_mm) < 20 and np.mean(err_mm < 50) > 0.9, err_mm.round()
     lag = np.abs(result.entries - np.arange(len(masks)))
     assert np.mean(lag <= 1) > 0.5
-    # the person is 1.62 m tall, the body model about 1.75 m: the scale search shrinks it
-    assert np.median([e.scales[0] for e in result.estimates]) == pytest.approx(0.92)
+    # one camera cannot tell distance from size: the 2D scale search takes it up
+    chosen = {float(e.scales[0]) for e in result.estimates}
+    assert chosen <= {0.92, 1.0, 1.08} and chosen != {1.0}
 
 
 def test_camera_pairs_and_missing_views(walk_setup):

@@ -168,11 +168,11 @@ def lift_floor_to_waist_stoop() -> Motion:
 # -- sit down holding the stomach ------------------------------------------------------------
 
 
-def _stomach(high_m: float = 0.10, low_m: float = 0.01) -> dict[str, Target]:
+def _stomach(high_m: float = 0.20, low_m: float = 0.10) -> dict[str, Target]:
     """Wrist targets with both hands flat on the belly, in the LowerBack joint's frame."""
     return {
-        "LeftHand": Target((0.13, high_m, 0.19), "LowerBack", (0.0, -80.0, 10.0)),
-        "RightHand": Target((-0.13, low_m, 0.19), "LowerBack", (0.0, 80.0, -10.0)),
+        "LeftHand": Target((0.13, high_m, 0.19), "LowerBack", (0.0, -80.0, -25.0)),
+        "RightHand": Target((-0.13, low_m, 0.19), "LowerBack", (0.0, 80.0, 25.0)),
     }
 
 
@@ -190,16 +190,16 @@ def _sit_down(name: str, times_s: tuple[float, ...], hunch_deg: float, stance_m:
                 (0.0, -0.03, 0.0),
                 _stomach(),
             ),
-            Key(t[2], {"LowerBack": (25, 0, 0)}, (0.0, -0.10, -0.12), _stomach(0.09, 0.0)),
-            Key(t[3], {"LowerBack": (32, 0, 0)}, seated, _stomach(0.09, 0.0)),
+            Key(t[2], {"LowerBack": (25, 0, 0)}, (0.0, -0.10, -0.12), _stomach(0.19, 0.09)),
+            Key(t[3], {"LowerBack": (32, 0, 0)}, seated, _stomach(0.19, 0.09)),
             Key(
                 t[4],
                 {"LowerBack": (0.6 * hunch_deg, 0, 0), "Spine": (0.6 * hunch_deg, 0, 0),
                  "Neck": (10, 0, 0)},
                 (seated[0], seated[1], seated[2] - 0.03),
-                _stomach(0.10, 0.01),
+                _stomach(0.20, 0.10),
             ),
-            Key(t[5], {}, (seated[0], seated[1], seated[2] - 0.03), _stomach(0.10, 0.02)),
+            Key(t[5], {}, (seated[0], seated[1], seated[2] - 0.03), _stomach(0.20, 0.11)),
         ],
         name,
     )
@@ -228,6 +228,14 @@ def _on_head() -> dict[str, Target]:
     }
 
 
+def _before_face() -> dict[str, Target]:
+    """Wrist targets on the way up, in front of the chin, in the Head joint's frame."""
+    return {
+        "LeftHand": Target((0.16, -0.12, 0.30), "Head"),
+        "RightHand": Target((-0.16, -0.12, 0.30), "Head"),
+    }
+
+
 ARMS_UP = {"LeftArm": (-30, 0, 80), "RightArm": (-30, 0, -80)}
 
 
@@ -240,6 +248,12 @@ def _cover_head(
         [
             Key(t[0], {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.03)),
             Key(t[1], {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                0.5 * (t[1] + t[2]),
+                {"LeftArm": (-50, 0, 20), "RightArm": (-50, 0, -20)},
+                (0.0, -0.5 * root_drop_m, -0.15 * root_drop_m),
+                _before_face(),
+            ),
             Key(
                 t[2],
                 {**ARMS_UP, "LowerBack": (0.6 * bend_deg, 0, 0), "Spine": (0.3 * bend_deg, 0, 0),
@@ -256,7 +270,7 @@ def _cover_head(
 
 
 def cover_head_standing() -> Motion:
-    return _cover_head("cover_head_standing", (0.0, 0.2, 0.55, 1.5, 2.2), 0.06, 10.0)
+    return _cover_head("cover_head_standing", (0.0, 0.2, 0.55, 1.5, 2.2), 0.04, 10.0)
 
 
 def cover_head_crouching() -> Motion:
@@ -272,54 +286,54 @@ def cover_head_stooping() -> Motion:
 
 def fall_down_forwards() -> Motion:
     """Knees give way, drop onto the knees, hands break the fall, end lying face down."""
+    arms_forward = {"LeftArm": (-50, 0, -35), "RightArm": (-50, 0, 35)}
     return _animate(
         [
             Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
             Key(0.3, {"Head": (20, 0, 0), "LowerBack": (5, 0, 0)}, (0.0, -0.04, 0.02)),
             Key(
                 0.8,
-                {"LowerBack": (20, 0, 0), "LeftArm": (-40, 0, -10), "RightArm": (-40, 0, 10)},
-                (0.0, -0.32, 0.15),
-                {
-                    "LeftFoot": Target((0.17, 0.10, -0.02), rotation_deg=(45, 0, 0)),
-                    "RightFoot": Target((-0.17, 0.10, -0.02), rotation_deg=(45, 0, 0)),
-                },
+                {"LowerBack": (15, 0, 0), **_toes(40), **arms_forward},
+                (0.0, -0.30, 0.20),
+                {**_planted(heel_raise_deg=40), **_hands_world(0.70, 0.55)},
             ),
             Key(
                 1.15,
-                {"LowerBack": (25, 0, 0), "Head": (0, 0, 0),
-                 "LeftArm": (-70, 0, -10), "RightArm": (-70, 0, 10)},
-                (0.0, -0.34, 0.36),
-                {
-                    "LeftFoot": Target((0.17, 0.12, -0.04), rotation_deg=(80, 0, 0)),
-                    "RightFoot": Target((-0.17, 0.12, -0.04), rotation_deg=(80, 0, 0)),
-                },
+                {"LowerBack": (20, 0, 0), "Head": (0, 0, 0), **_toes(75),
+                 "LeftArm": (-75, 0, -35), "RightArm": (-75, 0, 35)},
+                (0.0, -0.33, 0.50),
+                {**_planted(heel_raise_deg=75), **_hands_world(0.45, 0.98)},
             ),
             Key(
                 1.5,
-                {"Hips": (35, 0, 0), "LowerBack": (20, 0, 0), "Head": (-15, 0, 0)},
-                (0.0, -0.42, 0.48),
-                {
-                    "LeftHand": Target((0.26, 0.05, 0.95)),
-                    "RightHand": Target((-0.26, 0.05, 0.95)),
-                },
+                {"Hips": (40, 0, 0), "LowerBack": (15, 0, 0), "Head": (-20, 0, 0)},
+                (0.0, -0.45, 0.68),
+                _hands_world(0.05, 1.25),
             ),
             Key(
                 2.1,
-                {"Hips": (88, 0, 0), "LowerBack": (0, 0, 0), "Spine": (-5, 0, 0),
+                {"Hips": (86, 0, 0), "LowerBack": (0, 0, 0), "Spine": (-5, 0, 0),
                  "Head": (-10, 60, 0)},
-                (0.0, -0.72, 0.80),
-                {
-                    "LeftFoot": Target((0.17, 0.09, 0.0), rotation_deg=(95, 0, 0)),
-                    "RightFoot": Target((-0.17, 0.09, 0.0), rotation_deg=(95, 0, 0)),
-                    "LeftHand": Target((0.32, 0.04, 1.20)),
-                    "RightHand": Target((-0.32, 0.04, 1.20)),
-                },
+                (0.0, -0.72, 0.94),
+                _hands_world(0.04, 1.42, 0.30),
             ),
-            Key(2.8, {}, (0.0, -0.72, 0.80)),
+            Key(2.8, {}, (0.0, -0.72, 0.94)),
         ],
         "fall_down_forwards",
     )
+
+
+def _hands_world(y_m: float, z_m: float, x_m: float = 0.26) -> dict[str, Target]:
+    """Wrist targets at (±x, y, z), world metres."""
+    return {"LeftHand": Target((x_m, y_m, z_m)), "RightHand": Target((-x_m, y_m, z_m))}
+
+
+def _toes(heel_raise_deg: float) -> dict[str, tuple[float, float, float]]:
+    """Toe rotations that keep the toes flat while the heels are raised."""
+    return {
+        "LeftToeBase": (-heel_raise_deg, 0.0, 0.0),
+        "RightToeBase": (-heel_raise_deg, 0.0, 0.0),
+    }
 
 
 def fall_down_backwards() -> Motion:
@@ -353,13 +367,13 @@ def fall_down_backwards() -> Motion:
             Key(
                 1.7,
                 {"Hips": (-85, 0, 0), "LowerBack": (0, 0, 0), "Head": (5, 0, 0),
-                 "LeftArm": (0, 0, 60), "RightArm": (0, 0, -60)},
+                 "LeftArm": (0, 0, 30), "RightArm": (0, 0, -30)},
                 (0.0, -0.74, -0.55),
                 {
                     "LeftFoot": Target((0.20, 0.06, 0.25), rotation_deg=(-30, 0, 0)),
                     "RightFoot": Target((-0.20, 0.06, 0.25), rotation_deg=(-30, 0, 0)),
-                    "LeftHand": None,
-                    "RightHand": None,
+                    "LeftHand": Target((0.62, 0.04, -0.95)),
+                    "RightHand": Target((-0.62, 0.04, -0.95)),
                 },
             ),
             Key(
@@ -402,7 +416,7 @@ def fall_down_sideways() -> Motion:
                 {"Hips": (0, 0, -85), "LowerBack": (5, 0, 5), "Head": (0, 0, 10),
                  "LeftUpLeg": (-30, 0, 0), "LeftLeg": (45, 0, 0),
                  "RightUpLeg": (-35, 0, 0), "RightLeg": (50, 0, 0),
-                 "RightArm": (-30, 0, 0)},
+                 "RightArm": (-30, 0, 35)},
                 (0.45, -0.70, 0.0),
                 {"LeftHand": Target((0.95, 0.05, 0.25))},
             ),

@@ -1,0 +1,200 @@
+"""Benchmark of the silhouette-dictionary tracker: accuracy and speed, tree vs exhaustive.
+
+Setup (as in the paper): a walkway along +X with two cameras on both sides of it,
+320 × 240 pixels; the person is a body shape unlike the dictionary's (another height
+and girth); the motions are CMU walks and a turn that the dictionary was NOT built
+from.  The dictionary holds the library clips ``walk_02_01``, ``walk_16_15`` and
+``turn_16_17``, pruned at d1 = 5°, each posture turned to every 15° of heading.
+
+For every clip, the same silhouettes are tracked twice, with the 2-layer search tree
+(t = 3, k = 3, T_n = 40) and with the exhaustive search over the same candidates, and
+the script prints: MPJPE (mm, over the 25 body joints: fingers and thumbs left out;
+world positions, so the body-centre position error counts), estimates per second on
+one core (steady state, and the first frame's coarse-to-fine search apart), and
+similarity evaluations per frame.  ``--video`` runs the video front end too: the
+silhouettes are cut out of composed RGB frames (textured background, cast shadow,
+sensor noise) against background images, instead of taken from the renderer.
+
+Run from the repository root::
+
+    python benchmarks/bench_tracker.py            # clean silhouettes
+    python benchmarks/bench_tracker.py --video    # through background subtraction
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ[_var] = "1"  # one core, before numpy / numba load
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from eigmotion.avatar import load_default_avatar  # noqa: E402
+from eigmotion.cameras import intrinsics, look_at  # noqa: E402
+from eigmotion.library import find_motion  # noqa: E402
+from eigmotion.retarget import retarget  # noqa: E402
+from eigmotion.silhouettes import render_masks  # noqa: E402
+from eigmotion.tracker.body import avatar_bodies  # noqa: E402
+from eigmotion.tracker.dictionary import (  # noqa: E402
+    dictionary_from_sequences,
+    mean_heading_deg,
+    posture_sequence,
+    yaw_rotation,
+)
+from eigmotion.tracker.tracker import SilhouetteTracker, TrackerConfig  # noqa: E402
+
+DICTIONARY_MOTIONS = ("walk_02_01", "walk_16_15", "turn_16_17")
+#: (library motion, heading at the start in degrees): walking along the walkway (+X).
+TEST_CLIPS = (("walk_02_02", 90.0), ("walk_16_22", 90.0), ("turn_16_19", 90.0))
+SUBJECT = {"height_m": 1.58, "girth": 1.2}
+WIDTH, HEIGHT, YFOV_DEG = 320, 240, 45.0
+ESTIMATE_FPS = 25.0
+
+
+def walkway_cameras() -> list:
+    K = intrinsics(WIDTH, HEIGHT, YFOV_DEG)
+    return [
+        look_at([-2.5, 1.6, -3.5], [0.6, 0.9, 0.0], K, WIDTH, HEIGHT, name="left"),
+        look_at([-2.5, 1.6, 3.5], [0.6, 0.9, 0.0], K, WIDTH, HEIGHT, name="right"),
+    ]
+
+
+def stage(name: str, heading_deg: float, subject) -> tuple[np.ndarray, np.ndarray]:
+    """The clip at 25 fps on the subject, turned so that it starts walking at
+    ``heading_deg`` and starting at x = -0.6 m on the walkway's centre line.
+
+    Returns world rotations (F, J, 3, 3) and joint positions (F, J, 3), metres."""
+    motion = find_motion(name).resample(ESTIMATE_FPS)
+    anim = retarget(motion, subject)
+    start = mean_heading_deg(anim.joint_rotations[: max(3, anim.n_frames // 6), 0])
+    turn = yaw_rotation(heading_deg - start)
+    rot = turn @ anim.joint_rotations
+    pos = anim.joint_positions @ turn.T
+    pos[..., [0, 2]] += np.array([-0.6, 0.0]) - pos[0, 0, [0, 2]]
+    return rot, pos
+
+
+def video_masks(masks: np.ndarray, seed: int) -> np.ndarray:
+    """Masks → composed RGB frames with shadow and noise → background subtraction."""
+    from eigmotion.scene import compose_scene
+    from eigmotion.video import extract_silhouettes
+
+    frames, background = compose_scene(None, masks, np.random.default_rng(seed))
+    return extract_silhouettes(frames, background)
+
+
+def track(tracker: SilhouetteTracker, masks: list[np.ndarray]) -> tuple:
+    """Track frame by frame; returns (result, first-frame seconds, later seconds)."""
+    tracker.reset()
+    estimates, times = [], []
+    for f in range(len(masks[0])):
+        start = time.perf_counter()
+        estimates.append(tracker.step([m[f] for m in masks]))
+        times.append(time.perf_counter() - start)
+    result = tracker.result(estimates, np.arange(len(estimates)), 1.0 / ESTIMATE_FPS)
+    return result, times[0], np.asarray(times[1:])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--video", action="store_true", help="go through background subtraction")
+    parser.add_argument("--frames", type=int, default=0, help="frames per clip (0: all)")
+    args = parser.parse_args()
+
+    t0 = time.perf_counter()
+    avatar = load_default_avatar()
+    sequences = [posture_sequence(find_motion(n), avatar) for n in DICTIONARY_MOTIONS]
+    dictionary = dictionary_from_sequences(
+        sequences, 5.0, tuple(np.arange(-180.0, 180.0, 15.0)), face_forward=True
+    )
+    bodies = avatar_bodies(dictionary, avatar)
+    build_s = time.perf_counter() - t0
+    print(
+        f"dictionary: {', '.join(DICTIONARY_MOTIONS)} -> {dictionary.n_base} postures x 24 "
+        f"headings = {len(dictionary)} entries; body model {bodies.n_vertices} vertices, "
+        f"{len(bodies.faces)} faces; built in {build_s:.1f} s"
+    )
+    subject = avatar.with_shape(**SUBJECT)
+    print(
+        f"subject: height {subject.height_m:.2f} m, girth {SUBJECT['girth']} "
+        f"(dictionary body {avatar.height_m:.2f} m, girth 1.0); cameras {WIDTH}x{HEIGHT}, "
+        f"both sides of the walkway; silhouettes from "
+        f"{'background subtraction of composed video' if args.video else 'the renderer'}"
+    )
+    cams = walkway_cameras()
+    body_joints = [i for i, n in enumerate(avatar.joint_names) if not n.endswith(("1", "Thumb"))]
+    names = [avatar.joint_names[i] for i in body_joints]
+    rows, per_joint = [], {"tree": [], "exhaustive": []}
+    for c, (clip, heading) in enumerate(TEST_CLIPS):
+        rot, pos = stage(clip, heading, subject)
+        if args.frames:
+            rot, pos = rot[: args.frames], pos[: args.frames]
+        vertices = subject.skin(rot, pos)
+        masks = [render_masks(vertices, subject.faces, cam) for cam in cams]
+        cut = [m[:, [0, -1]].any() or m[:, :, [0, -1]].any() for m in masks]
+        if args.video:
+            masks = [video_masks(m, 10 * c + i) for i, m in enumerate(masks)]
+        for mode in ("tree", "exhaustive"):
+            config = TrackerConfig(exhaustive=mode == "exhaustive")
+            tracker = SilhouetteTracker(dictionary, cams, bodies, config)
+            result, first_s, later_s = track(tracker, masks)
+            err = np.linalg.norm(result.joint_positions_m - pos, axis=-1)[:, body_joints]
+            root_err = np.linalg.norm(result.positions_m - pos[:, 0], axis=-1)
+            per_joint[mode].append(err)
+            rows.append(
+                (
+                    clip,
+                    mode,
+                    len(pos),
+                    1000 * err.mean(),
+                    1000 * np.median(err.mean(axis=1)),
+                    1000 * root_err.mean(),
+                    1.0 / later_s.mean(),
+                    first_s,
+                    result.n_evaluations[1:].mean(),
+                    int(result.n_evaluations[0]),
+                    " (person leaves a view)" if any(cut) else "",
+                )
+            )
+    print()
+    header = (
+        f"{'clip':<12} {'search':<10} {'frames':>6} {'MPJPE mm':>9} {'median':>7} "
+        f"{'root mm':>8} {'est/s':>6} {'1st s':>6} {'evals/frame':>11} {'1st evals':>9}"
+    )
+    print(header)
+    print("-" * len(header))
+    for r in rows:
+        print(
+            f"{r[0]:<12} {r[1]:<10} {r[2]:>6d} {r[3]:>9.1f} {r[4]:>7.1f} {r[5]:>8.1f} "
+            f"{r[6]:>6.1f} {r[7]:>6.2f} {r[8]:>11.1f} {r[9]:>9d}{r[10]}"
+        )
+    print()
+    total = {m: np.concatenate(per_joint[m]) for m in per_joint}
+    speed = {m: np.mean([r[6] for r in rows if r[1] == m]) for m in per_joint}
+    evals = {m: np.mean([r[8] for r in rows if r[1] == m]) for m in per_joint}
+    for m in ("tree", "exhaustive"):
+        print(
+            f"all clips, {m:<10}: MPJPE {1000 * total[m].mean():6.1f} mm, "
+            f"{speed[m]:5.1f} estimates/s (steady), {evals[m]:5.1f} evaluations/frame"
+        )
+    ratio = total["tree"].mean() / total["exhaustive"].mean()
+    print(
+        f"tree / exhaustive MPJPE: {ratio:.3f} (goal <= 1.10); tree speed-up "
+        f"{speed['tree'] / speed['exhaustive']:.2f}x"
+    )
+    print()
+    print("MPJPE per joint, mm (all clips):")
+    print(f"{'joint':<16} {'tree':>7} {'exhaustive':>10}")
+    for j, name in enumerate(names):
+        print(
+            f"{name:<16} {1000 * total['tree'][:, j].mean():>7.1f} "
+            f"{1000 * total['exhaustive'][:, j].mean():>10.1f}"
+        )
+
+
+if __name__ == "__main__":
+    main()

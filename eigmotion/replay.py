@@ -1,0 +1,173 @@
+"""3D replay of a retrieved motion: BVH out and a side-by-side video.
+
+The database answers a clip with a basic motion, the window of it that matched and
+the virtual camera that saw it as the clip's camera sees the person.  Replaying it
+means putting that window on the avatar, turning it so that the clip's camera would
+stand at azimuth 0 (on +Z, looking at the body's front side as the virtual camera at
+the matched azimuth did), and stretching it over the clip's duration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .avatar import Avatar, load_default_avatar
+from .errors import InvalidParameterError
+from .motion import Motion
+from .retarget import animation_to_motion, retarget
+from .rotations import axis_rotation
+
+
+@dataclass(frozen=True, eq=False)
+class Replay:
+    """A retrieved motion window, on the avatar, facing the clip's camera.
+
+    Attributes
+    ----------
+    motion : Motion
+        On the avatar's canonical skeleton, metres, at the clip's frame rate and
+        length; the root starts above the origin.
+    vertices : (F, V, 3) float32
+        The skinned avatar per frame, metres.
+    faces : (T, 3) int32
+    elevation_deg : float
+        Elevation of the camera that saw it (its azimuth is 0 after turning).
+    """
+
+    motion: Motion
+    vertices: np.ndarray
+    faces: np.ndarray
+    elevation_deg: float
+
+
+def turn_about_vertical(motion: Motion, angle_deg: float) -> Motion:
+    """Turn a whole motion about the world Y axis through its first root position.
+
+    Parameters
+    ----------
+    motion : Motion
+        Any skeleton whose root carries the rotation and translation channels.
+    angle_deg : float
+        Counter-clockwise seen from above (+X towards −Z), degrees.
+
+    Returns
+    -------
+    Motion
+        The same motion turned, its root's first horizontal position moved to x = z = 0.
+    """
+    turn = axis_rotation("Y", angle_deg)
+    rot = motion.local_rotations()
+    trans = motion.local_translations()
+    rot[:, 0] = turn @ rot[:, 0]
+    trans[:, 0] = trans[:, 0] @ turn.T
+    trans[:, 0, [0, 2]] -= trans[0, 0, [0, 2]]
+    return motion.with_local_transforms(rot, trans)
+
+
+def replay(
+    motion: Motion,
+    window: tuple[int, int],
+    azimuth_deg: float,
+    elevation_deg: float,
+    n_frames: int,
+    fps: float,
+    avatar: Avatar | None = None,
+) -> Replay:
+    """The matched window of a motion, replayed over the clip's timeline.
+
+    Parameters
+    ----------
+    motion : Motion
+        The basic motion (any skeleton the avatar can be driven by).
+    window : (int, int)
+        ``[start, stop)`` frames of ``motion`` that matched.
+    azimuth_deg, elevation_deg : float
+        The matched virtual camera's view of the motion.
+    n_frames : int
+        Frames of the clip (>= 1).
+    fps : float
+        The clip's frame rate, frames per second.
+    avatar : Avatar, optional
+        Default :func:`eigmotion.avatar.load_default_avatar`.
+
+    Returns
+    -------
+    Replay
+    """
+    start, stop = int(window[0]), int(window[1])
+    if not 0 <= start < stop <= motion.n_frames:
+        raise InvalidParameterError(
+            f"window [{start}, {stop}) is outside motion {motion.name!r} "
+            f"of {motion.n_frames} frames"
+        )
+    if n_frames < 1 or not fps > 0:
+        raise InvalidParameterError(f"need n_frames >= 1 and fps > 0, got {n_frames}, {fps}")
+    avatar = avatar or load_default_avatar()
+    part = motion.trim(start, stop)
+    anim = retarget(part, avatar)
+    on_avatar = turn_about_vertical(animation_to_motion(anim, avatar), -azimuth_deg)
+    # Stretch the window over the clip: same first and last pose, the clip's frame count.
+    if n_frames > 1 and on_avatar.n_frames > 1:
+        stretched_time_s = (n_frames - 1) / fps / (on_avatar.n_frames - 1)
+        on_avatar = on_avatar.replace(frame_time_s=stretched_time_s).resample(fps)
+        if on_avatar.n_frames < n_frames:  # rounding at the very end
+            pad = np.repeat(on_avatar.values[-1:], n_frames - on_avatar.n_frames, axis=0)
+            on_avatar = on_avatar.replace(values=np.concatenate([on_avatar.values, pad]))
+        on_avatar = on_avatar.trim(0, n_frames)
+    else:
+        on_avatar = on_avatar.trim(0, 1).replace(frame_time_s=1.0 / fps)
+    on_avatar = on_avatar.replace(name=f"{motion.name}_{start}_{stop}")
+    anim_out = retarget(on_avatar, avatar)
+    return Replay(on_avatar, avatar.pose(anim_out), avatar.faces, float(elevation_deg))
+
+
+def replay_video(
+    result: Replay,
+    clip_frames: np.ndarray | None,
+    masks: np.ndarray,
+    motion_picture: np.ndarray,
+    path: str | Path,
+    fps: float,
+    height_px: int = 240,
+    progress: bool = False,
+) -> Path:
+    """Write input | silhouettes | motion image | avatar replay, side by side.
+
+    Parameters
+    ----------
+    result : Replay
+    clip_frames : (F, H, W, 3) uint8 or None
+        The query clip (``None`` for a clip given as masks only).
+    masks : (F, H, W) bool
+        Its silhouettes.
+    motion_picture : (S, S) uint8
+        The clip's motion image (:func:`eigmotion.motion_image.motion_image_picture`).
+    path : str or Path
+        ``.mp4``, ``.avi`` or ``.gif``.
+    fps : float
+    height_px : int
+        Panel height, pixels.
+
+    Returns
+    -------
+    Path
+    """
+    from .figures import side_by_side
+    from .media import write_video
+    from .render import frame_cameras, render_shaded
+
+    times_s = np.arange(len(result.vertices)) * result.motion.frame_time_s
+    cameras = frame_cameras(
+        result.vertices, times_s, 0.0, result.elevation_deg, height_px, height_px
+    )
+    shaded = render_shaded(result.vertices, result.faces, cameras, progress=progress)
+    panels = [masks, motion_picture[None], shaded]
+    titles = ["silhouettes", "motion image", "replay"]
+    if clip_frames is not None:
+        panels.insert(0, clip_frames)
+        titles.insert(0, "input")
+    frames = side_by_side(panels, titles, height_px=height_px)
+    return write_video(frames, path, fps)

@@ -1,0 +1,166 @@
+"""``eigmotion track``: errors as one line and exit 2, and an end-to-end run."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import cv2
+import numpy as np
+import pytest
+
+from eigmotion.asf_amc import read_amc
+from eigmotion.avatar import load_default_avatar
+from eigmotion.bvh import read_bvh
+from eigmotion.cameras import intrinsics, look_at
+from eigmotion.cli import main
+from eigmotion.media import read_frames, write_video
+from eigmotion.retarget import retarget
+from eigmotion.silhouettes import render_masks
+from eigmotion.tracker.calibration import save_calibration
+from eigmotion.tracker.dictionary import mean_heading_deg, yaw_rotation
+
+N_FRAMES = 10
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory, cmu_dir):
+    """Two calibrated views of a walk (02_02, 25 fps) stored as .npz masks."""
+    root = tmp_path_factory.mktemp("track")
+    K = intrinsics(320, 240, 45.0)
+    cams = [
+        look_at([-2.5, 1.6, -3.5], [0.5, 0.9, 0.0], K, 320, 240, name="left"),
+        look_at([-2.5, 1.6, 3.5], [0.5, 0.9, 0.0], K, 320, 240, name="right"),
+    ]
+    save_calibration(cams, root / "cams.json")
+    motion = read_amc(cmu_dir / "amc" / "02_02.amc", cmu_dir / "asf" / "02.asf")
+    subject = load_default_avatar().with_shape(height_m=1.7, girth=1.1)
+    anim = retarget(motion.trim(0, 50).resample(100), subject)
+    turn = yaw_rotation(90.0 - mean_heading_deg(anim.joint_rotations[:, 0]))
+    rot = (turn @ anim.joint_rotations)[::4][:N_FRAMES]
+    pos = (anim.joint_positions @ turn.T)[::4][:N_FRAMES]
+    pos[..., [0, 2]] -= pos[0, 0, [0, 2]]
+    vertices = subject.skin(rot, pos)
+    paths = []
+    for i, cam in enumerate(cams):
+        masks = render_masks(vertices, subject.faces, cam)
+        np.savez_compressed(root / f"cam{i}.npz", masks=masks, fps=25.0)
+        paths.append(root / f"cam{i}.npz")
+    return root, paths, pos, vertices, subject, cams
+
+
+def run_cli(args, capsys):
+    code = main(["track", *map(str, args)])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err.strip().splitlines()
+
+
+def test_missing_calibration(scene, capsys, tmp_path):
+    root, paths, *_ = scene
+    code, _, err = run_cli(["--calib", tmp_path / "none.json", *paths], capsys)
+    assert code == 2 and len(err) == 1 and "none.json" in err[0]
+
+
+def test_videos_must_match_cameras(scene, capsys):
+    root, paths, *_ = scene
+    code, _, err = run_cli(["--calib", root / "cams.json", paths[0]], capsys)
+    assert code == 2 and len(err) == 1 and "1 videos given for the 2 cameras" in err[0]
+
+
+def test_backgrounds_must_match_videos(scene, capsys):
+    root, paths, *_ = scene
+    bg = root / "bg.png"
+    cv2.imwrite(str(bg), np.zeros((240, 320, 3), np.uint8))
+    code, _, err = run_cli(["--calib", root / "cams.json", *paths, "--background", bg], capsys)
+    assert code == 2 and len(err) == 1 and "1 backgrounds given for 2 videos" in err[0]
+
+
+def test_wrong_frame_size(scene, capsys, tmp_path):
+    root, paths, *_ = scene
+    small = tmp_path / "small.npz"
+    masks = np.zeros((N_FRAMES, 120, 160), bool)
+    masks[:, 40:100, 70:90] = True
+    np.savez(small, masks=masks)
+    code, _, err = run_cli(["--calib", root / "cams.json", paths[0], small], capsys)
+    assert code == 2 and len(err) == 1 and "calibrated at 320×240" in err[0]
+
+
+def test_errors_in_a_subprocess_have_no_traceback(scene, tmp_path):
+    root, paths, *_ = scene
+    proc = subprocess.run(
+        [sys.executable, "-m", "eigmotion.cli", "track", "--calib", str(tmp_path / "x.json")]
+        + [str(p) for p in paths],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr
+
+
+def test_track_end_to_end(scene, capsys, tmp_path):
+    root, paths, truth, *_ = scene
+    bvh, joints, overlay = tmp_path / "out.bvh", tmp_path / "out.npz", tmp_path / "out.gif"
+    code, out, err = run_cli(
+        [
+            "--calib", root / "cams.json", *paths,
+            "--dictionary", "walk_02_01", "--heading-step-deg", "30",
+            "--bvh-out", bvh, "--joints-out", joints, "--overlay-out", overlay,
+            "--dictionary-out", tmp_path / "dict.npz",
+        ],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    assert "tracked 10 frames" in out
+    data = np.load(joints)
+    assert data["positions"].shape == (N_FRAMES, 31, 3)
+    assert list(data["names"])[0] == "Hips"
+    err_mm = 1000 * np.linalg.norm(data["positions"] - truth, axis=-1).mean()
+    assert err_mm < 120, err_mm
+    motion = read_bvh(bvh)
+    assert motion.n_frames == N_FRAMES and motion.frame_time_s == pytest.approx(0.04)
+    frames, _ = read_frames(overlay)
+    assert frames.shape[1:3] == (240, 640)
+    red = (frames[..., 0] > 200) & (frames[..., 1] < 80)
+    assert red.sum(axis=(1, 2)).min() > 50  # the outline is drawn in every frame
+    # the saved dictionary is reused, and a reference motion is replayed
+    code, out, err = run_cli(
+        [
+            "--calib", root / "cams.json", *paths, "--dictionary", tmp_path / "dict.npz",
+            "--reference", "walk_02_01", "--bvh-out", tmp_path / "ref.bvh",
+            "--joints-out", tmp_path / "ref.npz",
+        ],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    replay = np.load(tmp_path / "ref.npz")["positions"]
+    assert replay.shape == (N_FRAMES, 31, 3)
+    assert 1000 * np.linalg.norm(replay - truth, axis=-1).mean() < 200
+
+
+def test_track_from_video_with_background(scene, capsys, tmp_path):
+    """RGB videos with a textured background, a shadow and noise, cut out against
+    background images."""
+    from eigmotion.scene import compose_scene
+
+    root, _, truth, vertices, subject, cams = scene
+    rng = np.random.default_rng(0)
+    videos, backgrounds = [], []
+    for i, cam in enumerate(cams):
+        masks = render_masks(vertices, subject.faces, cam)
+        frames, background = compose_scene(None, masks, rng)
+        videos.append(write_video(frames, tmp_path / f"cam{i}.avi", 25.0))
+        backgrounds.append(tmp_path / f"bg{i}.png")
+        cv2.imwrite(str(backgrounds[-1]), cv2.cvtColor(background, cv2.COLOR_RGB2BGR))
+    code, out, err = run_cli(
+        [
+            "--calib", root / "cams.json", *videos, "--background", *backgrounds,
+            "--dictionary", "walk_02_01", "--heading-step-deg", "30",
+            "--joints-out", tmp_path / "j.npz",
+        ],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    positions = np.load(tmp_path / "j.npz")["positions"]
+    assert 1000 * np.linalg.norm(positions - truth, axis=-1).mean() < 150
