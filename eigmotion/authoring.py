@@ -43,7 +43,7 @@ from .canonical import canonical_skeleton
 from .errors import InvalidParameterError
 from .kinematics import rest_points
 from .motion import Motion, Skeleton
-from .rotations import check_euler_order, euler_to_matrix, matrix_to_euler
+from .rotations import align_vectors, check_euler_order, euler_to_matrix, matrix_to_euler
 
 #: Euler order of key rotations unless :func:`animate` is told otherwise.
 KEY_EULER_ORDER = "ZXY"
@@ -235,6 +235,48 @@ def foot_targets(
         xyz = tuple(float(angles[order.index(a)]) for a in "XYZ")
         out[joint] = Target(tuple(pos), rotation_deg=xyz)
     return out
+
+
+def aim_deg(
+    rest_vectors: Sequence[Sequence[float]],
+    target_vectors: Sequence[Sequence[float]],
+    order: str = KEY_EULER_ORDER,
+) -> tuple[float, float, float]:
+    """Euler angles of the rotation turning rest directions onto wanted directions.
+
+    Handy for a ``Target.rotation_deg`` or a key rotation: e.g. the finger direction
+    and the palm normal of a hand at rest onto where they should point.
+
+    Parameters
+    ----------
+    rest_vectors : (N, 3) float
+        Directions at rest (any length; the first is matched exactly when N = 2 and
+        the pairs make different angles).
+    target_vectors : (N, 3) float
+        Where each should point.
+    order : str
+        Euler order of the result.
+
+    Returns
+    -------
+    (float, float, float)
+        ``(x, y, z)`` degrees, composed in ``order``.
+    """
+    rest = _unit(np.asarray(rest_vectors, dtype=np.float64).reshape(-1, 3))
+    target = _unit(np.asarray(target_vectors, dtype=np.float64).reshape(-1, 3))
+    if rest.shape != target.shape:
+        raise InvalidParameterError(
+            f"aim_deg needs as many target vectors as rest vectors, got {len(rest)} and "
+            f"{len(target)}"
+        )
+    if len(rest) == 2:
+        # Exact on the first pair, the second only fixes the turn about it.
+        rot = _frame_change(rest[:1], rest[1:], target[:1], target[1:])[0]
+    else:
+        rot = align_vectors(rest, target)
+    order = check_euler_order(order)
+    angles = matrix_to_euler(rot, order)
+    return tuple(float(angles[order.index(a)]) for a in "XYZ")
 
 
 # -- the engine ---------------------------------------------------------------------------------

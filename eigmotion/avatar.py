@@ -353,7 +353,8 @@ class Avatar:
         The convex-hull vertices of each bone's vertex group (vertices whose largest
         weight is on that bone): a rigidly moving part touches the floor with one of
         its hull vertices, and skinning is close to rigid within a group.  About a
-        tenth of the mesh, so finding the floor contact of a clip is cheap.
+        fifth of the mesh (2,833 of 13,380 vertices for the default avatar), so
+        finding the floor contact of a clip is cheap.
         """
         from scipy.spatial import ConvexHull, QhullError
 

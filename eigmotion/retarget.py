@@ -9,11 +9,17 @@ joint:
    relative to the source rest pose (a :class:`~eigmotion.motion.Motion`'s local
    frames are world-aligned at rest);
 2. a constant rest alignment ``Q_j`` turns the avatar's rest bone directions onto
-   the source's: Kabsch over the directions from the joint to its first
-   non-coincident mapped descendants (or its End Site), the smallest rotation when
-   there is one direction (applied after the parent's alignment, so that the twist
-   about a limb is handed down the chain); at the hips and the chest the up
-   direction and the left-right vector (hips, shoulders) fix the facing;
+   the source's.  The directions run from the joint to its first non-coincident
+   mapped descendants (or to its End Site).  The first one (the bone itself) is
+   matched exactly by the smallest rotation applied after a reference alignment —
+   the parent's, so that the twist about a limb is handed down the chain (elbow
+   and knee hinges stay consistent), or, for a bone leaving a branching joint (an
+   upper arm after its collar bone, a thigh after its hip bone), the branching
+   joint's, so that a collar bone placed differently does not twist the arm.
+   Further directions set the twist about the first: at the hips and the chest the
+   left-right vector (hip joints, shoulder joints) fixes the facing, at the hands
+   the thumb.  A bone that starts at its parent's own joint (the hip bones leave
+   the pelvis joint) moves rigidly with its parent;
 3. the avatar bone's world rotation is ``A_j(t) = G_j(t) Q_j``: every bone points
    where the source's points, with the source's twist.
 
@@ -166,8 +172,9 @@ def retarget(
     rotations = np.empty((n_f, n_j, 3, 3))
     positions = np.empty((n_f, n_j, 3))
     src_root = joint_map[root_name]
-    src_hip_height = src_joints[src_root, 1] - min(
-        src_joints[:, 1].min(), src_ends[:, 1].min() if len(src_ends) else np.inf
+    # Hip height over the lowest rest joint or End Site (NaN: joints without one).
+    src_hip_height = src_joints[src_root, 1] - np.nanmin(
+        np.concatenate([src_joints[:, 1], src_ends[:, 1]])
     )
     if not src_hip_height > 0:
         raise InvalidParameterError(
@@ -224,7 +231,7 @@ def rest_alignment(
     source_end_sites : (S, 3) float
         Source rest End Site per joint, NaN where a joint has none.
     joint_map : dict of str to int
-        Avatar joint name → source joint index.
+        Avatar joint name → source joint index (other names are ignored).
 
     Returns
     -------
@@ -238,7 +245,7 @@ def rest_alignment(
     for j in range(1, len(names)):
         children[avatar.parents[j]].append(j)
     a_pos = avatar.joint_positions
-    src = {index[n]: s for n, s in joint_map.items()}
+    src = {index[n]: s for n, s in joint_map.items() if n in index}
 
     def distinct(j: int, c: int) -> list[int]:
         """First descendants of j through child c apart from j in both skeletons."""

@@ -85,7 +85,9 @@ class PostureBodies:
     def n_vertices(self) -> int:
         return self.base_vertices.shape[1]
 
-    def vertices(self, indices: np.ndarray, root_position_m: np.ndarray) -> np.ndarray:
+    def vertices(
+        self, indices: np.ndarray, root_position_m: np.ndarray, scale: float = 1.0
+    ) -> np.ndarray:
         """(M, V, 3) float32 meshes of entries with the root at a world point, metres.
 
         Parameters
@@ -94,15 +96,19 @@ class PostureBodies:
             Dictionary entries.
         root_position_m : (3,) float
             Where the body centre goes, world metres.
+        scale : float
+            Uniform scale of the body about its root (a taller or shorter person).
         """
         indices = np.asarray(indices, dtype=np.int64).reshape(-1)
         base = self.base_vertices[self.base_index[indices]]
-        turns = self._turns[indices].astype(np.float32)
+        turns = self._turns[indices].astype(np.float32) * np.float32(scale)
         out = np.matmul(base, np.swapaxes(turns, 1, 2))
         out += np.asarray(root_position_m, dtype=np.float32).reshape(1, 1, 3)
         return out
 
-    def joints(self, indices: np.ndarray, root_positions_m: np.ndarray) -> np.ndarray:
+    def joints(
+        self, indices: np.ndarray, root_positions_m: np.ndarray, scale: np.ndarray | float = 1.0
+    ) -> np.ndarray:
         """(M, J, 3) float64 joint positions of entries with their roots at given points.
 
         Parameters
@@ -110,17 +116,24 @@ class PostureBodies:
         indices : (M,) int
         root_positions_m : (M, 3) or (3,) float
             World metres.
+        scale : float or (M,) float
+            Uniform scale of the body about its root.
         """
         indices = np.asarray(indices, dtype=np.int64).reshape(-1)
         base = self.base_joints[self.base_index[indices]]
         turned = np.einsum("mab,mjb->mja", self._turns[indices], base)
+        turned *= np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(indices),))[
+            :, None, None
+        ]
         return turned + np.asarray(root_positions_m, dtype=np.float64).reshape(-1, 1, 3)
 
-    def box_corners(self, indices: np.ndarray, root_position_m: np.ndarray) -> np.ndarray:
+    def box_corners(
+        self, indices: np.ndarray, root_position_m: np.ndarray, scale: float = 1.0
+    ) -> np.ndarray:
         """(M, 8, 3) float64 corners of boxes enclosing each entry's mesh, metres."""
         indices = np.asarray(indices, dtype=np.int64).reshape(-1)
         corners = self._base_corners[self.base_index[indices]]
-        turned = np.einsum("mab,mkb->mka", self._turns[indices], corners)
+        turned = np.einsum("mab,mkb->mka", self._turns[indices], corners) * scale
         return turned + np.asarray(root_position_m, dtype=np.float64).reshape(1, 1, 3)
 
 

@@ -718,6 +718,23 @@ def dictionary_from_motion(motion: Motion, avatar=None, mapping: dict | None = N
     return build_dictionary([motion], avatar, mapping, threshold_deg=0.0)
 
 
+def _closeness(
+    vectors_a: np.ndarray,
+    vectors_b: np.ndarray,
+    d2: np.ndarray,
+    max_d1_deg: float,
+    max_d2_m: float,
+    max_heading_deg: float | None,
+) -> np.ndarray:
+    """``max(d1 / T_d1, d2 / T_d2)``, or with the heading apart:
+    ``max(d1' / T_d1, |heading difference| / T_h, d2 / T_d2)`` (d1' without heading)."""
+    if max_heading_deg is None:
+        return np.maximum(d1_distance(vectors_a, vectors_b) / max_d1_deg, d2 / max_d2_m)
+    body = np.abs(vectors_a[..., 1:] - vectors_b[..., 1:]).max(axis=-1, initial=0.0)
+    heading = np.abs(wrap_deg(vectors_a[..., 0] - vectors_b[..., 0]))
+    return np.maximum(np.maximum(body / max_d1_deg, heading / max_heading_deg), d2 / max_d2_m)
+
+
 def select_candidates(
     dictionary: PostureDictionary,
     previous: int,
@@ -725,6 +742,7 @@ def select_candidates(
     max_d1_deg: float,
     max_d2_m: float,
     max_candidates: int,
+    max_heading_deg: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The paper's candidate set M around the previous posture, nearest first.
 
@@ -743,6 +761,11 @@ def select_candidates(
         ``T_d1`` (degrees) and ``T_d2`` (metres).
     max_candidates : int
         ``T_n``.
+    max_heading_deg : float, optional
+        Give the heading its own threshold ``T_h``, degrees: d1 is then taken over the
+        other components, and the closeness is ``max(d1 / T_d1, |Δheading| / T_h,
+        d2 / T_d2)``.  A larger ``T_h`` than ``T_d1`` lets turned copies of nearby
+        postures into the candidates, so that turns are followed.
 
     Returns
     -------
@@ -753,15 +776,17 @@ def select_candidates(
     """
     vectors = dictionary.vectors
     ref = vectors[previous]
-    # d1 is at least the heading difference: a cheap first cut.
-    near = np.flatnonzero(np.abs(wrap_deg(vectors[:, 0] - ref[0])) < max_d1_deg)
-    d1 = d1_distance(vectors[near], ref)
-    ok = d1 < max_d1_deg
-    near, d1 = near[ok], d1[ok]
+    heading_limit = max_d1_deg if max_heading_deg is None else max_heading_deg
+    # The heading difference alone already bounds the closeness: a cheap first cut.
+    near = np.flatnonzero(np.abs(wrap_deg(vectors[:, 0] - ref[0])) < heading_limit)
+    closeness = _closeness(
+        vectors[near], ref, np.zeros(len(near)), max_d1_deg, 1.0, max_heading_deg
+    )
+    ok = closeness < 1.0
+    near, closeness = near[ok], closeness[ok]
     proj = projected_joints(dictionary.joint_positions[near], view_rotations)
     ref_proj = projected_joints(dictionary.joint_positions[previous][None], view_rotations)
-    d2 = d2_distance(proj, ref_proj)
-    closeness = np.maximum(d1 / max_d1_deg, d2 / max_d2_m)
+    closeness = np.maximum(closeness, d2_distance(proj, ref_proj) / max_d2_m)
     ok = closeness < 1.0
     near, closeness = near[ok], closeness[ok]
     order = np.lexsort((near, closeness))[:max_candidates]
@@ -775,10 +800,12 @@ def closeness_matrix(
     view_rotations: np.ndarray,
     max_d1_deg: float,
     max_d2_m: float,
+    max_heading_deg: float | None = None,
 ) -> np.ndarray:
-    """(M, K) float64: ``max(d1 / max_d1_deg, d2 / max_d2_m)`` between entries a and b."""
-    d1 = d1_matrix(dictionary.vectors[a], dictionary.vectors[b])
+    """(M, K) float64: the closeness of :func:`select_candidates` between entries a and b."""
+    va = dictionary.vectors[a][:, None, :]
+    vb = dictionary.vectors[b][None, :, :]
     pa = projected_joints(dictionary.joint_positions[a], view_rotations)
     pb = projected_joints(dictionary.joint_positions[b], view_rotations)
     d2 = d2_distance(pa[:, None], pb[None, :])
-    return np.maximum(d1 / max_d1_deg, d2 / max_d2_m)
+    return _closeness(va, vb, d2, max_d1_deg, max_d2_m, max_heading_deg)

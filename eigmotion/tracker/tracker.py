@@ -66,6 +66,10 @@ class TrackerConfig:
         ``T_d1``: candidates differ from the previous posture by less, degrees.
     max_d2_m : float
         ``T_d2``: largest projected joint displacement of a candidate, metres.
+    max_heading_deg : float or None
+        ``T_h``: the heading's own threshold (see :func:`~eigmotion.tracker.
+        dictionary.select_candidates`); ``None``: the heading is one of d1's
+        components, as in the paper.
     shift_radius_px : int
         The shift neighbourhood ``D``: ±this many full-resolution pixels each way.
     downsample : int
@@ -88,6 +92,7 @@ class TrackerConfig:
     max_candidates: int = 40
     max_d1_deg: float = 30.0
     max_d2_m: float = 0.3
+    max_heading_deg: float | None = None
     shift_radius_px: int = 6
     downsample: int = 2
     scales: tuple[float, ...] = (1.0,)
@@ -117,8 +122,10 @@ class TrackerConfig:
             raise InvalidParameterError(
                 f"init_branching must be an integer >= 2, got {self.init_branching!r}"
             )
-        for name in ("max_d1_deg", "max_d2_m"):
+        for name in ("max_d1_deg", "max_d2_m", "max_heading_deg"):
             value = getattr(self, name)
+            if value is None and name == "max_heading_deg":
+                continue
             if not (np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
         scales = tuple(float(s) for s in self.scales)
@@ -435,7 +442,13 @@ class SilhouetteTracker:
         cfg = self.config
         rotations = np.stack([self.cameras[c].R for c in used])
         candidates, _ = select_candidates(
-            self.dictionary, previous, rotations, cfg.max_d1_deg, cfg.max_d2_m, cfg.max_candidates
+            self.dictionary,
+            previous,
+            rotations,
+            cfg.max_d1_deg,
+            cfg.max_d2_m,
+            cfg.max_candidates,
+            cfg.max_heading_deg,
         )
         score, detail = self._scorer(masks, used, position, candidates)
         if exhaustive:
@@ -444,7 +457,13 @@ class SilhouetteTracker:
             layer1 = candidates[:: cfg.layer_step]
             distances = np.full((len(candidates), len(candidates)), np.inf)
             distances[:, :: cfg.layer_step] = closeness_matrix(
-                self.dictionary, candidates, layer1, rotations, cfg.max_d1_deg, cfg.max_d2_m
+                self.dictionary,
+                candidates,
+                layer1,
+                rotations,
+                cfg.max_d1_deg,
+                cfg.max_d2_m,
+                cfg.max_heading_deg,
             )
             tree = build_two_layer_tree(candidates, distances, cfg.layer_step)
             result = two_layer_search(tree, score, cfg.top_k)

@@ -23,7 +23,14 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from eigmotion.authoring import Key, Target, animate, body_surface_points, foot_targets
+from eigmotion.authoring import (
+    Key,
+    Target,
+    aim_deg,
+    animate,
+    body_surface_points,
+    foot_targets,
+)
 from eigmotion.bvh import write_bvh
 from eigmotion.motion import Motion
 
@@ -32,12 +39,29 @@ HERE = Path(__file__).resolve().parent
 #: Seat height of the chair for sit_down, metres (a common chair).
 SEAT_HEIGHT_M = 0.45
 
+# The left hand at rest, measured on the MakeHuman mesh: wrist → middle fingertip, and
+# the palm normal (the palm faces the thigh, slightly down); the right hand mirrors it.
+LEFT_FINGERS_REST = (0.24, -0.43, 0.87)
+LEFT_PALM_REST = (-0.84, -0.52, -0.15)
+
+
+def _hand_deg(side: float, fingers, palm) -> tuple[float, float, float]:
+    """Rotation of a hand (side +1 left, -1 right) pointing its fingers and palm."""
+    mirror = (side, 1.0, 1.0)
+    rest = [
+        [m * v for m, v in zip(mirror, vec, strict=True)]
+        for vec in (LEFT_FINGERS_REST, LEFT_PALM_REST)
+    ]
+    want = [[m * v for m, v in zip(mirror, vec, strict=True)] for vec in (fingers, palm)]
+    return aim_deg(rest, want)
+
+
 # Arms hanging relaxed at the sides (the rest pose holds them 45° out).
 ARMS_DOWN = {
     "LeftArm": (0.0, 0.0, -30.0),
     "RightArm": (0.0, 0.0, 30.0),
-    "LeftForeArm": (0.0, 0.0, 0.0),
-    "RightForeArm": (0.0, 0.0, 0.0),
+    "LeftForeArm": (30.0, 0.0, 0.0),
+    "RightForeArm": (30.0, 0.0, 0.0),
 }
 SPINE_STRAIGHT = {
     "LowerBack": (0.0, 0.0, 0.0),
@@ -75,8 +99,12 @@ def lift_floor_to_chest() -> Motion:
             Key(0.5, {"LowerBack": (10, 0, 0), "Head": (5, 0, 0)}, (0.0, -0.08, -0.02)),
             Key(
                 1.2,
-                {"LowerBack": (30, 0, 0), "Spine": (12, 0, 0), "Neck": (-10, 0, 0),
-                 "Head": (-10, 0, 0)},
+                {
+                    "LowerBack": (30, 0, 0),
+                    "Spine": (12, 0, 0),
+                    "Neck": (-10, 0, 0),
+                    "Head": (-10, 0, 0),
+                },
                 (0.0, -0.42, -0.14),
                 _box(0.17, 0.40),
             ),
@@ -89,8 +117,12 @@ def lift_floor_to_chest() -> Motion:
             ),
             Key(
                 3.3,
-                {"LowerBack": (-6, 0, 0), "Spine": (-2, 0, 0), "Neck": (0, 0, 0),
-                 "Head": (0, 0, 0)},
+                {
+                    "LowerBack": (-6, 0, 0),
+                    "Spine": (-2, 0, 0),
+                    "Neck": (0, 0, 0),
+                    "Head": (0, 0, 0),
+                },
                 (0.0, -0.01, -0.01),
                 _box(1.02, 0.32),
             ),
@@ -105,13 +137,20 @@ def lift_chest_to_overhead() -> Motion:
     arms_bent = {"LeftArm": (-20, 0, -10), "RightArm": (-20, 0, 10)}
     return _animate(
         [
-            Key(0.0, {**arms_bent, **SPINE_STRAIGHT}, (0, 0, 0), {**_planted(), **_box(1.02, 0.30)}),
+            Key(
+                0.0, {**arms_bent, **SPINE_STRAIGHT}, (0, 0, 0), {**_planted(), **_box(1.02, 0.30)}
+            ),
             Key(0.4, {"LowerBack": (-3, 0, 0)}, (0.0, -0.02, 0.0), _box(1.04, 0.28)),
             Key(0.8, {"LowerBack": (0, 0, 0)}, (0.0, -0.10, -0.02), _box(0.98, 0.28)),
             Key(
                 1.4,
-                {"LowerBack": (-8, 0, 0), "Spine": (-3, 0, 0), "Neck": (-5, 0, 0),
-                 "LeftArm": (-20, 0, 60), "RightArm": (-20, 0, -60)},
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Spine": (-3, 0, 0),
+                    "Neck": (-5, 0, 0),
+                    "LeftArm": (-20, 0, 60),
+                    "RightArm": (-20, 0, -60),
+                },
                 (0.0, 0.0, 0.0),
                 _box(1.78, 0.08),
             ),
@@ -140,8 +179,13 @@ def lift_floor_to_waist_stoop() -> Motion:
             ),
             Key(
                 1.0,
-                {"LowerBack": (45, 0, 0), "Spine": (20, 0, 0), "Spine1": (10, 0, 0),
-                 "Neck": (-15, 0, 0), "Head": (-10, 0, 0)},
+                {
+                    "LowerBack": (45, 0, 0),
+                    "Spine": (20, 0, 0),
+                    "Spine1": (10, 0, 0),
+                    "Neck": (-15, 0, 0),
+                    "Head": (-10, 0, 0),
+                },
                 (0.0, -0.26, -0.16),
                 _box(0.17, 0.38),
             ),
@@ -154,8 +198,13 @@ def lift_floor_to_waist_stoop() -> Motion:
             ),
             Key(
                 3.2,
-                {"LowerBack": (-8, 0, 0), "Spine": (-3, 0, 0), "Spine1": (0, 0, 0),
-                 "Neck": (0, 0, 0), "Head": (0, 0, 0)},
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Spine": (-3, 0, 0),
+                    "Spine1": (0, 0, 0),
+                    "Neck": (0, 0, 0),
+                    "Head": (0, 0, 0),
+                },
                 (0.0, -0.03, 0.0),
                 _box(0.78, 0.30),
             ),
@@ -168,11 +217,16 @@ def lift_floor_to_waist_stoop() -> Motion:
 # -- sit down holding the stomach ------------------------------------------------------------
 
 
-def _stomach(high_m: float = 0.20, low_m: float = 0.10) -> dict[str, Target]:
-    """Wrist targets with both hands flat on the belly, in the LowerBack joint's frame."""
+def _stomach(high_m: float = 0.15, low_m: float = 0.05) -> dict[str, Target]:
+    """Wrist targets with both hands flat on the belly, in the LowerBack joint's frame.
+
+    The belly's front is 0.17 m ahead of the LowerBack joint in the middle and 0.12 m
+    at 0.15 m to the side; the fingers point across it, the palms face it.
+    """
+    flat = ((-1.0, -0.2, 0.15), (0.0, 0.0, -1.0))
     return {
-        "LeftHand": Target((0.13, high_m, 0.19), "LowerBack", (0.0, -80.0, -25.0)),
-        "RightHand": Target((-0.13, low_m, 0.19), "LowerBack", (0.0, 80.0, 25.0)),
+        "LeftHand": Target((0.15, high_m, 0.105), "LowerBack", _hand_deg(1.0, *flat)),
+        "RightHand": Target((-0.15, low_m, 0.105), "LowerBack", _hand_deg(-1.0, *flat)),
     }
 
 
@@ -185,21 +239,29 @@ def _sit_down(name: str, times_s: tuple[float, ...], hunch_deg: float, stance_m:
             Key(t[0], {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=stance_m)),
             Key(
                 t[1],
-                {"Spine": (0.5 * hunch_deg, 0, 0), "Spine1": (0.25 * hunch_deg, 0, 0),
-                 "Head": (10, 0, 0), "LeftArm": (-10, 0, -10), "RightArm": (-10, 0, 10)},
+                {
+                    "Spine": (0.5 * hunch_deg, 0, 0),
+                    "Spine1": (0.25 * hunch_deg, 0, 0),
+                    "Head": (10, 0, 0),
+                    "LeftArm": (-10, 0, -10),
+                    "RightArm": (-10, 0, 10),
+                },
                 (0.0, -0.03, 0.0),
                 _stomach(),
             ),
-            Key(t[2], {"LowerBack": (25, 0, 0)}, (0.0, -0.10, -0.12), _stomach(0.19, 0.09)),
-            Key(t[3], {"LowerBack": (32, 0, 0)}, seated, _stomach(0.19, 0.09)),
+            Key(t[2], {"LowerBack": (25, 0, 0)}, (0.0, -0.10, -0.12), _stomach(0.14, 0.04)),
+            Key(t[3], {"LowerBack": (32, 0, 0)}, seated, _stomach(0.14, 0.04)),
             Key(
                 t[4],
-                {"LowerBack": (0.6 * hunch_deg, 0, 0), "Spine": (0.6 * hunch_deg, 0, 0),
-                 "Neck": (10, 0, 0)},
+                {
+                    "LowerBack": (0.6 * hunch_deg, 0, 0),
+                    "Spine": (0.6 * hunch_deg, 0, 0),
+                    "Neck": (10, 0, 0),
+                },
                 (seated[0], seated[1], seated[2] - 0.03),
-                _stomach(0.20, 0.10),
+                _stomach(0.15, 0.05),
             ),
-            Key(t[5], {}, (seated[0], seated[1], seated[2] - 0.03), _stomach(0.20, 0.11)),
+            Key(t[5], {}, (seated[0], seated[1], seated[2] - 0.03), _stomach(0.15, 0.06)),
         ],
         name,
     )
@@ -221,10 +283,18 @@ def sit_down_doubled_over() -> Motion:
 
 
 def _on_head() -> dict[str, Target]:
-    """Wrist targets with both hands over the skull, in the Head joint's frame."""
+    """Wrist targets with both hands over the skull, in the Head joint's frame.
+
+    The crown is 0.15 m above the Head joint; the fingers reach across it towards the
+    back of the head, the palms face down onto it.
+    """
     return {
-        "LeftHand": Target((0.10, 0.13, -0.01), "Head", (0.0, -70.0, 60.0)),
-        "RightHand": Target((-0.10, 0.13, -0.01), "Head", (0.0, 70.0, -60.0)),
+        "LeftHand": Target(
+            (0.085, 0.145, 0.05), "Head", _hand_deg(1.0, (-0.7, 0.0, -0.7), (0.0, -1.0, 0.0))
+        ),
+        "RightHand": Target(
+            (-0.085, 0.13, 0.05), "Head", _hand_deg(-1.0, (-0.7, 0.0, -0.7), (0.0, -1.0, 0.0))
+        ),
     }
 
 
@@ -256,9 +326,16 @@ def _cover_head(
             ),
             Key(
                 t[2],
-                {**ARMS_UP, "LowerBack": (0.6 * bend_deg, 0, 0), "Spine": (0.3 * bend_deg, 0, 0),
-                 "Spine1": (5, 0, 0), "Neck": (15, 0, 0), "Head": (15, 0, 0),
-                 "LeftShoulder": (0, 0, 10), "RightShoulder": (0, 0, -10)},
+                {
+                    **ARMS_UP,
+                    "LowerBack": (0.6 * bend_deg, 0, 0),
+                    "Spine": (0.3 * bend_deg, 0, 0),
+                    "Spine1": (5, 0, 0),
+                    "Neck": (15, 0, 0),
+                    "Head": (15, 0, 0),
+                    "LeftShoulder": (0, 0, 10),
+                    "RightShoulder": (0, 0, -10),
+                },
                 crouch,
                 _on_head(),
             ),
@@ -299,8 +376,13 @@ def fall_down_forwards() -> Motion:
             ),
             Key(
                 1.15,
-                {"LowerBack": (20, 0, 0), "Head": (0, 0, 0), **_toes(75),
-                 "LeftArm": (-75, 0, -35), "RightArm": (-75, 0, 35)},
+                {
+                    "LowerBack": (20, 0, 0),
+                    "Head": (0, 0, 0),
+                    **_toes(75),
+                    "LeftArm": (-75, 0, -35),
+                    "RightArm": (-75, 0, 35),
+                },
                 (0.0, -0.33, 0.50),
                 {**_planted(heel_raise_deg=75), **_hands_world(0.45, 0.98)},
             ),
@@ -312,8 +394,12 @@ def fall_down_forwards() -> Motion:
             ),
             Key(
                 2.1,
-                {"Hips": (86, 0, 0), "LowerBack": (0, 0, 0), "Spine": (-5, 0, 0),
-                 "Head": (-10, 60, 0)},
+                {
+                    "Hips": (86, 0, 0),
+                    "LowerBack": (0, 0, 0),
+                    "Spine": (-5, 0, 0),
+                    "Head": (-10, 60, 0),
+                },
                 (0.0, -0.72, 0.94),
                 _hands_world(0.04, 1.42, 0.30),
             ),
@@ -343,14 +429,22 @@ def fall_down_backwards() -> Motion:
             Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
             Key(
                 0.35,
-                {"LowerBack": (-8, 0, 0), "Head": (-10, 0, 0),
-                 "LeftArm": (-50, 0, 10), "RightArm": (-50, 0, -10)},
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Head": (-10, 0, 0),
+                    "LeftArm": (-50, 0, 10),
+                    "RightArm": (-50, 0, -10),
+                },
                 (0.0, -0.06, -0.04),
             ),
             Key(
                 0.8,
-                {"LowerBack": (20, 0, 0), "Head": (15, 0, 0),
-                 "LeftArm": (30, 0, 10), "RightArm": (30, 0, -10)},
+                {
+                    "LowerBack": (20, 0, 0),
+                    "Head": (15, 0, 0),
+                    "LeftArm": (30, 0, 10),
+                    "RightArm": (30, 0, -10),
+                },
                 (0.0, -0.42, -0.25),
             ),
             Key(
@@ -366,8 +460,13 @@ def fall_down_backwards() -> Motion:
             ),
             Key(
                 1.7,
-                {"Hips": (-85, 0, 0), "LowerBack": (0, 0, 0), "Head": (5, 0, 0),
-                 "LeftArm": (0, 0, 30), "RightArm": (0, 0, -30)},
+                {
+                    "Hips": (-85, 0, 0),
+                    "LowerBack": (0, 0, 0),
+                    "Head": (5, 0, 0),
+                    "LeftArm": (0, 0, 30),
+                    "RightArm": (0, 0, -30),
+                },
                 (0.0, -0.74, -0.55),
                 {
                     "LeftFoot": Target((0.20, 0.06, 0.25), rotation_deg=(-30, 0, 0)),
@@ -413,10 +512,16 @@ def fall_down_sideways() -> Motion:
             ),
             Key(
                 1.8,
-                {"Hips": (0, 0, -85), "LowerBack": (5, 0, 5), "Head": (0, 0, 10),
-                 "LeftUpLeg": (-30, 0, 0), "LeftLeg": (45, 0, 0),
-                 "RightUpLeg": (-35, 0, 0), "RightLeg": (50, 0, 0),
-                 "RightArm": (-30, 0, 35)},
+                {
+                    "Hips": (0, 0, -85),
+                    "LowerBack": (5, 0, 5),
+                    "Head": (0, 0, 10),
+                    "LeftUpLeg": (-30, 0, 0),
+                    "LeftLeg": (45, 0, 0),
+                    "RightUpLeg": (-35, 0, 0),
+                    "RightLeg": (50, 0, 0),
+                    "RightArm": (-30, 0, 35),
+                },
                 (0.45, -0.70, 0.0),
                 {"LeftHand": Target((0.95, 0.05, 0.25))},
             ),

@@ -1,0 +1,706 @@
+"""The motion database: build it, query it, index new motions into it.
+
+Steps 4–6 of the retrieval engine, on top of :mod:`eigmotion.build` (motion images
+of library × rig), :mod:`eigmotion.eigenspace`, :mod:`eigmotion.keys`,
+:mod:`eigmotion.search` and :mod:`eigmotion.store` (the only module that touches
+ZODB).  Every query takes the patent's path: motion image → eigenspace point → exact
+nearest entries through the B-tree → label, motion, view; a distance over the stored
+threshold means "unknown motion".
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .build import BuildConfig, ViewImages, render_views, window_bounds
+from .bvh import format_bvh, parse_bvh
+from .cameras import Camera, CameraRig
+from .eigenspace import Eigenspace
+from .errors import DatabaseError, InvalidParameterError, VideoError
+from .keys import Quantizer
+from .library import LibraryMotion
+from .motion import Motion
+from .motion_image import motion_image
+from .search import BruteForceIndex, TreeIndex
+from .store import Store, parse_uri
+
+#: Where ``eigmotion build`` with no options writes.
+DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.fs"
+
+#: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
+THRESHOLD_QUANTILE = 0.95
+
+
+# -- rigs as plain data -------------------------------------------------------------
+
+
+def rig_to_plain(rig: CameraRig) -> dict:
+    """A rig as plain values (for the store's config)."""
+    return {
+        "name": rig.name,
+        "cameras": [
+            {
+                "name": c.name,
+                "K": c.K.tolist(),
+                "R": c.R.tolist(),
+                "t": c.t.tolist(),
+                "width": c.width,
+                "height": c.height,
+                "azimuth_deg": c.azimuth_deg,
+                "elevation_deg": c.elevation_deg,
+            }
+            for c in rig.cameras
+        ],
+    }
+
+
+def rig_from_plain(data: dict) -> CameraRig:
+    cams = tuple(
+        Camera(
+            np.asarray(c["K"]),
+            np.asarray(c["R"]),
+            np.asarray(c["t"]),
+            c["width"],
+            c["height"],
+            c["name"],
+            c["azimuth_deg"],
+            c["elevation_deg"],
+        )
+        for c in data["cameras"]
+    )
+    return CameraRig(cams, data["name"])
+
+
+# -- building -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BuildReport:
+    """What a build made.
+
+    Attributes
+    ----------
+    uri : str
+    n_motions, n_entries, n_components : int
+    explained_variance : float
+        Fraction of the motion images' variance the eigenspace keeps.
+    threshold : float
+        Distance above which a query is "unknown", eigen-coordinate units.
+    seconds : float
+        Wall time of the build.
+    """
+
+    uri: str
+    n_motions: int
+    n_entries: int
+    n_components: int
+    explained_variance: float
+    threshold: float
+    seconds: float
+
+
+@dataclass
+class _Collected:
+    vectors: list = field(default_factory=list)
+    motion: list = field(default_factory=list)
+    azimuth: list = field(default_factory=list)
+    elevation: list = field(default_factory=list)
+    start: list = field(default_factory=list)
+    stop: list = field(default_factory=list)
+
+    def add(self, view: ViewImages, rig: CameraRig) -> None:
+        n = len(view.vectors)
+        cam = rig[view.view_index]
+        self.vectors.append(view.vectors)
+        self.motion += [view.motion_index] * n
+        self.azimuth += [cam.azimuth_deg] * n
+        self.elevation += [cam.elevation_deg] * n
+        self.start += view.windows[:, 0].tolist()
+        self.stop += view.windows[:, 1].tolist()
+
+    def arrays(self):
+        return (
+            np.concatenate(self.vectors).astype(np.float32),
+            np.asarray(self.motion, dtype=np.int64),
+            np.asarray(self.azimuth, dtype=np.float64),
+            np.asarray(self.elevation, dtype=np.float64),
+            np.asarray(self.start, dtype=np.int64),
+            np.asarray(self.stop, dtype=np.int64),
+        )
+
+
+def leave_one_motion_out_threshold(
+    points: np.ndarray, motion_of: np.ndarray, labels: Sequence[str], whole: np.ndarray
+) -> float:
+    """The "unknown" threshold from the database itself.
+
+    For each whole-motion entry, the distance to the nearest entry of ANOTHER motion
+    of the same label (as if that performance were a new one) is what a known motion
+    done by someone else looks like; the threshold is the
+    :data:`THRESHOLD_QUANTILE` of those distances.  Labels with a single motion use
+    the nearest entry of any other motion.
+
+    Parameters
+    ----------
+    points : (N, k) float
+    motion_of : (N,) int
+        Motion index of each entry.
+    labels : sequence of str
+        Label of each motion index.
+    whole : (N,) bool
+        Entries that cover a whole motion.
+
+    Returns
+    -------
+    float
+    """
+    labels = np.asarray(labels)
+    entry_label = labels[motion_of]
+    found = []
+    for i in np.flatnonzero(whole):
+        others = motion_of != motion_of[i]
+        same = others & (entry_label == entry_label[i])
+        pool = same if same.any() else others
+        if not pool.any():
+            continue
+        d = np.linalg.norm(points[pool] - points[i], axis=1)
+        found.append(d.min())
+    if not found:
+        return float("inf")
+    return float(np.quantile(found, THRESHOLD_QUANTILE))
+
+
+def build_database(
+    library: Sequence[LibraryMotion],
+    rig: CameraRig,
+    uri: str | os.PathLike = DEFAULT_DB_PATH,
+    config: BuildConfig | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+) -> BuildReport:
+    """Build a database from a motion library and a rig of virtual cameras.
+
+    Renders every (motion, body shape, view), fits the eigenspace, cuts the keys,
+    calibrates the "unknown" threshold and writes everything in one transaction.  A
+    file database is written beside the target and moved over it only once complete,
+    so a failed or interrupted build leaves any previous database as it was.
+
+    Parameters
+    ----------
+    library : sequence of LibraryMotion
+    rig : CameraRig
+    uri : str or path
+        Where to write (see :mod:`eigmotion.store`); an existing database there is
+        replaced.
+    config : BuildConfig, optional
+    workers : int, optional
+        Processes for rendering.
+    progress : bool
+        Progress bars on stderr.
+
+    Returns
+    -------
+    BuildReport
+    """
+    t0 = time.perf_counter()
+    config = config or BuildConfig()
+    if not library:
+        raise InvalidParameterError("the motion library is empty: nothing to build")
+    names = [m.name for m in library]
+    if len(set(names)) != len(names):
+        raise InvalidParameterError("motion names in the library must be unique")
+    collected = _Collected()
+    for view in render_views(library, rig, config, workers=workers, progress=progress):
+        collected.add(view, rig)
+    X, motion_of, az, el, start, stop = collected.arrays()
+    space = Eigenspace(config.n_components, config.explained_variance).fit(X)
+    points = space.transform(X).astype(np.float32)
+    n_axes = min(config.key_axes, space.n_components_)
+    quantizer = Quantizer(n_axes, config.key_sections, config.key_method).fit(points)
+    keys = quantizer.keys(points)
+    whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
+    threshold = leave_one_motion_out_threshold(points, motion_of, [m.label for m in library], whole)
+    recon = space.reconstruction_error(X)
+    stored_config = {
+        "build": config.to_dict(),
+        "rig": rig_to_plain(rig),
+        "threshold": threshold,
+        "reconstruction_error_median": float(np.median(recon)),
+        "reconstruction_error_p95": float(np.quantile(recon, 0.95)),
+    }
+    with _replacing(uri) as target:
+        store = Store.create(target, overwrite=True)
+        try:
+            with store.transaction():
+                store.initialise(stored_config, space, quantizer)
+                motion_ids = [_add_motion(store, m) for m in library]
+                store.add_entries(
+                    np.asarray(motion_ids)[motion_of], points, keys, az, el, start, stop
+                )
+        finally:
+            store.close()
+    return BuildReport(
+        os.fspath(uri),
+        len(library),
+        len(points),
+        int(space.n_components_),
+        float(np.sum(space.explained_variance_ratio_)),
+        threshold,
+        time.perf_counter() - t0,
+    )
+
+
+def _add_motion(store: Store, item: LibraryMotion) -> int:
+    motion = item.motion
+    return store.add_motion(
+        item.label,
+        ";".join(str(p) for p in item.source),
+        format_bvh(motion),
+        {
+            "name": item.name,
+            "performer": item.performer,
+            "variation": item.variation,
+            "role": item.role,
+            "n_frames": motion.n_frames,
+            "frame_time_s": motion.frame_time_s,
+            "length_unit_m": -1.0 if motion.length_unit_m is None else motion.length_unit_m,
+        },
+    )
+
+
+@contextlib.contextmanager
+def _replacing(uri: str | os.PathLike):
+    """Yield where to write a new database; for files, a side file moved over the
+    target only when the block succeeds."""
+    text = os.fspath(uri)
+    scheme, target = parse_uri(text)
+    if scheme != "file":
+        yield text
+        return
+    path = Path(target)
+    if not path.parent.is_dir():
+        raise DatabaseError(f"{path}: folder {path.parent} does not exist")
+    side = path.with_name(path.name + ".building")
+    _remove_file_storage(side)
+    try:
+        yield str(side)
+    except BaseException:
+        _remove_file_storage(side)
+        raise
+    for suffix in (".index", ".lock", ".tmp"):
+        with contextlib.suppress(FileNotFoundError):
+            Path(f"{path}{suffix}").unlink()
+    os.replace(side, path)
+    with contextlib.suppress(FileNotFoundError):
+        os.replace(f"{side}.index", f"{path}.index")
+    _remove_file_storage(side)
+
+
+def _remove_file_storage(path: Path) -> None:
+    for suffix in ("", ".index", ".lock", ".tmp", ".old"):
+        with contextlib.suppress(FileNotFoundError):
+            Path(f"{path}{suffix}").unlink()
+
+
+# -- querying -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Match:
+    """One database entry returned for a query.
+
+    Attributes
+    ----------
+    label : str
+    motion : str
+        The basic motion's name.
+    motion_id : int
+    entry_id : int
+    distance : float
+        Euclidean distance in the eigenspace.
+    azimuth_deg, elevation_deg : float
+        The matching virtual camera.
+    window : (int, int)
+        ``[start, stop)`` frames of the basic motion.
+    """
+
+    label: str
+    motion: str
+    motion_id: int
+    entry_id: int
+    distance: float
+    azimuth_deg: float
+    elevation_deg: float
+    window: tuple[int, int]
+
+    def to_json(self) -> dict:
+        return {
+            "label": self.label,
+            "motion": self.motion,
+            "distance": round(self.distance, 6),
+            "view": {"azimuth_deg": self.azimuth_deg, "elevation_deg": self.elevation_deg},
+        }
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of the query clip with one label.
+
+    ``start_frame``/``end_frame`` are ``[start, end)`` frames of the clip."""
+
+    start_frame: int
+    end_frame: int
+    label: str
+    distance: float
+
+    def to_json(self) -> dict:
+        return {
+            "start_frame": self.start_frame,
+            "end_frame": self.end_frame,
+            "label": self.label,
+            "distance": round(self.distance, 6),
+        }
+
+
+@dataclass(frozen=True)
+class QueryResult:
+    """The answer to one clip (see :meth:`MotionDatabase.query_masks`).
+
+    Attributes
+    ----------
+    best : Match
+    accepted : bool
+        ``best.distance <= threshold``; otherwise the motion is unknown.
+    top : list of Match
+        Nearest entries of distinct motions, nearest first.
+    segments : list of Segment
+    examined : int
+        Entries whose distance was computed, over all searches for this clip.
+    db_entries : int
+    timing_ms : dict of str to float
+    motion_image : (D,) float32
+        The clip's motion image.
+    """
+
+    best: Match
+    accepted: bool
+    top: list[Match]
+    segments: list[Segment]
+    examined: int
+    db_entries: int
+    timing_ms: dict[str, float]
+    motion_image: np.ndarray
+
+    def to_json(self) -> dict:
+        out = self.best.to_json()
+        out["accepted"] = bool(self.accepted)
+        out["top"] = [m.to_json() for m in self.top]
+        out["segments"] = [s.to_json() for s in self.segments]
+        out["examined"] = int(self.examined)
+        out["db_entries"] = int(self.db_entries)
+        out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
+        return out
+
+
+class MotionDatabase:
+    """An open motion database, ready for queries (and, opened writable, indexing).
+
+    Use :meth:`open`; it is a context manager.
+
+    Attributes
+    ----------
+    store : Store
+    config : BuildConfig
+    rig : CameraRig
+    threshold : float
+    """
+
+    def __init__(self, store: Store):
+        self.store = store
+        stored = store.config
+        self.config = BuildConfig.from_dict(stored["build"])
+        self.rig = rig_from_plain(stored["rig"])
+        self.threshold = float(stored["threshold"])
+        self.reconstruction_error_p95 = float(stored["reconstruction_error_p95"])
+        self.eigenspace = store.eigenspace()
+        self._load_index()
+
+    def _load_index(self) -> None:
+        arrays = self.store.arrays()
+        self.index = TreeIndex.from_store(self.store)
+        self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
+        self._motions = {int(mid): self.store.motion(int(mid)) for mid in self.store.motion_ids()}
+
+    @classmethod
+    def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
+        """Open a database built by :func:`build_database`."""
+        return cls(Store.open(uri, read_only=read_only))
+
+    def close(self) -> None:
+        self.store.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    @property
+    def n_entries(self) -> int:
+        return self.index.n_entries
+
+    def motion_record(self, motion_id: int) -> dict:
+        return self._motions[motion_id]
+
+    def motion(self, motion_id: int) -> Motion:
+        """A stored basic motion, read back from its BVH text."""
+        rec = self._motions[motion_id]
+        meta = rec["metadata"]
+        motion = parse_bvh(rec["bvh"])
+        unit = meta.get("length_unit_m", -1.0)
+        return motion.replace(
+            name=meta.get("name", str(motion_id)), length_unit_m=None if unit < 0 else unit
+        )
+
+    def _match(self, entry_id: int, distance: float) -> Match:
+        entry = self.store.entry(entry_id)
+        rec = self._motions[entry["motion"]]
+        return Match(
+            rec["label"],
+            rec["metadata"].get("name", str(entry["motion"])),
+            int(entry["motion"]),
+            int(entry_id),
+            float(distance),
+            float(entry["view_azimuth_deg"]),
+            float(entry["view_elevation_deg"]),
+            (int(entry["start_frame"]), int(entry["end_frame"])),
+        )
+
+    def _label_of(self, entry_id: int) -> str:
+        return self._motions[self._motion_of[entry_id]]["label"]
+
+    def query_masks(self, masks: np.ndarray, fps: float, top_k: int = 3) -> QueryResult:
+        """Answer a clip given as silhouettes.
+
+        Parameters
+        ----------
+        masks : (F, H, W) bool
+            The person's silhouette per frame.
+        fps : float
+            The clip's frame rate, frames per second.
+        top_k : int
+            Distinct motions to list in ``top``.
+
+        Returns
+        -------
+        QueryResult
+        """
+        if top_k < 1:
+            raise InvalidParameterError(f"top_k must be >= 1, got {top_k}")
+        timing: dict[str, float] = {}
+        t0 = time.perf_counter()
+        cfg = self.config
+        windows = window_bounds(len(masks), fps, cfg.window_s, cfg.window_step_s)
+        vectors, kept = [], []
+        for start, stop in windows:
+            try:
+                vectors.append(motion_image(masks[start:stop], cfg.motion_image, clip_fps=fps))
+                kept.append((int(start), int(stop)))
+            except VideoError:
+                if start == 0 and stop == len(masks):
+                    raise  # the whole clip shows no person or no motion
+        t1 = time.perf_counter()
+        timing["motion_images"] = (t1 - t0) * 1e3
+        points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
+        n_candidates = min(self.n_entries, max(top_k * 8, 16))
+        whole = self.index.search(points[:1], top_k=n_candidates)
+        windowed = self.index.search(points[1:], top_k=1) if len(points) > 1 else None
+        t2 = time.perf_counter()
+        timing["search"] = (t2 - t1) * 1e3
+        top: list[Match] = []
+        seen: set[int] = set()
+        for entry_id, dist in zip(whole.ids[0], whole.distances[0], strict=True):
+            mid = self._motion_of[int(entry_id)]
+            if mid in seen:
+                continue
+            seen.add(mid)
+            top.append(self._match(int(entry_id), float(dist)))
+            if len(top) == top_k:
+                break
+        segments = self._segments(kept, windowed, len(masks), top[0])
+        examined = int(whole.examined.sum() + (0 if windowed is None else windowed.examined.sum()))
+        timing["total"] = (time.perf_counter() - t0) * 1e3
+        return QueryResult(
+            top[0],
+            bool(top[0].distance <= self.threshold),
+            top,
+            segments,
+            examined,
+            self.n_entries,
+            timing,
+            np.asarray(vectors[0]),
+        )
+
+    def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
+        """Consecutive windows with the same nearest label, merged."""
+        if windowed is None:
+            return [Segment(0, n_frames, best.label, best.distance)]
+        segments: list[Segment] = []
+        for (start, stop), entry_id, dist in zip(
+            kept[1:], windowed.ids[:, 0], windowed.distances[:, 0], strict=True
+        ):
+            label = self._label_of(int(entry_id))
+            if segments and segments[-1].label == label and start < segments[-1].end_frame:
+                last = segments[-1]
+                segments[-1] = Segment(
+                    last.start_frame, stop, label, min(last.distance, float(dist))
+                )
+            else:
+                if segments and start < segments[-1].end_frame:
+                    # Overlapping windows of different labels: split at the midpoint.
+                    last = segments[-1]
+                    cut = (start + last.end_frame) // 2
+                    segments[-1] = Segment(last.start_frame, cut, last.label, last.distance)
+                    start = cut
+                segments.append(Segment(start, stop, label, float(dist)))
+        return segments
+
+    def query_clip(
+        self, path: str | os.PathLike, background: str | os.PathLike | None = None, top_k: int = 3
+    ) -> tuple[QueryResult, np.ndarray, float]:
+        """Answer a clip on disk (video, folder of frames, or .npz of masks).
+
+        Returns
+        -------
+        result : QueryResult
+        masks : (F, H, W) bool
+        fps : float
+        """
+        from .video import load_clip_masks
+
+        t0 = time.perf_counter()
+        masks, fps = load_clip_masks(path, background)
+        t1 = time.perf_counter()
+        result = self.query_masks(masks, fps, top_k)
+        timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
+        timing["total"] = (time.perf_counter() - t0) * 1e3
+        return (
+            QueryResult(
+                result.best,
+                result.accepted,
+                result.top,
+                result.segments,
+                result.examined,
+                result.db_entries,
+                timing,
+                result.motion_image,
+            ),
+            masks,
+            fps,
+        )
+
+    # -- indexing ---------------------------------------------------------------------
+    def index_motion(self, item: LibraryMotion, progress: bool = True) -> IndexReport:
+        """Add a motion to this (writable) database without changing the eigenspace.
+
+        Its motion images are rendered with the stored build configuration and rig,
+        projected into the stored eigenspace and inserted under their keys in one
+        transaction; it is queryable at once.
+
+        Returns
+        -------
+        IndexReport
+            Including how well the eigenspace represents the new motion.
+        """
+        if self.store.read_only:
+            raise DatabaseError(f"{self.store.uri}: opened read-only; indexing needs writing")
+        names = {rec["metadata"].get("name") for rec in self._motions.values()}
+        if item.name in names:
+            raise InvalidParameterError(
+                f"a motion named {item.name!r} is already in the database; choose another name"
+            )
+        collected = _Collected()
+        for view in render_views([item], self.rig, self.config, workers=None, progress=progress):
+            collected.add(view, self.rig)
+        X, _, az, el, start, stop = collected.arrays()
+        points = self.eigenspace.transform(X).astype(np.float32)
+        keys = self.store.quantizer().keys(points)
+        error = float(np.median(self.eigenspace.reconstruction_error(X)))
+        with self.store.transaction():
+            motion_id = _add_motion(self.store, item)
+            self.store.add_entries(
+                np.full(len(points), motion_id), points, keys, az, el, start, stop
+            )
+        self._load_index()
+        return IndexReport(
+            item.name,
+            motion_id,
+            len(points),
+            error,
+            self.reconstruction_error_p95,
+            error > self.reconstruction_error_p95,
+        )
+
+    def stored_library(self) -> list[LibraryMotion]:
+        """Every stored motion as a :class:`LibraryMotion` (for a refit rebuild)."""
+        out = []
+        for mid, rec in sorted(self._motions.items()):
+            meta = rec["metadata"]
+            out.append(
+                LibraryMotion(
+                    name=meta.get("name", str(mid)),
+                    label=rec["label"],
+                    motion=self.motion(mid),
+                    source=tuple(Path(s) for s in rec["source"].split(";") if s),
+                    performer=meta.get("performer", ""),
+                    variation=meta.get("variation", ""),
+                    licence="",
+                    role=meta.get("role", "basic"),
+                )
+            )
+        return out
+
+
+@dataclass(frozen=True)
+class IndexReport:
+    """What indexing a motion did.
+
+    Attributes
+    ----------
+    name : str
+    motion_id : int
+    n_entries : int
+        Motion images inserted (views × windows × body shapes).
+    reconstruction_error : float
+        Median distance of its motion images from the eigenspace.
+    reference_error : float
+        The 95th percentile of that distance over the images the eigenspace was fitted
+        on.
+    badly_represented : bool
+        ``reconstruction_error > reference_error``: the eigenspace was not made for
+        this motion; rebuild with ``refit``.
+    """
+
+    name: str
+    motion_id: int
+    n_entries: int
+    reconstruction_error: float
+    reference_error: float
+    badly_represented: bool
+
+
+def brute_force_check(db: MotionDatabase, queries: np.ndarray, top_k: int = 1) -> bool:
+    """True when the tree's answers equal brute force over every entry."""
+    arrays = db.store.arrays()
+    exact = BruteForceIndex.from_arrays(arrays.points, arrays.ids).search(queries, top_k)
+    tree = db.index.search(queries, top_k)
+    return bool(
+        np.array_equal(exact.ids, tree.ids) and np.array_equal(exact.distances, tree.distances)
+    )
