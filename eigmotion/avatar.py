@@ -159,7 +159,9 @@ class Avatar:
         for key, arr in arrays.items():
             if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
                 raise InvalidParameterError(f"avatar {self.name!r}: {key} must be finite")
-            arr.setflags(write=False)
+            if arr.flags.writeable:  # maybe the caller's array: freeze a copy, not it
+                arr = arr.copy()
+                arr.setflags(write=False)
             object.__setattr__(self, key, arr)
 
     # -- basic facts ---------------------------------------------------------------

@@ -185,12 +185,37 @@ def _body(shape: tuple[float | None, float], low_poly_faces: int):
 
 @lru_cache(maxsize=2)
 def _posed(motion_index: int, shape_index: int):
-    """Vertices of a motion on a body, cached per worker process (views share it)."""
-    library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
+    """Vertices of a motion on a body and the rig aimed at it, cached per worker
+    process (the views of one motion share them)."""
+    library, rig, config = (_WORKER_STATE["library"], _WORKER_STATE["rig"], _WORKER_STATE["config"])
     body = _body(config.body_shapes[shape_index], config.low_poly_faces)
     motion = library[motion_index].motion.resample(config.render_fps)
     _, vertices = body.animate(motion)
-    return vertices, body.faces
+    return vertices, body.faces, rig.fitted(hull_points(vertices))
+
+
+def hull_points(vertices: np.ndarray) -> np.ndarray:
+    """The corners of the convex hull of every vertex over a clip.
+
+    A camera sees all of a body's frames exactly when it sees these (the image of a
+    convex hull is the convex hull of the image), so fitting a camera to them is as
+    exact as fitting it to every vertex, and much cheaper.
+
+    Parameters
+    ----------
+    vertices : (F, V, 3) float
+
+    Returns
+    -------
+    (H, 3) float64
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    points = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    try:
+        return points[ConvexHull(points).vertices]
+    except QhullError:  # flat or degenerate: keep them all
+        return points
 
 
 _WORKER_STATE: dict = {}
@@ -207,9 +232,9 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
     from .silhouettes import render_masks
 
     motion_index, shape_index, view_index = task
-    library, rig, config = _WORKER_STATE["library"], _WORKER_STATE["rig"], _WORKER_STATE["config"]
-    vertices, faces = _posed(motion_index, shape_index)
-    camera = rig.fitted(vertices[:, ::7].reshape(-1, 3))[view_index]
+    library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
+    vertices, faces, fitted = _posed(motion_index, shape_index)
+    camera = fitted[view_index]
     masks = render_masks(vertices, faces, camera)
     windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
     vectors = []

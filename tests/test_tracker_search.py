@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from eigmotion.errors import InvalidParameterError
 from eigmotion.tracker.search import (
     beam_search,
+    build_cluster_tree,
     build_two_layer_tree,
     exhaustive_search,
     farthest_point_sample,
@@ -94,11 +95,36 @@ def test_beam_search_finds_a_smooth_optimum():
     def distance_to(a, items):
         return np.linalg.norm(points[items] - points[a], axis=1)
 
+    tree = build_cluster_tree(np.arange(3000), distance_to, branching=16)
+    assert len(tree) == 16
     scores = CountingScores(values)
-    result = beam_search(np.arange(3000), distance_to, scores, branching=16, beam=3)
+    result = beam_search(tree, scores, beam=3)
     assert np.linalg.norm(points[result.best] - target) < 0.05
     assert result.n_evaluations < 300
     assert len(set(result.evaluated.tolist())) == result.n_evaluations
+
+
+def test_cluster_tree_holds_every_item_once():
+    pts = np.random.default_rng(5).normal(size=(500, 3))
+
+    def distance_to(a, items):
+        return np.linalg.norm(pts[items] - pts[a], axis=1)
+
+    tree = build_cluster_tree(np.arange(500), distance_to, branching=8)
+    seen = []
+
+    def walk(nodes, depth):
+        assert len(nodes) <= 8
+        for node in nodes:
+            seen.append(node.item)
+            walk(node.children, depth + 1)
+
+    walk(tree, 0)
+    assert sorted(seen) == list(range(500))
+    # with beam = branching every posture is scored: the exhaustive answer
+    values = np.random.default_rng(6).normal(size=500)
+    result = beam_search(tree, CountingScores(values), beam=8**3)
+    assert result.best == int(np.argmax(values)) and result.n_evaluations == 500
 
 
 def test_farthest_point_sample_covers_items():
@@ -119,6 +145,10 @@ def test_errors():
         build_two_layer_tree(np.arange(3), np.zeros((2, 2)), 1)
     with pytest.raises(InvalidParameterError, match="top_k"):
         two_layer_search(line_tree(3, 1), CountingScores([0, 1, 2]), 0)
+    with pytest.raises(InvalidParameterError, match="branching"):
+        build_cluster_tree(np.arange(3), lambda a, items: np.zeros(len(items)), 1)
+    with pytest.raises(InvalidParameterError, match="beam"):
+        beam_search((), CountingScores([]), 0)
     with pytest.raises(InvalidParameterError, match="no candidate"):
         exhaustive_search(np.zeros(0, np.int64), CountingScores([]))
     with pytest.raises(InvalidParameterError, match="returned"):

@@ -201,56 +201,92 @@ def farthest_point_sample(
     return np.asarray(picks, dtype=np.int64), owner
 
 
-def beam_search(
+@dataclass(frozen=True, eq=False)
+class ClusterNode:
+    """A posture standing for the postures of its subtree.
+
+    Attributes
+    ----------
+    item : int
+        The representative posture.
+    children : tuple of ClusterNode
+        Clusters of the other postures it stands for (empty for a single posture).
+    """
+
+    item: int
+    children: tuple[ClusterNode, ...] = ()
+
+
+def build_cluster_tree(
     items: np.ndarray,
     distance_to: Callable[[int, np.ndarray], np.ndarray],
-    score_fn: ScoreFunction,
     branching: int = 24,
-    beam: int = 3,
-) -> SearchResult:
-    """Coarse-to-fine search over many postures (the first frame, with no previous one).
+) -> tuple[ClusterNode, ...]:
+    """Hierarchical clusters for :func:`beam_search`, built once per dictionary.
 
     The items are split into ``branching`` clusters around farthest-point
-    representatives; the representatives are scored; the ``beam`` best clusters are
-    split again, and so on until clusters hold single postures.
+    representatives, each cluster's other members again, down to single postures.
 
     Parameters
     ----------
     items : (N,) int
-        Postures to search (e.g. the whole dictionary).
     distance_to : callable
         ``distance_to(a, items) -> (len(items),)`` posture distances (e.g. d1).
-    score_fn : callable
-        (E,) int postures → (E,) float scores.
     branching : int
         Clusters per split, ≥ 2.
+
+    Returns
+    -------
+    tuple of ClusterNode
+        The top level (at most ``branching`` nodes).
+    """
+    if int(branching) != branching or branching < 2:
+        raise InvalidParameterError(f"branching must be an integer >= 2, got {branching!r}")
+    items = np.asarray(items, dtype=np.int64).reshape(-1)
+
+    def split(group: np.ndarray) -> tuple[ClusterNode, ...]:
+        if len(group) <= branching:
+            return tuple(ClusterNode(int(g)) for g in group)
+        picks, owner = farthest_point_sample(group, distance_to, branching)
+        nodes = []
+        for slot, pick in enumerate(picks):
+            members = group[(owner == slot) & (np.arange(len(group)) != pick)]
+            nodes.append(ClusterNode(int(group[pick]), split(members) if len(members) else ()))
+        return tuple(nodes)
+
+    return split(items)
+
+
+def beam_search(
+    tree: tuple[ClusterNode, ...], score_fn: ScoreFunction, beam: int = 3
+) -> SearchResult:
+    """Coarse-to-fine search over many postures (the first frame, with no previous one).
+
+    The top clusters' representatives are scored; the ``beam`` best clusters are
+    opened and their sub-clusters' representatives scored, and so on down to single
+    postures.
+
+    Parameters
+    ----------
+    tree : tuple of ClusterNode
+        From :func:`build_cluster_tree`.
+    score_fn : callable
+        (E,) int postures → (E,) float scores.
     beam : int
-        Clusters kept per level, ≥ 1.
+        Clusters opened per level, ≥ 1.
 
     Returns
     -------
     SearchResult
-        About ``branching × beam × log_branching(N)`` postures scored.
+        About ``branching × beam × depth`` postures scored.
     """
-    if int(branching) != branching or branching < 2:
-        raise InvalidParameterError(f"branching must be an integer >= 2, got {branching!r}")
     if int(beam) != beam or beam < 1:
         raise InvalidParameterError(f"beam must be an integer >= 1, got {beam!r}")
-    items = np.asarray(items, dtype=np.int64).reshape(-1)
     scored: dict[int, float] = {}
     evaluated, scores = [], []
-    groups = [items]
-    while groups:
-        level = []  # (representative, its cluster without it)
-        for group in groups:
-            if len(group) <= branching:
-                level.extend((int(g), np.zeros(0, np.int64)) for g in group)
-                continue
-            picks, owner = farthest_point_sample(group, distance_to, branching)
-            for slot, pick in enumerate(picks):
-                members = group[(owner == slot) & (np.arange(len(group)) != pick)]
-                level.append((int(group[pick]), members))
-        reps = np.array([rep for rep, _ in level], dtype=np.int64)
+    level = list(tree)
+    while level:
+        reps = np.array([node.item for node in level], dtype=np.int64)
         new = np.array([r for r in dict.fromkeys(reps.tolist()) if r not in scored], np.int64)
         if len(new):
             new_scores = _score(score_fn, new)
@@ -259,5 +295,6 @@ def beam_search(
             scores.append(new_scores)
         rep_scores = np.array([scored[r] for r in reps.tolist()])
         order = np.argsort(-rep_scores, kind="stable")
-        groups = [level[i][1] for i in order if len(level[i][1])][: int(beam)]
+        opened = [level[i] for i in order if level[i].children][: int(beam)]
+        level = [child for node in opened for child in node.children]
     return _result(evaluated, scores)

@@ -23,7 +23,7 @@ standing in for the unknown distance and body size.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -39,8 +39,10 @@ from .dictionary import (
 )
 from .position import intersect_plane_lines, mask_centroid, select_pair
 from .search import (
+    ClusterNode,
     SearchResult,
     beam_search,
+    build_cluster_tree,
     build_two_layer_tree,
     exhaustive_search,
     two_layer_search,
@@ -76,6 +78,16 @@ class TrackerConfig:
         Candidate and observed silhouettes are compared at 1/downsample resolution.
     scales : tuple of float
         2D scales of the candidate silhouettes searched per camera (1 = none).
+    body_scale : float or None
+        Uniform scale of the body model about its root (a shorter or taller person
+        than the model): a number fixes it (1 keeps the model's size; the person's
+        height over the model's if known); ``None`` measures it on the first
+        estimates: the median ratio of the observed silhouette's height to the
+        estimated posture's, over cameras and estimates.
+    body_scale_range : (float, float)
+        Bounds of the measured body scale.
+    body_scale_estimates : int
+        Number of first estimates the body scale is measured on (it is then kept).
     exhaustive : bool
         Score every candidate instead of searching the tree (the reference).
     init_branching, init_beam : int
@@ -83,6 +95,14 @@ class TrackerConfig:
         beam_search`).
     init_refinements : int
         Local searches repeated on the first frame after the coarse-to-fine one.
+    recovery_ratio : float or None
+        When an estimate's score falls below this fraction of the median score of
+        the last ``recovery_window`` estimates, the tracker may have lost the person's
+        posture (e.g. a turn the local candidates could not follow): the whole
+        dictionary is searched again, coarse to fine, and the better answer kept.
+        ``None``: never (the paper's tracker).
+    recovery_window : int
+        Estimates whose median score is the reference of ``recovery_ratio``.
     min_silhouette_px : int
         A view whose silhouette has fewer pixels is ignored.
     """
@@ -96,10 +116,15 @@ class TrackerConfig:
     shift_radius_px: int = 6
     downsample: int = 2
     scales: tuple[float, ...] = (1.0,)
+    body_scale: float | None = None
+    body_scale_range: tuple[float, float] = (0.8, 1.25)
+    body_scale_estimates: int = 8
     exhaustive: bool = False
     init_branching: int = 24
     init_beam: int = 3
     init_refinements: int = 4
+    recovery_ratio: float | None = 0.93
+    recovery_window: int = 15
     min_silhouette_px: int = 30
 
     def __post_init__(self):
@@ -110,6 +135,8 @@ class TrackerConfig:
             "downsample",
             "init_beam",
             "min_silhouette_px",
+            "body_scale_estimates",
+            "recovery_window",
         ):
             value = getattr(self, name)
             if int(value) != value or value < 1:
@@ -132,6 +159,23 @@ class TrackerConfig:
         if not scales or not all(np.isfinite(s) and 0.2 <= s <= 5.0 for s in scales):
             raise InvalidParameterError(f"scales must be factors in [0.2, 5], got {self.scales!r}")
         object.__setattr__(self, "scales", scales)
+        lo, hi = (float(v) for v in self.body_scale_range)
+        if not (0.3 <= lo <= hi <= 3.0):
+            raise InvalidParameterError(
+                f"body_scale_range must be (low, high) within [0.3, 3], got "
+                f"{self.body_scale_range!r}"
+            )
+        object.__setattr__(self, "body_scale_range", (lo, hi))
+        if self.recovery_ratio is not None and not 0.0 < self.recovery_ratio <= 1.0:
+            raise InvalidParameterError(
+                f"recovery_ratio must be None or in (0, 1], got {self.recovery_ratio!r}"
+            )
+        if self.body_scale is not None and not (
+            np.isfinite(self.body_scale) and 0.3 <= self.body_scale <= 3.0
+        ):
+            raise InvalidParameterError(
+                f"body_scale must be None or a factor in [0.3, 3], got {self.body_scale!r}"
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,6 +198,8 @@ class Estimate:
         Best shift of the candidate silhouette per camera, full-resolution pixels.
     scales : (len(cameras),) float64
         Best 2D scale per camera.
+    body_scale : float
+        Scale of the body model (about its root) used for this estimate.
     found : bool
         False when no camera saw the person (the previous estimate is repeated).
     """
@@ -165,6 +211,7 @@ class Estimate:
     cameras: tuple[int, ...]
     shifts_px: np.ndarray
     scales: np.ndarray
+    body_scale: float = 1.0
     found: bool = True
 
 
@@ -207,10 +254,96 @@ class TrackResult:
         return len(self.entries)
 
 
+def _row_extent(mask: np.ndarray) -> int:
+    """Number of rows from the top to the bottom of a silhouette (0 if empty)."""
+    rows = np.flatnonzero(np.asarray(mask).any(axis=1))
+    return int(rows[-1] - rows[0] + 1) if rows.size else 0
+
+
 def _default_renderer() -> RenderMasks:
     from ..silhouettes import render_masks
 
     return render_masks
+
+
+class _FrameScorer:
+    """Scores of dictionary entries against one frame's silhouettes.
+
+    Holds the rectangles ``R(c)`` (fitted to a pool of candidate entries at the
+    tracker's current body scale) and the observed silhouettes sampled in them.
+    Calling it with (M,) entries returns their (M,) scores (the search functions'
+    interface) and records each entry's best shifts in :attr:`detail`.
+    """
+
+    def __init__(self, tracker, masks, used, position, pool):
+        cfg = tracker.config
+        self.tracker = tracker
+        self.used = list(used)
+        self.position = np.asarray(position, dtype=np.float64)
+        self.body_scale = float(tracker.body_scale_)
+        self.detail: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        heights = tracker.dictionary.body_height_m
+        root = np.zeros((len(pool), 1, 3))
+        root[:, 0, [0, 2]] = self.position[[0, 2]]
+        root[:, 0, 1] = self.body_scale * heights[pool]
+        corners = tracker.bodies.box_corners(pool, np.zeros(3), self.body_scale) + root
+        corners = corners.reshape(-1, 3)
+        self.windows: list[ViewWindow] = []
+        self.observed: list[np.ndarray] = []
+        self.centers: list[np.ndarray] = []
+        for c in self.used:
+            cam = tracker.cameras[c]
+            px, depth = cam.project(corners)
+            center, _ = cam.project(self.position[None])
+            pts = px[depth > 0]
+            if len(pts) == 0:
+                raise VideoError(f"camera {cam.name!r}: the person's position is behind it")
+            pts = np.concatenate([center + s * (pts - center) for s in cfg.scales])
+            window = view_window(cam, pts, cfg.shift_radius_px + 1, cfg.downsample)
+            self.windows.append(window)
+            self.observed.append(window.crop(masks[c]))
+            self.centers.append(center[0])
+        self.radius = -(-cfg.shift_radius_px // cfg.downsample)
+
+    def root_positions(self, entries: np.ndarray, body_scale: float) -> np.ndarray:
+        """(M, 3): each entry's body centre: at G horizontally, its own height."""
+        root = np.repeat(self.position[None], len(entries), axis=0)
+        root[:, 1] = body_scale * self.tracker.dictionary.body_height_m[entries]
+        return root
+
+    def __call__(self, entries: np.ndarray) -> np.ndarray:
+        """(M,) float64 similarity ``s(m)`` of entries."""
+        tracker, cfg = self.tracker, self.tracker.config
+        body_scale = self.body_scale
+        entries = np.asarray(entries, dtype=np.int64)
+        verts = tracker.bodies.vertices(entries, np.zeros(3), body_scale)
+        verts += self.root_positions(entries, body_scale)[:, None, :].astype(np.float32)
+        total = np.zeros(len(entries))
+        shifts = np.zeros((len(entries), len(self.used), 2))
+        scales = np.ones((len(entries), len(self.used)))
+        views = zip(self.windows, self.observed, self.centers, strict=True)
+        for k, (window, obs, center) in enumerate(views):
+            best = np.full(len(entries), -np.inf)
+            for s in cfg.scales:
+                rendered = tracker.render_masks(
+                    verts, tracker.bodies.faces, window.window_camera(s, center)
+                )
+                sc, sh = score_masks(obs, rendered, self.radius)
+                better = sc > best
+                best[better] = sc[better]
+                shifts[better, k] = sh[better] * cfg.downsample
+                scales[better, k] = s
+            total += best
+        for i, e in enumerate(entries.tolist()):
+            self.detail[e] = (shifts[i], scales[i])
+        return total
+
+    def refined_position(self, entry: int, shifts_px: np.ndarray) -> np.ndarray:
+        """(3,) the body centre moved by the best shifts: new rays, new intersection."""
+        root = self.root_positions(np.array([entry]), self.body_scale)[0]
+        cams = [self.tracker.cameras[c] for c in self.used]
+        pixels = np.stack([cam.project(root[None])[0][0] for cam in cams]) + shifts_px
+        return intersect_plane_lines(cams, pixels, float(root[1]), root)
 
 
 class SilhouetteTracker:
@@ -237,6 +370,8 @@ class SilhouetteTracker:
     ----------
     previous_ : Estimate or None
         The last estimate with a person, after :meth:`step`.
+    body_scale_ : float
+        The body model's current scale (chosen over the first estimates).
     """
 
     def __init__(
@@ -267,12 +402,31 @@ class SilhouetteTracker:
                 )
         self.render_masks = render_masks if render_masks is not None else _default_renderer()
         self._default_height_m = float(np.median(dictionary.body_height_m))
-        self.previous_: Estimate | None = None
+        self._cluster_tree: tuple[ClusterNode, ...] | None = None
+        self.reset()
 
     # -- state ---------------------------------------------------------------------
+    def cluster_tree(self) -> tuple[ClusterNode, ...]:
+        """The dictionary's clusters for coarse-to-fine searches (built on first use)."""
+        if self._cluster_tree is None:
+            vectors = self.dictionary.vectors
+
+            def distance_to(a: int, items: np.ndarray) -> np.ndarray:
+                return d1_distance(vectors[items], vectors[a])
+
+            self._cluster_tree = build_cluster_tree(
+                np.arange(len(self.dictionary)), distance_to, self.config.init_branching
+            )
+        return self._cluster_tree
+
     def reset(self) -> None:
-        """Forget the previous posture: the next step searches the whole dictionary."""
-        self.previous_ = None
+        """Forget the previous posture and body scale: start afresh."""
+        self.previous_: Estimate | None = None
+        fixed = self.config.body_scale
+        self.body_scale_ = 1.0 if fixed is None else float(fixed)
+        self._scale_samples: list[float] = []
+        self._n_scale_estimates = 0
+        self._recent_scores: list[float] = []
 
     # -- one step --------------------------------------------------------------------
     def _check_masks(self, masks: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -325,32 +479,25 @@ class SilhouetteTracker:
         visible = [i for i, m in enumerate(masks) if m.sum() >= cfg.min_silhouette_px]
         prev = self.previous_
         if not visible:
-            if prev is None:
-                return Estimate(
-                    -1,
-                    np.full(3, np.nan),
-                    float("nan"),
-                    0,
-                    (),
-                    np.zeros((0, 2)),
-                    np.zeros(0),
-                    False,
-                )
+            entry = -1 if prev is None else prev.entry
+            where = np.full(3, np.nan) if prev is None else prev.position_m
             return Estimate(
-                prev.entry,
-                prev.position_m,
+                entry,
+                where,
                 float("nan"),
                 0,
                 (),
                 np.zeros((0, 2)),
                 np.zeros(0),
+                self.body_scale_,
                 False,
             )
-        height_m = (
+        base_height = (
             self._default_height_m
             if prev is None
             else float(self.dictionary.body_height_m[prev.entry])
         )
+        height_m = self.body_scale_ * base_height
         centroids = {i: mask_centroid(masks[i]) for i in visible}
         used = self._cameras_in_use(visible, centroids, height_m)
         cams = [self.cameras[c] for c in used]
@@ -364,70 +511,35 @@ class SilhouetteTracker:
             estimate = self._initial_search(masks, used, position)
         else:
             estimate = self._local_search(masks, used, position, prev.entry, cfg.exhaustive)
+            estimate = self._recover(masks, used, position, estimate)
+        self._recent_scores = (self._recent_scores + [estimate.score])[-cfg.recovery_window :]
+        measuring = self._n_scale_estimates < cfg.body_scale_estimates
+        if cfg.body_scale is None and measuring and prev is not None:
+            estimate = self._measure_body_scale(masks, estimate)
         self.previous_ = estimate
         return estimate
 
-    def _scorer(self, masks: list[np.ndarray], used: list[int], position: np.ndarray, pool):
-        """Windows for the candidate pool and a scoring function over entries."""
-        cfg = self.config
-        corners = self.bodies.box_corners(pool, position).reshape(-1, 3)
-        windows: list[ViewWindow] = []
-        observed = []
-        centers = []
-        for c in used:
-            cam = self.cameras[c]
-            px, depth = cam.project(corners)
-            center, _ = cam.project(position[None])
-            pts = px[depth > 0]
-            if len(pts) == 0:
-                raise VideoError(f"camera {cam.name!r}: the person's position is behind it")
-            pts = np.concatenate([center + s * (pts - center) for s in cfg.scales])
-            window = view_window(cam, pts, cfg.shift_radius_px + 1, cfg.downsample)
-            windows.append(window)
-            observed.append(window.crop(masks[c]))
-            centers.append(center[0])
-        radius = -(-cfg.shift_radius_px // cfg.downsample)
-        detail: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    def _scorer(
+        self,
+        masks: list[np.ndarray],
+        used: list[int],
+        position: np.ndarray,
+        pool: np.ndarray,
+    ) -> _FrameScorer:
+        """Scoring of entries of ``pool`` in this frame (windows fitted to the pool)."""
+        return _FrameScorer(self, masks, used, position, np.asarray(pool))
 
-        def score(entries: np.ndarray) -> np.ndarray:
-            entries = np.asarray(entries, dtype=np.int64)
-            verts = self.bodies.vertices(entries, position)
-            total = np.zeros(len(entries))
-            shifts = np.zeros((len(entries), len(used), 2))
-            scales = np.ones((len(entries), len(used)))
-            for k, (window, obs, center) in enumerate(zip(windows, observed, centers, strict=True)):
-                best = np.full(len(entries), -np.inf)
-                for s in cfg.scales:
-                    cam = window.window_camera(s, center)
-                    rendered = self.render_masks(verts, self.bodies.faces, cam)
-                    sc, sh = score_masks(obs, rendered, radius)
-                    better = sc > best
-                    best[better] = sc[better]
-                    shifts[better, k] = sh[better] * cfg.downsample
-                    scales[better, k] = s
-                total += best
-            for i, e in enumerate(entries.tolist()):
-                detail[e] = (shifts[i], scales[i])
-            return total
-
-        return score, detail
-
-    def _finish(
-        self, result: SearchResult, detail, used: list[int], position: np.ndarray
-    ) -> Estimate:
-        shifts, scales = detail[result.best]
-        height_m = float(self.dictionary.body_height_m[result.best])
-        cams = [self.cameras[c] for c in used]
-        pixels = np.stack([cam.project(position[None])[0][0] for cam in cams]) + shifts
-        refined = intersect_plane_lines(cams, pixels, height_m, position)
+    def _finish(self, result: SearchResult, scorer: _FrameScorer) -> Estimate:
+        shifts, scales = scorer.detail[result.best]
         return Estimate(
             result.best,
-            refined,
+            scorer.refined_position(result.best, shifts),
             result.score,
             result.n_evaluations,
-            tuple(used),
+            tuple(scorer.used),
             shifts,
             scales,
+            scorer.body_scale,
             True,
         )
 
@@ -450,9 +562,9 @@ class SilhouetteTracker:
             cfg.max_candidates,
             cfg.max_heading_deg,
         )
-        score, detail = self._scorer(masks, used, position, candidates)
+        scorer = self._scorer(masks, used, position, candidates)
         if exhaustive:
-            result = exhaustive_search(candidates, score)
+            result = exhaustive_search(candidates, scorer)
         else:
             layer1 = candidates[:: cfg.layer_step]
             distances = np.full((len(candidates), len(candidates)), np.inf)
@@ -466,40 +578,75 @@ class SilhouetteTracker:
                 cfg.max_heading_deg,
             )
             tree = build_two_layer_tree(candidates, distances, cfg.layer_step)
-            result = two_layer_search(tree, score, cfg.top_k)
-        return self._finish(result, detail, used, position)
+            result = two_layer_search(tree, scorer, cfg.top_k)
+        return self._finish(result, scorer)
+
+    def _recover(
+        self, masks: list[np.ndarray], used: list[int], position: np.ndarray, estimate: Estimate
+    ) -> Estimate:
+        """Search the whole dictionary again when the score has dropped."""
+        cfg = self.config
+        if cfg.recovery_ratio is None or len(self._recent_scores) < 3:
+            return estimate
+        if estimate.score >= cfg.recovery_ratio * float(np.median(self._recent_scores)):
+            return estimate
+        other = self._global_search(masks, used, position)
+        best = other if other.score > estimate.score else estimate
+        return replace(best, n_evaluations=estimate.n_evaluations + other.n_evaluations)
 
     def _initial_search(
         self, masks: list[np.ndarray], used: list[int], position: np.ndarray
     ) -> Estimate:
+        return self._global_search(masks, used, position, measure_scale=True)
+
+    def _global_search(
+        self,
+        masks: list[np.ndarray],
+        used: list[int],
+        position: np.ndarray,
+        measure_scale: bool = False,
+    ) -> Estimate:
+        """Coarse-to-fine search of the whole dictionary, then local refinements."""
         cfg = self.config
         everything = np.arange(len(self.dictionary))
-        score, detail = self._scorer(masks, used, position, everything)
-        vectors = self.dictionary.vectors
-
-        def distance_to(a: int, items: np.ndarray) -> np.ndarray:
-            return d1_distance(vectors[items], vectors[a])
-
-        result = beam_search(everything, distance_to, score, cfg.init_branching, cfg.init_beam)
-        estimate = self._finish(result, detail, used, position)
+        scorer = self._scorer(masks, used, position, everything)
+        result = beam_search(self.cluster_tree(), scorer, cfg.init_beam)
+        estimate = self._finish(result, scorer)
         evaluations = estimate.n_evaluations
+        if measure_scale and cfg.body_scale is None:
+            estimate = self._measure_body_scale(masks, estimate)
         for _ in range(cfg.init_refinements):
-            again = self._local_search(masks, used, estimate.position_m, estimate.entry, True)
+            again = self._local_search(
+                masks, used, estimate.position_m, estimate.entry, cfg.exhaustive
+            )
             evaluations += again.n_evaluations
             done = again.entry == estimate.entry
             estimate = again
             if done:
                 break
-        return Estimate(
-            estimate.entry,
-            estimate.position_m,
-            estimate.score,
-            evaluations,
-            estimate.cameras,
-            estimate.shifts_px,
-            estimate.scales,
-            True,
-        )
+        return replace(estimate, n_evaluations=evaluations)
+
+    def _measure_body_scale(self, masks: list[np.ndarray], estimate: Estimate) -> Estimate:
+        """Compare the observed silhouettes' heights with the estimate's; the median
+        ratio so far (times the scale it was measured at) becomes the body scale."""
+        cfg = self.config
+        for c in estimate.cameras:
+            rendered = self.silhouette(estimate, c)
+            observed = _row_extent(masks[c])
+            expected = _row_extent(rendered)
+            if observed > 0 and expected > 0:
+                self._scale_samples.append(estimate.body_scale * observed / expected)
+        self._n_scale_estimates += 1
+        if not self._scale_samples:
+            return estimate
+        lo, hi = cfg.body_scale_range
+        self.body_scale_ = float(np.clip(np.median(self._scale_samples), lo, hi))
+        if self.body_scale_ == estimate.body_scale:
+            return estimate
+        height = self.body_scale_ * float(self.dictionary.body_height_m[estimate.entry])
+        position = estimate.position_m.copy()
+        position[1] = height
+        return replace(estimate, position_m=position, body_scale=self.body_scale_)
 
     # -- whole clips -----------------------------------------------------------------
     def track(
@@ -551,8 +698,9 @@ class SilhouetteTracker:
         positions = np.stack([e.position_m for e in estimates]) if estimates else np.zeros((0, 3))
         joints = np.full((len(entries), self.dictionary.n_joints, 3), np.nan)
         ok = entries >= 0
+        scales = np.array([e.body_scale for e in estimates], dtype=np.float64)
         if np.any(ok):
-            joints[ok] = self.bodies.joints(entries[ok], positions[ok])
+            joints[ok] = self.bodies.joints(entries[ok], positions[ok], scales[ok])
         return TrackResult(
             entries,
             positions,
@@ -574,5 +722,7 @@ class SilhouetteTracker:
         if estimate.entry < 0:
             return np.zeros((self.cameras[camera].height, self.cameras[camera].width), bool)
         cam = self.cameras[camera]
-        verts = self.bodies.vertices(np.array([estimate.entry]), estimate.position_m)
+        verts = self.bodies.vertices(
+            np.array([estimate.entry]), estimate.position_m, estimate.body_scale
+        )
         return self.render_masks(verts, self.bodies.faces, cam)[0]

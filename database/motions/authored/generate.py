@@ -92,37 +92,39 @@ def _box(y_m: float, z_m: float, half_width_m: float = 0.2) -> dict[str, Target]
 
 
 def lift_floor_to_chest() -> Motion:
-    """Squat, grip a box on the floor, rise slowly with it to the chest."""
+    """Squat with the knees out, grip a box on the floor, rise slowly with it to the chest."""
     return _animate(
         [
-            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
-            Key(0.5, {"LowerBack": (10, 0, 0), "Head": (5, 0, 0)}, (0.0, -0.08, -0.02)),
+            Key(
+                0.0,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0, 0, 0),
+                _planted(extra_width_m=0.10, toe_out_deg=15.0),
+            ),
+            Key(
+                0.5,
+                {"LowerBack": (12, 0, 0), "Head": (5, 0, 0)},
+                (0.0, -0.08, -0.02),
+                _box(0.68, 0.40, 0.17),
+            ),
             Key(
                 1.2,
-                {
-                    "LowerBack": (30, 0, 0),
-                    "Spine": (12, 0, 0),
-                    "Neck": (-10, 0, 0),
-                    "Head": (-10, 0, 0),
-                },
+                {"LowerBack": (30, 0, 0), "Spine": (12, 0, 0), "Neck": (-10, 0, 0),
+                 "Head": (-10, 0, 0)},
                 (0.0, -0.42, -0.14),
-                _box(0.17, 0.40),
+                _box(0.17, 0.45, 0.17),
             ),
             Key(1.6, {"LowerBack": (32, 0, 0)}, (0.0, -0.44, -0.15)),
             Key(
                 2.5,
                 {"LowerBack": (25, 0, 0), "Spine": (8, 0, 0), "Neck": (-5, 0, 0)},
                 (0.0, -0.22, -0.08),
-                _box(0.55, 0.40),
+                _box(0.55, 0.42, 0.17),
             ),
             Key(
                 3.3,
-                {
-                    "LowerBack": (-6, 0, 0),
-                    "Spine": (-2, 0, 0),
-                    "Neck": (0, 0, 0),
-                    "Head": (0, 0, 0),
-                },
+                {"LowerBack": (-6, 0, 0), "Spine": (-2, 0, 0), "Neck": (0, 0, 0),
+                 "Head": (0, 0, 0)},
                 (0.0, -0.01, -0.01),
                 _box(1.02, 0.32),
             ),
@@ -155,6 +157,8 @@ def lift_chest_to_overhead() -> Motion:
                 _box(1.78, 0.08),
             ),
             Key(2.0, {"LowerBack": (-7, 0, 0)}, (0.0, 0.0, 0.0), _box(1.80, 0.08)),
+            # On the way down the box passes in front of the face, not through the head.
+            Key(2.4, {"LowerBack": (-3, 0, 0)}, (0.0, -0.02, 0.0), _box(1.45, 0.40)),
             Key(
                 2.8,
                 {"LowerBack": (0, 0, 0), "Spine": (0, 0, 0), "Neck": (0, 0, 0), **arms_bent},
@@ -320,7 +324,7 @@ def _cover_head(
             Key(t[1], {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
             Key(
                 0.5 * (t[1] + t[2]),
-                {"LeftArm": (-50, 0, 20), "RightArm": (-50, 0, -20)},
+                {"LeftArm": (-50, 0, -10), "RightArm": (-50, 0, 10)},
                 (0.0, -0.5 * root_drop_m, -0.15 * root_drop_m),
                 _before_face(),
             ),
@@ -490,42 +494,34 @@ def fall_down_backwards() -> Motion:
 
 
 def fall_down_sideways() -> Motion:
-    """Knees buckle, topple to the left onto hip and forearm, end lying on the side."""
+    """Knees buckle, topple to the left onto hip and hand, end lying on the left side."""
     return _animate(
         [
             Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
-            Key(0.3, {"Head": (10, 0, 10), "LowerBack": (0, 0, -5)}, (0.0, -0.05, 0.0)),
+            Key(0.3, {"Head": (10, 0, 10), "LowerBack": (0, 0, -5)}, (0.02, -0.06, 0.0)),
             Key(
-                0.8,
+                0.75,
                 {"Hips": (0, 0, -20), "LowerBack": (10, 0, 5), "LeftArm": (-20, 0, 40)},
-                (0.10, -0.40, 0.0),
+                (0.12, -0.40, 0.03),
             ),
             Key(
-                1.15,
-                {"Hips": (0, 0, -55), "LowerBack": (10, 0, 15), "Head": (0, 0, 20)},
-                (0.30, -0.64, 0.0),
-                {
-                    "LeftFoot": None,
-                    "RightFoot": None,
-                    "LeftHand": Target((0.75, 0.05, 0.15)),
-                },
+                1.1,
+                {"Hips": (0, 0, -55), "LowerBack": (10, 0, 15), "Head": (0, 0, 20),
+                 "LeftUpLeg": (-40, 0, 0), "LeftLeg": (75, 0, 0),
+                 "RightUpLeg": (-35, 0, 0), "RightLeg": (60, 0, 0)},
+                (0.35, -0.62, 0.08),
+                {"LeftFoot": None, "RightFoot": None, "LeftHand": Target((0.75, 0.05, 0.15))},
             ),
             Key(
                 1.8,
-                {
-                    "Hips": (0, 0, -85),
-                    "LowerBack": (5, 0, 5),
-                    "Head": (0, 0, 10),
-                    "LeftUpLeg": (-30, 0, 0),
-                    "LeftLeg": (45, 0, 0),
-                    "RightUpLeg": (-35, 0, 0),
-                    "RightLeg": (50, 0, 0),
-                    "RightArm": (-30, 0, 35),
-                },
-                (0.45, -0.70, 0.0),
+                {"Hips": (0, 0, -85), "LowerBack": (5, 0, 5), "Head": (0, 0, 10),
+                 "LeftUpLeg": (-30, 0, 0), "LeftLeg": (45, 0, 0),
+                 "RightUpLeg": (-35, 0, 0), "RightLeg": (50, 0, 0),
+                 "RightArm": (-30, 0, 35)},
+                (0.50, -0.70, 0.05),
                 {"LeftHand": Target((0.95, 0.05, 0.25))},
             ),
-            Key(2.6, {}, (0.45, -0.70, 0.0)),
+            Key(2.6, {}, (0.50, -0.70, 0.05)),
         ],
         "fall_down_sideways",
     )
@@ -568,7 +564,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=HERE, help="output folder (default: here)")
     args = parser.parse_args(argv)
     for path in write_all(args.out):
-        print(path)
+        sys.stdout.write(f"{path}\n")
     return 0
 
 

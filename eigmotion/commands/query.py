@@ -1,0 +1,86 @@
+"""``eigmotion query``: which basic motion is in this clip, seen from where?
+
+Examples::
+
+    eigmotion query clip.mp4 --json
+    eigmotion query clip.mp4 --background empty.png --top 5 --bvh-out clip.bvh \\
+        --replay-out clip_replay.mp4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HELP = "answer a single-camera clip with the nearest basic motion and its view"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "clip", type=Path, help="video (.mp4/.avi), folder of frames, or .npz of masks"
+    )
+    parser.add_argument("--db", default=None, help="database (default database/eigmotion.fs)")
+    parser.add_argument("--background", type=Path, help="image of the empty scene")
+    parser.add_argument("--top", type=int, default=3, help="distinct motions to list")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
+    parser.add_argument(
+        "--replay-out", type=Path, help="write input | silhouettes | motion image | replay"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..database import DEFAULT_DB_PATH, MotionDatabase
+    from ..errors import InvalidParameterError
+
+    if args.top < 1:
+        raise InvalidParameterError(f"--top must be >= 1, got {args.top}")
+    for out in (args.bvh_out, args.replay_out):
+        if out is not None and not out.parent.is_dir():
+            raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
+    with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
+        result, masks, fps = db.query_clip(args.clip, args.background, args.top)
+        if args.bvh_out or args.replay_out:
+            _write_replay(db, result, masks, fps, args)
+    if args.json:
+        print(json.dumps(result.to_json()))
+    else:
+        best = result.best
+        verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
+        print(
+            f"{best.label}  ({best.motion}, distance {best.distance:.3f}, view azimuth "
+            f"{best.azimuth_deg:.0f}°, elevation {best.elevation_deg:.0f}°){verdict}"
+        )
+        for seg in result.segments:
+            print(f"  frames {seg.start_frame}–{seg.end_frame}: {seg.label}")
+        print(
+            f"  examined {result.examined} of {result.db_entries} entries, "
+            f"{result.timing_ms['total']:.0f} ms"
+        )
+    return 0
+
+
+def _write_replay(db, result, masks, fps, args) -> None:
+    from ..bvh import write_bvh
+    from ..motion_image import motion_image_picture
+    from ..replay import replay, replay_video
+
+    best = result.best
+    motion = db.motion(best.motion_id)
+    rep = replay(motion, best.window, best.azimuth_deg, best.elevation_deg, len(masks), fps)
+    if args.bvh_out:
+        write_bvh(rep.motion, args.bvh_out)
+    if args.replay_out:
+        frames = None
+        if args.clip.suffix.lower() != ".npz":
+            from ..media import read_frames
+
+            frames, _ = read_frames(args.clip)
+        picture = motion_image_picture(result.motion_image, db.config.motion_image)
+        replay_video(rep, frames, masks, picture, args.replay_out, fps, progress=True)
+    print(
+        "wrote " + ", ".join(str(p) for p in (args.bvh_out, args.replay_out) if p),
+        file=sys.stderr,
+    )

@@ -1,0 +1,307 @@
+"""The retrieval engine end to end: build → query → index, on real files.
+
+A small real database (four library motions × the patent's six horizontal cameras)
+is built once into a temporary ZODB file; clips are rendered from another body shape
+at views between the rig's cameras.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from eigmotion.build import BuildConfig, window_bounds
+from eigmotion.bvh import read_bvh
+from eigmotion.cameras import load_rig, virtual_rig
+from eigmotion.cli import main
+from eigmotion.database import MotionDatabase, brute_force_check, build_database
+from eigmotion.errors import DatabaseError
+from eigmotion.kinematics import forward_kinematics
+from eigmotion.library import load_library
+from eigmotion.search import BruteForceIndex
+
+from .conftest import REPO
+
+MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
+CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6)
+
+
+@pytest.fixture(scope="module")
+def library():
+    by_name = {m.name: m for m in load_library()}
+    return [by_name[n] for n in MOTIONS]
+
+
+@pytest.fixture(scope="module")
+def db_path(tmp_path_factory, library):
+    path = tmp_path_factory.mktemp("db") / "small.fs"
+    rig = load_rig(REPO / "virtual_cameras" / "ring6.toml")
+    build_database(library, rig, path, CONFIG, workers=2, progress=False)
+    return path
+
+
+@pytest.fixture(scope="module")
+def other_body():
+    from eigmotion.avatar import load_default_avatar
+
+    return load_default_avatar().with_shape(height_m=1.62, girth=1.15).decimated(4000)
+
+
+def _masks(motion, body, azimuth_deg, elevation_deg, size=(160, 120)):
+    from eigmotion.silhouettes import render_masks
+
+    _, vertices = body.animate(motion.resample(30))
+    cam = virtual_rig([azimuth_deg], [elevation_deg], *size).fitted(
+        vertices[:, ::7].reshape(-1, 3)
+    )[0]
+    return render_masks(vertices, body.faces, cam)
+
+
+def test_window_bounds_cover_the_clip():
+    rows = window_bounds(100, 30.0, 1.5, 0.5)
+    assert tuple(rows[0]) == (0, 100)
+    assert rows[1:, 0].min() == 0 and rows[1:, 1].max() == 100
+    assert np.all(rows[1:, 1] - rows[1:, 0] == 45)
+    assert window_bounds(40, 30.0, 1.5, 0.5).shape == (1, 2)
+
+
+def test_database_holds_what_was_built(db_path, library):
+    with MotionDatabase.open(db_path) as db:
+        assert db.store.n_motions == len(library)
+        assert db.n_entries == db.store.n_entries > 6 * len(library)
+        assert db.config == CONFIG
+        assert len(db.rig) == 6
+        assert 0 < db.threshold < np.inf
+        db.store.check()
+        for mid, item in enumerate(library):
+            back = db.motion(mid)
+            np.testing.assert_allclose(back.values, item.motion.values, atol=1e-5)
+
+
+def test_tree_search_is_exact_on_the_real_database(db_path):
+    rng = np.random.default_rng(3)
+    with MotionDatabase.open(db_path) as db:
+        points = db.store.arrays().points
+        picks = rng.integers(0, len(points), 10_000)
+        scale = points.std(axis=0) * rng.uniform(0.05, 1.0, (10_000, 1))
+        queries = points[picks] + rng.normal(size=(10_000, points.shape[1])) * scale
+        assert brute_force_check(db, queries, top_k=1)
+        assert brute_force_check(db, queries[:500], top_k=5)
+        examined = db.index.search(queries, 1).examined
+        assert examined.mean() < db.n_entries
+
+
+@pytest.mark.parametrize("name", MOTIONS)
+def test_unseen_body_between_views_is_recognised(db_path, library, other_body, name):
+    item = next(m for m in library if m.name == name)
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    with MotionDatabase.open(db_path) as db:
+        result = db.query_masks(masks, 30.0, top_k=3)
+    assert result.best.label == item.label
+    assert result.best.azimuth_deg in (0.0, 60.0)  # a neighbour of the true 30°
+    assert [m.label for m in result.top][0] == item.label
+    assert len({m.motion for m in result.top}) == len(result.top)
+    assert result.segments[0].start_frame == 0
+    assert result.segments[-1].end_frame == len(masks)
+
+
+def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, capsys):
+    item = library[1]  # kick
+    masks = _masks(item.motion, other_body, azimuth_deg=90.0, elevation_deg=5.0)
+    clip = tmp_path / "clip.npz"
+    np.savez(clip, masks=masks, fps=30.0)
+    bvh, video = tmp_path / "out.bvh", tmp_path / "out.mp4"
+    code = main(
+        [
+            "query",
+            str(clip),
+            "--db",
+            str(db_path),
+            "--json",
+            "--top",
+            "2",
+            "--bvh-out",
+            str(bvh),
+            "--replay-out",
+            str(video),
+        ]
+    )
+    assert code == 0
+    answer = json.loads(capsys.readouterr().out)
+    for key in (
+        "label",
+        "motion",
+        "distance",
+        "accepted",
+        "view",
+        "top",
+        "segments",
+        "examined",
+        "db_entries",
+        "timing_ms",
+    ):
+        assert key in answer
+    assert answer["label"] == "kick" and len(answer["top"]) == 2
+    assert set(answer["view"]) == {"azimuth_deg", "elevation_deg"}
+    replayed = read_bvh(bvh)
+    assert replayed.n_frames == len(masks)
+    height = np.ptp(forward_kinematics(replayed).all_points()[0][:, 1])
+    assert 1.4 < height < 2.0
+    from eigmotion.media import read_frames
+
+    frames, _ = read_frames(video)
+    assert len(frames) == len(masks)
+
+
+def test_index_makes_a_motion_queryable_at_once(db_path, tmp_path, other_body):
+    work = tmp_path / "copy.fs"
+    work.write_bytes(db_path.read_bytes())
+    run = next(m for m in load_library() if m.name == "run_09_01")
+    masks = _masks(run.motion, other_body, azimuth_deg=150.0, elevation_deg=5.0)
+    with MotionDatabase.open(work) as db:
+        before = db.query_masks(masks, 30.0)
+        n_before = db.n_entries
+    assert before.best.label != "run"
+    with MotionDatabase.open(work, read_only=False) as db:
+        report = db.index_motion(replace(run, name="new_run"), progress=False)
+        assert db.n_entries == n_before + report.n_entries
+        after = db.query_masks(masks, 30.0)
+    assert after.best.label == "run"
+    with MotionDatabase.open(work) as db:  # and it is on disk
+        assert db.query_masks(masks, 30.0).best.motion == "new_run"
+
+
+def _eigmotion(*args, **kwargs):
+    return subprocess.Popen(
+        [sys.executable, "-m", "eigmotion.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYOPENGL_PLATFORM": "egl"},
+        **kwargs,
+    )
+
+
+def test_sigkill_during_index_keeps_the_database(db_path, tmp_path, other_body, library):
+    work = tmp_path / "killed.fs"
+    work.write_bytes(db_path.read_bytes())
+    masks = _masks(library[2].motion, other_body, azimuth_deg=200.0, elevation_deg=5.0)
+    with MotionDatabase.open(work) as db:
+        expected = db.query_masks(masks, 30.0)
+        n_entries = db.n_entries
+    bvh = tmp_path / "jump.bvh"
+    assert (
+        main(
+            [
+                "convert",
+                str(REPO / "database/motions/cmu/amc/16_01.amc"),
+                "--asf",
+                str(REPO / "database/motions/cmu/asf/16.asf"),
+                str(bvh),
+                "--stop",
+                "200",
+            ]
+        )
+        == 0
+    )
+    for delay_s in (1.0, 3.0, 6.0):
+        proc = _eigmotion("index", str(bvh), "--label", "jump", "--db", str(work), "--quiet")
+        time.sleep(delay_s)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        with MotionDatabase.open(work) as db:
+            assert db.n_entries in (n_entries, db.store.n_entries)
+            db.store.check()
+            again = db.query_masks(masks, 30.0)
+            if db.n_entries == n_entries:
+                assert again.best == expected.best
+            else:  # the index had committed before the kill: complete, never partial
+                assert db.store.n_motions == len(library) + 1
+                break
+
+
+def test_queries_run_while_an_index_commits(db_path, tmp_path, other_body, library):
+    work = tmp_path / "busy.fs"
+    work.write_bytes(db_path.read_bytes())
+    clip = tmp_path / "clip.npz"
+    np.savez(clip, masks=_masks(library[0].motion, other_body, 10.0, 5.0), fps=30.0)
+    bvh = tmp_path / "punch.bvh"
+    assert (
+        main(
+            [
+                "convert",
+                str(REPO / "database/motions/cmu/amc/02_05.amc"),
+                "--asf",
+                str(REPO / "database/motions/cmu/asf/02.asf"),
+                str(bvh),
+                "--stop",
+                "240",
+            ]
+        )
+        == 0
+    )
+    indexer = _eigmotion("index", str(bvh), "--label", "punch", "--db", str(work), "--quiet")
+    answers = []
+    while indexer.poll() is None:
+        readers = [_eigmotion("query", str(clip), "--db", str(work), "--json") for _ in range(2)]
+        for r in readers:
+            out, err = r.communicate(timeout=120)
+            assert r.returncode == 0, err
+            answers.append(json.loads(out)["label"])
+    assert indexer.returncode == 0, indexer.stderr.read()
+    assert answers and set(answers) == {"walk"}
+    with MotionDatabase.open(work) as db:
+        assert "punch" in {db.motion_record(m)["label"] for m in db.store.motion_ids()}
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["query", "missing.mp4", "--db", "{db}"], "missing.mp4"),
+        (["query", "{clip}", "--db", "{tmp}/nothing.fs"], "nothing.fs"),
+        (["query", "{clip}", "--db", "{db}", "--top", "0"], "--top"),
+        (["index", "{tmp}/none.bvh", "--label", "x", "--db", "{db}"], "none.bvh"),
+        (["build", "--rig", "{tmp}/none.toml", "--db", "{tmp}/x.fs"], "none.toml"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(db_path, tmp_path, argv, message):
+    clip = tmp_path / "clip.npz"
+    np.savez(clip, masks=np.zeros((10, 32, 32), bool), fps=30.0)
+    argv = [a.format(db=db_path, tmp=tmp_path, clip=clip) for a in argv]
+    proc = _eigmotion(*argv)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and message.split("/")[-1] in lines[0], err
+    assert "Traceback" not in err
+
+
+def test_empty_clip_is_refused(db_path, tmp_path):
+    clip = tmp_path / "still.npz"
+    masks = np.zeros((20, 48, 48), bool)
+    masks[:, 10:40, 20:30] = True  # a person who never moves
+    np.savez(clip, masks=masks, fps=30.0)
+    proc = _eigmotion("query", str(clip), "--db", str(db_path))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2 and "motion" in err
+
+
+def test_missing_database_is_not_created(tmp_path):
+    with pytest.raises(DatabaseError, match="no such database"):
+        MotionDatabase.open(tmp_path / "absent.fs")
+    assert not (tmp_path / "absent.fs").exists()
+
+
+def test_bruteforce_reference_agrees_with_itself(db_path):
+    with MotionDatabase.open(db_path) as db:
+        arrays = db.store.arrays()
+        res = BruteForceIndex.from_arrays(arrays.points, arrays.ids).search(arrays.points[:5], 1)
+        np.testing.assert_array_equal(res.ids[:, 0], arrays.ids[:5])
