@@ -362,11 +362,7 @@ def animate(
                 skeleton, end, per_key, order, key_times, times, key_r, key_p, glob_r, glob_p, local
             )
     if ground:
-        root = root - lowest_point_m(skeleton, local, root, contact_points_m)[:, None] * [
-            0.0,
-            1.0,
-            0.0,
-        ]
+        root[:, 1] -= lowest_point_m(skeleton, local, root, contact_points_m)
     return Motion.from_local_transforms(
         skeleton, local, root, 1.0 / fps, order="ZXY", length_unit_m=1.0, name=name
     )
@@ -493,14 +489,7 @@ def _complete_keys(keys: Sequence[Key], skeleton: Skeleton, order: str):
         rot_k[i] = current
         root_k[i] = offset
         targets.append(dict(held))
-    # Rotation vectors near 180° may flip between keys: keep each joint's path short.
-    for i in range(1, len(keys)):
-        prev, cur = rot_k[i - 1], rot_k[i]
-        angle = np.linalg.norm(cur, axis=-1)
-        alt = cur - 2 * np.pi * cur / np.where(angle > 0, angle, 1.0)[:, None]
-        flip = np.linalg.norm(alt - prev, axis=-1) < np.linalg.norm(cur - prev, axis=-1)
-        rot_k[i, flip] = alt[flip]
-    return rot_k, root_k, targets
+    return _unwrap_rotvecs(rot_k), root_k, targets
 
 
 def _joint(skeleton: Skeleton, joint: str, key: Key) -> int:
@@ -652,13 +641,15 @@ def _solve_chain(
 
 
 def _unwrap_rotvecs(rv: np.ndarray) -> np.ndarray:
-    rv = rv.copy()
+    """Rotation vectors (K, ..., 3) along K, each replaced by its equivalent nearest the
+    previous one, so that interpolating them takes the short way round."""
+    rv = np.array(rv, dtype=np.float64)
     for i in range(1, len(rv)):
-        angle = np.linalg.norm(rv[i])
-        if angle > 0:
-            alt = rv[i] - 2 * np.pi * rv[i] / angle
-            if np.linalg.norm(alt - rv[i - 1]) < np.linalg.norm(rv[i] - rv[i - 1]):
-                rv[i] = alt
+        cur = rv[i]
+        angle = np.linalg.norm(cur, axis=-1, keepdims=True)
+        alt = cur - 2 * np.pi * cur / np.where(angle > 0, angle, 1.0)
+        flip = np.linalg.norm(alt - rv[i - 1], axis=-1) < np.linalg.norm(cur - rv[i - 1], axis=-1)
+        rv[i] = np.where(flip[..., None], alt, cur)
     return rv
 
 

@@ -11,6 +11,7 @@ threshold means "unknown motion".
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import time
 from collections.abc import Sequence
@@ -382,7 +383,9 @@ class QueryResult:
         Nearest entries of distinct motions, nearest first.
     segments : list of Segment
     examined : int
-        Entries whose distance was computed, over all searches for this clip.
+        Entries whose distance was computed by the whole-clip search.
+    examined_windows : int
+        The same, summed over the searches of the sliding windows (segments).
     db_entries : int
     timing_ms : dict of str to float
     motion_image : (D,) float32
@@ -394,6 +397,7 @@ class QueryResult:
     top: list[Match]
     segments: list[Segment]
     examined: int
+    examined_windows: int
     db_entries: int
     timing_ms: dict[str, float]
     motion_image: np.ndarray
@@ -404,6 +408,7 @@ class QueryResult:
         out["top"] = [m.to_json() for m in self.top]
         out["segments"] = [s.to_json() for s in self.segments]
         out["examined"] = int(self.examined)
+        out["examined_windows"] = int(self.examined_windows)
         out["db_entries"] = int(self.db_entries)
         out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
         return out
@@ -535,14 +540,15 @@ class MotionDatabase:
             if len(top) == top_k:
                 break
         segments = self._segments(kept, windowed, len(masks), top[0])
-        examined = int(whole.examined.sum() + (0 if windowed is None else windowed.examined.sum()))
+        examined_windows = 0 if windowed is None else int(windowed.examined.sum())
         timing["total"] = (time.perf_counter() - t0) * 1e3
         return QueryResult(
             top[0],
             bool(top[0].distance <= self.threshold),
             top,
             segments,
-            examined,
+            int(whole.examined[0]),
+            examined_windows,
             self.n_entries,
             timing,
             np.asarray(vectors[0]),
@@ -592,16 +598,7 @@ class MotionDatabase:
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
         timing["total"] = (time.perf_counter() - t0) * 1e3
         return (
-            QueryResult(
-                result.best,
-                result.accepted,
-                result.top,
-                result.segments,
-                result.examined,
-                result.db_entries,
-                timing,
-                result.motion_image,
-            ),
+            dataclasses.replace(result, timing_ms=timing),
             masks,
             fps,
         )

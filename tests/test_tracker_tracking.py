@@ -109,7 +109,7 @@ def test_single_camera_aligns_a_known_motion(cmu):
     middle = path.mean(axis=0)
     cam = look_at(middle + 4.5 * side + [0, 0.7, 0], middle, intrinsics(160, 120, 50), 160, 120)
     masks = render_masks(subject.pose(anim), subject.faces, cam)
-    config = TrackerConfig(scales=(0.92, 1.0, 1.08), downsample=1)
+    config = TrackerConfig(scales=(0.92, 1.0, 1.08), downsample=1, body_scale=1.0)
     result = SilhouetteTracker(dictionary, [cam], config=config).track([masks])
     # The walk repeats itself: a frame one gait cycle away is the same posture, so
     # compare postures (joints relative to the root), not frame numbers.

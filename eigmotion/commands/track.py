@@ -96,6 +96,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--exhaustive", action="store_true", help="score every candidate (no search tree)"
     )
     parser.add_argument(
+        "--body-scale",
+        type=float,
+        help="the person's size relative to the body model (e.g. height / 1.67 m); "
+        "default: measured from the silhouettes on the first frames",
+    )
+    parser.add_argument(
+        "--no-recovery",
+        action="store_true",
+        help="never search the whole dictionary again when the match gets poor",
+    )
+    parser.add_argument(
         "--reference",
         help="reference motion replayed at variable speed for --bvh-out/--joints-out",
     )
@@ -211,6 +222,8 @@ def run(args: argparse.Namespace) -> int:
         shift_radius_px=args.shift_px,
         downsample=args.downsample,
         exhaustive=args.exhaustive,
+        body_scale=args.body_scale,
+        recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
     )
     masks, fps = _load_masks(args, calibration.cameras)
     dictionary = load_dictionary(args)
@@ -253,8 +266,11 @@ def run(args: argparse.Namespace) -> int:
         joints = forward_kinematics(motion, ground=False).positions
         names = motion.skeleton.names
     else:
-        motion = dictionary.to_motion(entries, positions, result.frame_time_s)
-        joints = tracker.bodies.joints(entries, positions)
+        motion = dictionary.to_motion(
+            entries, positions, result.frame_time_s, scale=tracker.body_scale_
+        )
+        joints = result.joint_positions_m.copy()
+        joints[:first] = joints[first]
         names = dictionary.joint_names
     if args.bvh_out:
         from ..bvh import write_bvh

@@ -370,6 +370,7 @@ class PostureDictionary:
         root_positions_m: np.ndarray,
         frame_time_s: float,
         name: str = "tracked",
+        scale: float = 1.0,
     ) -> Motion:
         """A motion on the canonical skeleton playing the chosen entries in turn.
 
@@ -381,12 +382,15 @@ class PostureDictionary:
             Root (body centre) position per frame, world metres.
         frame_time_s : float
             Seconds per output frame.
+        name : str
+        scale : float
+            Uniform scale of the skeleton (the tracker's ``body_scale_``).
 
         Returns
         -------
         Motion
-            On the skeleton of :attr:`rest_joints` (metres, ``length_unit_m = 1``),
-            channels: root 6, others 3, Euler ZXY.
+            On the skeleton of :attr:`rest_joints` times ``scale`` (metres,
+            ``length_unit_m = 1``), channels: root 6, others 3, Euler ZXY.
         """
         from ..motion import Skeleton, standard_channels
 
@@ -394,6 +398,7 @@ class PostureDictionary:
         root = np.asarray(root_positions_m, dtype=np.float64).reshape(len(indices), 3)
         offsets = self.rest_joints.copy()
         offsets[1:] -= self.rest_joints[self.parents[1:]]
+        offsets *= float(scale)
         skeleton = Skeleton(
             self.joint_names, self.parents, offsets, standard_channels(self.n_joints)
         )
