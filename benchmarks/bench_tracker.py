@@ -80,13 +80,46 @@ def stage(name: str, heading_deg: float, subject) -> tuple[np.ndarray, np.ndarra
     return rot, pos
 
 
-def video_masks(masks: np.ndarray, seed: int) -> np.ndarray:
-    """Masks → composed RGB frames with shadow and noise → background subtraction."""
+def video_frames(masks: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Masks → RGB frames over a textured background, with shadow and noise; and the
+    empty background."""
     from eigmotion.scene import compose_scene
+
+    return compose_scene(None, masks, np.random.default_rng(seed))
+
+
+def cut_out(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """Silhouettes by background subtraction (:func:`eigmotion.video.extract_silhouettes`)."""
     from eigmotion.video import extract_silhouettes
 
-    frames, background = compose_scene(None, masks, np.random.default_rng(seed))
     return extract_silhouettes(frames, background)
+
+
+def save_figure(path: str, tracker: SilhouetteTracker, result, views: list, clip: str) -> None:
+    """Six estimates drawn as outlines over both views (cf. the paper's figure 6),
+    each view cropped around the person."""
+    import cv2
+
+    from eigmotion.figures import contact_sheet, save_image
+    from eigmotion.tracker.overlay import draw_outline
+
+    frames = np.linspace(0, result.n_estimates - 1, 6).round().astype(int)
+    panels, labels = [], []
+    for f in frames:
+        est = result.estimates[f]
+        drawn = []
+        for c, view in enumerate(views):
+            shape = tracker.silhouette(est, c)
+            image = draw_outline(view[f], shape)
+            rows, cols = np.flatnonzero(shape.any(1)), np.flatnonzero(shape.any(0))
+            y0, y1 = max(rows[0] - 20, 0), min(rows[-1] + 21, image.shape[0])
+            x0, x1 = max(cols[0] - 30, 0), min(cols[-1] + 31, image.shape[1])
+            crop = image[y0:y1, x0:x1]
+            size = (round(crop.shape[1] * 300 / crop.shape[0]), 300)
+            drawn.append(cv2.resize(crop, size, interpolation=cv2.INTER_NEAREST))
+        panels.append(np.concatenate(drawn, axis=1))
+        labels.append(f"{clip} t={f / ESTIMATE_FPS:.2f}s")
+    save_image(contact_sheet(panels, 3, labels), path)
 
 
 def track(tracker: SilhouetteTracker, masks: list[np.ndarray]) -> tuple:
@@ -111,6 +144,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--video", action="store_true", help="go through background subtraction")
     parser.add_argument("--frames", type=int, default=0, help="frames per clip (0: all)")
+    parser.add_argument("--figure", help="save a picture of estimates drawn over both views (.png)")
     args = parser.parse_args()
 
     t0 = time.perf_counter()
@@ -144,8 +178,11 @@ def main() -> None:
         vertices = subject.skin(rot, pos)
         masks = [render_masks(vertices, subject.faces, cam) for cam in cams]
         cut = [m[:, [0, -1]].any() or m[:, :, [0, -1]].any() for m in masks]
+        views = [np.repeat((m * 170).astype(np.uint8)[..., None], 3, -1) for m in masks]
         if args.video:
-            masks = [video_masks(m, 10 * c + i) for i, m in enumerate(masks)]
+            composed = [video_frames(m, 10 * c + i) for i, m in enumerate(masks)]
+            views = [frames for frames, _ in composed]
+            masks = [cut_out(frames, bg) for frames, bg in composed]
         for mode in ("tree", "exhaustive"):
             config = TrackerConfig(exhaustive=mode == "exhaustive")
             tracker = SilhouetteTracker(dictionary, cams, bodies, config)
@@ -153,6 +190,8 @@ def main() -> None:
             err = np.linalg.norm(result.joint_positions_m - pos, axis=-1)[:, body_joints]
             root_err = np.linalg.norm(result.positions_m - pos[:, 0], axis=-1)
             per_joint[mode].append(err)
+            if args.figure and c == 0 and mode == "tree":
+                save_figure(args.figure, tracker, result, views, clip)
             rows.append(
                 (
                     clip,

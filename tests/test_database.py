@@ -14,6 +14,7 @@ import subprocess
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,7 +29,7 @@ from eigmotion.kinematics import forward_kinematics
 from eigmotion.library import load_library
 from eigmotion.search import BruteForceIndex
 
-from .conftest import REPO
+REPO = Path(__file__).resolve().parents[1]
 
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
 CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6)

@@ -122,8 +122,8 @@ def test_track_end_to_end(scene, capsys, tmp_path):
     assert motion.n_frames == N_FRAMES and motion.frame_time_s == pytest.approx(0.04)
     frames, _ = read_frames(overlay)
     assert frames.shape[1:3] == (240, 640)
-    red = (frames[..., 0] > 200) & (frames[..., 1] < 80)
-    assert red.sum(axis=(1, 2)).min() > 50  # the outline is drawn in every frame
+    yellow = (frames[..., 0] > 200) & (frames[..., 1] > 180) & (frames[..., 2] < 80)
+    assert yellow.sum(axis=(1, 2)).min() > 50  # the outline is drawn in every frame
     # the saved dictionary is reused, and a reference motion is replayed
     code, out, err = run_cli(
         [

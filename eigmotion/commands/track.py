@@ -12,7 +12,7 @@ Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-spe
 playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
 ``positions`` (n_frames, n_joints, 3) metres in the calibration's world frame,
 ``frame_time_s``, ``frames``), ``--overlay-out`` (the input views side by side with
-the estimated silhouette's outline drawn in red), ``--dictionary-out`` (the
+the estimated silhouette's outline drawn in yellow), ``--dictionary-out`` (the
 dictionary as ``.npz``, for reuse).
 """
 
@@ -172,7 +172,7 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
 
 
 def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
-    """(E, H, W_total, 3) uint8: input views with the estimate's outline in red."""
+    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow."""
     from ..tracker.overlay import draw_outline
 
     views = []

@@ -6,8 +6,8 @@ import numpy as np
 
 from ..errors import InvalidParameterError
 
-#: Outline colour, RGB.
-OUTLINE_RGB = (255, 32, 32)
+#: Outline colour, RGB (yellow: it stands out on skin, clothes and most scenes).
+OUTLINE_RGB = (255, 235, 0)
 
 
 def draw_outline(

@@ -84,7 +84,10 @@ def _planted(**kwargs) -> dict[str, Target]:
 
 
 def _box(y_m: float, z_m: float, half_width_m: float = 0.2) -> dict[str, Target]:
-    """Wrist targets gripping a box by its sides, world metres."""
+    """Wrist targets gripping a box by its sides, world metres.
+
+    A box on the floor is about 0.4 m tall and gripped near its top edges.
+    """
     return {
         "LeftHand": Target((half_width_m, y_m, z_m)),
         "RightHand": Target((-half_width_m, y_m, z_m)),
@@ -105,21 +108,21 @@ def lift_floor_to_chest() -> Motion:
                 0.5,
                 {"LowerBack": (12, 0, 0), "Head": (5, 0, 0)},
                 (0.0, -0.08, -0.02),
-                _box(0.68, 0.40, 0.17),
+                _box(0.80, 0.32, 0.17),
             ),
             Key(
                 1.2,
                 {"LowerBack": (30, 0, 0), "Spine": (12, 0, 0), "Neck": (-10, 0, 0),
                  "Head": (-10, 0, 0)},
                 (0.0, -0.42, -0.14),
-                _box(0.17, 0.45, 0.17),
+                _box(0.38, 0.37, 0.17),
             ),
             Key(1.6, {"LowerBack": (32, 0, 0)}, (0.0, -0.44, -0.15)),
             Key(
                 2.5,
                 {"LowerBack": (25, 0, 0), "Spine": (8, 0, 0), "Neck": (-5, 0, 0)},
                 (0.0, -0.22, -0.08),
-                _box(0.55, 0.42, 0.17),
+                _box(0.62, 0.40, 0.17),
             ),
             Key(
                 3.3,
@@ -191,14 +194,14 @@ def lift_floor_to_waist_stoop() -> Motion:
                     "Head": (-10, 0, 0),
                 },
                 (0.0, -0.26, -0.16),
-                _box(0.17, 0.38),
+                _box(0.36, 0.34),
             ),
-            Key(1.5, {"LowerBack": (47, 0, 0)}, (0.0, -0.28, -0.17), _box(0.16, 0.38)),
+            Key(1.5, {"LowerBack": (47, 0, 0)}, (0.0, -0.28, -0.17), _box(0.35, 0.34)),
             Key(
                 2.5,
                 {"LowerBack": (22, 0, 0), "Spine": (8, 0, 0), "Spine1": (4, 0, 0)},
                 (0.0, -0.14, -0.10),
-                _box(0.50, 0.36),
+                _box(0.64, 0.30),
             ),
             Key(
                 3.2,
@@ -210,9 +213,9 @@ def lift_floor_to_waist_stoop() -> Motion:
                     "Head": (0, 0, 0),
                 },
                 (0.0, -0.03, 0.0),
-                _box(0.78, 0.30),
+                _box(0.88, 0.24),
             ),
-            Key(3.6, {"LowerBack": (-6, 0, 0)}, (0.0, -0.02, 0.0), _box(0.79, 0.30)),
+            Key(3.6, {"LowerBack": (-6, 0, 0)}, (0.0, -0.02, 0.0), _box(0.89, 0.24)),
         ],
         "lift_floor_to_waist_stoop",
     )
@@ -388,13 +391,13 @@ def fall_down_forwards() -> Motion:
                     "RightArm": (-75, 0, 35),
                 },
                 (0.0, -0.33, 0.50),
-                {**_planted(heel_raise_deg=75), **_hands_world(0.45, 0.98)},
+                {**_planted(heel_raise_deg=75), **_hands_world(0.55, 0.90, 0.24)},
             ),
             Key(
                 1.5,
-                {"Hips": (40, 0, 0), "LowerBack": (15, 0, 0), "Head": (-20, 0, 0)},
-                (0.0, -0.45, 0.68),
-                _hands_world(0.05, 1.25),
+                {"Hips": (45, 0, 0), "LowerBack": (15, 0, 0), "Head": (-20, 0, 0)},
+                (0.0, -0.50, 0.72),
+                _hands_world(0.05, 1.15),
             ),
             Key(
                 2.1,
@@ -453,13 +456,13 @@ def fall_down_backwards() -> Motion:
             ),
             Key(
                 1.1,
-                {"Hips": (-15, 0, 0), "LowerBack": (15, 0, 0)},
+                {"Hips": (-25, 0, 0), "LowerBack": (15, 0, 0)},
                 (0.0, -0.72, -0.42),
                 {
                     "LeftFoot": Target((0.18, 0.047, 0.10), rotation_deg=(-10, 0, 0)),
                     "RightFoot": Target((-0.18, 0.047, 0.10), rotation_deg=(-10, 0, 0)),
-                    "LeftHand": Target((0.30, 0.05, -0.62)),
-                    "RightHand": Target((-0.30, 0.05, -0.62)),
+                    "LeftHand": Target((0.30, 0.05, -0.56)),
+                    "RightHand": Target((-0.30, 0.05, -0.56)),
                 },
             ),
             Key(
@@ -484,8 +487,8 @@ def fall_down_backwards() -> Motion:
                 {"Head": (0, 20, 0)},
                 (0.0, -0.74, -0.55),
                 {
-                    "LeftFoot": Target((0.22, 0.06, 0.33), rotation_deg=(-40, 0, 0)),
-                    "RightFoot": Target((-0.22, 0.06, 0.33), rotation_deg=(-40, 0, 0)),
+                    "LeftFoot": Target((0.22, 0.06, 0.27), rotation_deg=(-40, 0, 0)),
+                    "RightFoot": Target((-0.22, 0.06, 0.27), rotation_deg=(-40, 0, 0)),
                 },
             ),
         ],
@@ -519,7 +522,7 @@ def fall_down_sideways() -> Motion:
                  "RightUpLeg": (-35, 0, 0), "RightLeg": (50, 0, 0),
                  "RightArm": (-30, 0, 35)},
                 (0.50, -0.70, 0.05),
-                {"LeftHand": Target((0.95, 0.05, 0.25))},
+                {"LeftHand": Target((1.35, 0.05, 0.20))},
             ),
             Key(2.6, {}, (0.50, -0.70, 0.05)),
         ],

@@ -1,0 +1,205 @@
+"""Exact search through the key tree: equal to brute force, ties, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigmotion.errors import InvalidParameterError
+from eigmotion.keys import Quantizer
+from eigmotion.search import BruteForceIndex, SearchResult, TreeIndex, brute_force
+from eigmotion.search import _pair_sq_distances as pair_sq_distances
+
+
+def motion_like(n: int, n_dims: int, n_groups: int, rng) -> np.ndarray:
+    """(n, n_dims) float32 points drawn like motion-image points.
+
+    Eigenvalue-like decaying spread per axis (std ∝ 1/√axis); ``n_groups`` clusters
+    (one per motion and view), each a smooth random walk (time windows sliding along
+    the motion) plus a little noise.
+    """
+    scale = (1.0 / np.sqrt(np.arange(1, n_dims + 1))).astype(np.float32)
+    per = -(-n // n_groups)
+    centres = rng.standard_normal((n_groups, 1, n_dims), dtype=np.float32) * scale
+    walk = rng.standard_normal((n_groups, per, n_dims), dtype=np.float32) * (0.03 * scale)
+    walk = np.cumsum(walk, axis=1)
+    walk += centres
+    walk += rng.standard_normal(walk.shape, dtype=np.float32) * (0.02 * scale)
+    return walk.reshape(-1, n_dims)[:n]
+
+
+def queries_like(points: np.ndarray, n: int, rng, unknown: float = 0.1) -> np.ndarray:
+    """(n, k) queries: known motions (an entry plus noise) and some unknown ones."""
+    n_dims = points.shape[1]
+    scale = 1.0 / np.sqrt(np.arange(1, n_dims + 1))
+    known = points[rng.integers(0, len(points), n)] + 0.03 * scale * rng.standard_normal(
+        (n, n_dims)
+    )
+    fresh = rng.random(n) < unknown
+    known[fresh] = scale * rng.standard_normal((int(fresh.sum()), n_dims))
+    return known
+
+
+def naive(points, ids, queries, top_k):
+    """Every distance by the shared formula, sorted by (distance, id)."""
+    p = np.asarray(points, dtype=np.float32)
+    out_ids, out_d = [], []
+    for q in np.atleast_2d(queries).astype(np.float32):
+        sq = pair_sq_distances(p, q)
+        order = np.lexsort((ids, sq))[:top_k]
+        out_ids.append(ids[order])
+        out_d.append(np.sqrt(sq[order].astype(np.float64)))
+    return np.array(out_ids), np.array(out_d)
+
+
+def assert_same(result: SearchResult, reference: SearchResult):
+    np.testing.assert_array_equal(result.ids, reference.ids)
+    np.testing.assert_array_equal(result.distances, reference.distances)
+
+
+def tree_of(points, ids, n_axes=4, n_sections=8, method="quantile", leaf_size=32):
+    quantizer = Quantizer(n_axes, n_sections, method).fit(points)
+    return TreeIndex.from_arrays(quantizer.keys(points), points, ids, quantizer, leaf_size)
+
+
+@pytest.mark.slow
+def test_equals_brute_force_on_a_million_points():
+    rng = np.random.default_rng(20)
+    points = motion_like(1_000_000, 20, 2000, rng)
+    ids = np.arange(points.shape[0])
+    tree = tree_of(points, ids, n_axes=4, n_sections=8)
+    queries = queries_like(points, 10_000, rng)
+    found = tree.search(queries)
+    assert_same(found, BruteForceIndex.from_arrays(points, ids).search(queries))
+    # Exact, yet it looked at a small fraction of the entries.
+    assert np.median(found.examined) < 0.001 * points.shape[0]
+    assert found.examined.mean() < 0.01 * points.shape[0]
+
+
+@pytest.mark.parametrize("method", ["quantile", "equal"])
+@pytest.mark.parametrize(("n_axes", "n_sections"), [(1, 2), (2, 16), (3, 8), (6, 4), (8, 8)])
+@pytest.mark.parametrize("top_k", [1, 5])
+def test_equals_brute_force(method, n_axes, n_sections, top_k):
+    rng = np.random.default_rng(n_axes * 100 + n_sections)
+    points = motion_like(3000, 12, 20, rng)
+    ids = rng.permutation(10_000)[:3000]  # ids in no particular order
+    tree = tree_of(points, ids, n_axes, n_sections, method, leaf_size=16)
+    tree.check()
+    queries = queries_like(points, 300, rng, unknown=0.2)
+    found = tree.search(queries, top_k)
+    assert found.ids.shape == found.distances.shape == (300, top_k)
+    assert_same(found, brute_force(points, ids, queries, top_k))
+    assert np.all(found.examined >= top_k)
+    assert np.all(np.diff(found.distances, axis=1) >= 0)
+
+
+@pytest.mark.parametrize("leaf_size", [1, 3, 64, 5000])
+@pytest.mark.parametrize("top_k", [1, 40])
+def test_leaf_sizes_and_large_top_k(leaf_size, top_k):
+    rng = np.random.default_rng(leaf_size)
+    points = motion_like(2000, 8, 10, rng)
+    ids = np.arange(2000)
+    tree = tree_of(points, ids, 3, 8, leaf_size=leaf_size)
+    tree.check()
+    queries = queries_like(points, 100, rng)
+    assert_same(tree.search(queries, top_k), brute_force(points, ids, queries, top_k))
+
+
+def test_brute_force_equals_naive_scan(rng):
+    points = motion_like(5000, 10, 5, rng)
+    ids = rng.permutation(5000)
+    queries = queries_like(points, 50, rng)
+    for top_k in (1, 7):
+        result = brute_force(points, ids, queries, top_k)
+        want_ids, want_d = naive(points, ids, queries, top_k)
+        np.testing.assert_array_equal(result.ids, want_ids)
+        np.testing.assert_array_equal(result.distances, want_d)
+        assert np.all(result.examined == 5000)
+
+
+def test_points_far_from_the_origin_screen_exactly():
+    # Large norms and tiny gaps stress the float32 screen of brute force.
+    rng = np.random.default_rng(3)
+    points = (1000.0 + 1e-3 * rng.standard_normal((3000, 6))).astype(np.float32)
+    ids = np.arange(3000)
+    queries = points[:40] + 1e-4
+    want_ids, want_d = naive(points, ids, queries, 3)
+    result = brute_force(points, ids, queries, 3)
+    np.testing.assert_array_equal(result.ids, want_ids)
+    np.testing.assert_array_equal(result.distances, want_d)
+    assert_same(tree_of(points, ids, 2, 8, leaf_size=8).search(queries, 3), result)
+
+
+def test_ties_are_broken_by_id():
+    # Duplicated points under shuffled ids, and points equidistant from the query.
+    base = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [5.0, 5.0, 5.0]])
+    points = np.repeat(base, 10, axis=0).astype(np.float32)
+    ids = np.random.default_rng(1).permutation(np.arange(100, 140))
+    tree = tree_of(points, ids, 2, 4, leaf_size=2)
+    query = np.zeros(3)
+    found = tree.search(query, top_k=30)
+    near = np.sort(ids[:30])  # the 30 entries at distance 1, in id order
+    np.testing.assert_array_equal(found.ids[0], near)
+    np.testing.assert_array_equal(found.distances[0], np.ones(30))
+    assert_same(found, brute_force(points, ids, query, 30))
+    on_point = tree.search(base[3], top_k=3)
+    np.testing.assert_array_equal(on_point.ids[0], np.sort(ids[30:])[:3])
+    assert np.all(on_point.distances == 0)
+
+
+def test_single_query_shape_and_from_store_equivalence(rng):
+    points = motion_like(500, 6, 4, rng)
+    ids = np.arange(500)
+    tree = tree_of(points, ids, 2, 8)
+    one = tree.search(points[7])
+    assert one.ids.shape == (1, 1) and one.ids[0, 0] == 7 and one.distances[0, 0] == 0
+    assert one.examined.shape == (1,)
+    assert tree.n_entries == 500 and tree.n_dims == 6
+    assert 1 <= tree.n_bins <= 64 and tree.n_leaves >= 500 // 32
+
+
+def test_examines_few_entries_on_clustered_data():
+    rng = np.random.default_rng(5)
+    points = motion_like(100_000, 24, 200, rng)
+    ids = np.arange(100_000)
+    tree = tree_of(points, ids, 4, 8)
+    queries = queries_like(points, 300, rng, unknown=0.0)
+    found = tree.search(queries)
+    assert_same(found, brute_force(points, ids, queries))
+    assert found.examined.mean() < 0.01 * 100_000
+
+
+def test_search_errors(rng):
+    points = motion_like(100, 5, 2, rng)
+    ids = np.arange(100)
+    tree = tree_of(points, ids, 2, 4)
+    for bad, match in [
+        (np.zeros(4), r"\(5,\)"),
+        (np.zeros((2, 6)), r"\(Q, 5\)"),
+        (np.array([0, 0, np.nan, 0, 0]), "query 0"),
+    ]:
+        with pytest.raises(InvalidParameterError, match=match):
+            tree.search(bad)
+    for top_k in (0, 101, 2.0, True):
+        with pytest.raises(InvalidParameterError, match="top_k"):
+            tree.search(points[0], top_k)
+    quantizer = tree.quantizer
+    keys = quantizer.keys(points)
+    with pytest.raises(InvalidParameterError, match="differ from the quantizer"):
+        TreeIndex.from_arrays(keys[::-1], points, ids, quantizer)
+    with pytest.raises(InvalidParameterError, match="unique"):
+        TreeIndex.from_arrays(keys, points, np.zeros(100, dtype=int), quantizer)
+    with pytest.raises(InvalidParameterError, match="leaf_size"):
+        TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size=0)
+    with pytest.raises(InvalidParameterError, match="NaN"):
+        TreeIndex.from_arrays(keys, np.where(points > 0.5, np.nan, points), ids, quantizer)
+    with pytest.raises(TypeError):
+        TreeIndex()
+
+
+def test_empty_index_refuses_queries():
+    quantizer = Quantizer(1, 2).fit(np.zeros((1, 3)))
+    tree = TreeIndex.from_arrays(np.zeros(0, int), np.zeros((0, 3)), np.zeros(0, int), quantizer)
+    assert tree.n_entries == 0 and tree.n_bins == 0
+    with pytest.raises(InvalidParameterError, match="exceeds the 0 entries"):
+        tree.search(np.zeros(3))
