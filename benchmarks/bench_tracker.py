@@ -21,6 +21,7 @@ Run from the repository root::
 
     python benchmarks/bench_tracker.py            # clean silhouettes
     python benchmarks/bench_tracker.py --video    # through background subtraction
+    python benchmarks/bench_tracker.py --body-scale 1 --no-recovery   # the paper's tracker
 """
 
 from __future__ import annotations
@@ -184,7 +185,11 @@ def main() -> None:
             views = [frames for frames, _ in composed]
             masks = [cut_out(frames, bg) for frames, bg in composed]
         for mode in ("tree", "exhaustive"):
-            config = TrackerConfig(exhaustive=mode == "exhaustive")
+            config = TrackerConfig(
+                exhaustive=mode == "exhaustive",
+                body_scale=args.body_scale,
+                recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
+            )
             tracker = SilhouetteTracker(dictionary, cams, bodies, config)
             result, first_s, later_s, later_wall_s = track(tracker, masks)
             err = np.linalg.norm(result.joint_positions_m - pos, axis=-1)[:, body_joints]

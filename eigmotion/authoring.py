@@ -11,7 +11,7 @@ Conventions (those of :mod:`eigmotion.motion` and :mod:`eigmotion.canonical`):
   relative to its rest pose, so a key rotation ``(x, y, z)`` of a joint turns the joint
   (and everything below it) about its parent's axes: positive X swings a hanging limb
   backwards and bends the spine forwards, positive Y turns to the body's left, positive Z
-  rolls a limb towards -X;
+  turns +X towards +Y (raises the left arm sideways, lowers the right);
 * key rotations are Euler angles in degrees, always written ``(x, y, z)`` and composed
   in the order ``order`` (intrinsic, as BVH channels: ``"ZXY"`` means
   ``R = Rz(z) @ Rx(x) @ Ry(y)``).
@@ -25,8 +25,9 @@ The pipeline of :func:`animate`, one stage after the other:
    never overshooting a key, at rest at every key that is a local extremum;
 3. two-bone inverse kinematics moves the limbs that have targets (feet planted on the
    floor, hands on a box or on the body);
-4. each frame is lifted or lowered so that its lowest point (joint or end site) touches
-   the floor, so nothing sinks and something always bears the weight.
+4. each frame is lifted or lowered so that its lowest point (a joint, an end site or a
+   given skin point, see :func:`body_surface_points`) touches the floor, so nothing
+   sinks and something always bears the weight.
 """
 
 from __future__ import annotations

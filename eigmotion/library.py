@@ -240,6 +240,15 @@ def _frame_range(value, where: str) -> tuple[int, int] | None:
 def load_entry(entry: ManifestEntry) -> LibraryMotion:
     """Read one manifest entry's motion and trim it.
 
+    Parameters
+    ----------
+    entry : ManifestEntry
+        From :func:`read_manifest`.
+
+    Returns
+    -------
+    LibraryMotion
+
     Raises
     ------
     InvalidParameterError
@@ -247,10 +256,21 @@ def load_entry(entry: ManifestEntry) -> LibraryMotion:
     MotionFormatError
         A source file cannot be parsed.
     """
+    return _load_entry(entry, None)
+
+
+def _load_entry(entry: ManifestEntry, cache: dict | None) -> LibraryMotion:
+    """:func:`load_entry`, reusing motions already read into ``cache`` (source → Motion)."""
     for p in entry.source:
         if not p.is_file():
             raise InvalidParameterError(f"library motion {entry.name!r}: file not found: {p}")
-    motion = _read_motion_file(*entry.source)
+    if cache is not None and entry.source in cache:
+        # Several clips cut from one long file read it once.
+        motion = cache[entry.source]
+    else:
+        motion = _read_motion_file(*entry.source)
+        if cache is not None:
+            cache[entry.source] = motion
     if entry.frame_range is not None:
         start, stop = entry.frame_range
         if stop > motion.n_frames:
@@ -290,8 +310,9 @@ def load_library(
     list of LibraryMotion
         In manifest order.
     """
+    cache: dict = {}
     return [
-        load_entry(e)
+        _load_entry(e, cache)
         for e in read_manifest(manifest)
         if include_distractors or e.role != "distractor"
     ]

@@ -57,7 +57,7 @@ FILTERS = ("none", "log", "sobel")
 
 #: Fraction of the silhouette mass trimmed at each end when measuring extents, so a
 #: stray pixel far from the body does not set the crop or the body height.
-_EXTENT_TRIM = 5e-4
+_EXTENT_TRIM = 5e-3
 
 
 @dataclass(frozen=True)

@@ -214,9 +214,11 @@ def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
 class BruteForceIndex:
     """Exact nearest neighbours by scanning every entry (the reference).
 
-    Distances are screened with one float32 matrix product per block (``‖p‖² − 2 p·h``
-    against a rigorous rounding-error margin), then every entry that could be among
-    the k best is re-measured with the exact formula shared with :class:`TreeIndex`.
+    A float32 matrix product per block scores every entry, ``‖p‖² − 2 p·h`` (one
+    product of ``[p, ‖p‖²]`` and ``[−2h, 1]``); only the blocks whose best score lies
+    within a rigorous rounding-error margin of each query's k-th best are scored again
+    to pick candidates, and the candidates are re-measured with the exact formula
+    shared with :class:`TreeIndex`.
 
     Use :meth:`from_arrays` to build one.
 
@@ -226,17 +228,19 @@ class BruteForceIndex:
     ids : (N,) int64
     """
 
-    #: Queries per screening block, fewest entries per block, and most scores per
-    #: block (16 MiB of float32).
+    #: Queries per screening block; entries per block at least ``entry_block``, at
+    #: most ``max_entry_block``, and about ``block_scores`` scores per block.
     query_block = 512
     entry_block = 8192
+    max_entry_block = 65536
     block_scores = 1 << 22
 
     def __init__(self, points: np.ndarray, ids: np.ndarray):
         self.points = points
         self.ids = ids
-        self._sq_norms = np.einsum("ij,ij->i", points, points, dtype=np.float64).astype(np.float32)
-        self._max_norm = float(np.sqrt(self._sq_norms.max())) if len(points) else 0.0
+        sq_norms = np.einsum("ij,ij->i", points, points, dtype=np.float64)
+        self._augmented = np.hstack([points, sq_norms[:, None].astype(np.float32)])
+        self._max_norm = float(np.sqrt(sq_norms.max())) if len(points) else 0.0
 
     @classmethod
     def from_arrays(cls, points, ids) -> BruteForceIndex:
@@ -276,34 +280,42 @@ class BruteForceIndex:
     def _screen(self, queries: np.ndarray, top_k: int) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (query row, entry index) that may be among each query's k best."""
         n_q, n_dims = queries.shape
-        minus_2q = queries * np.float32(-2.0)  # exact scaling
+        augmented = np.empty((n_q, n_dims + 1), dtype=np.float32)
+        augmented[:, :n_dims] = queries * np.float32(-2.0)  # exact scaling
+        augmented[:, n_dims] = 1.0
         q_norm = np.sqrt(np.einsum("ij,ij->i", queries, queries, dtype=np.float64))
-        # Every float32 operation of s = ‖p‖² − 2 p·h errs by at most u (‖p‖ + ‖h‖)²
-        # whatever the summation order; a generous count of them keeps the screen
-        # rigorous: a true k-best entry always scores within 2 margins of the k-th
+        # A float32 product of k + 1 terms errs by at most (k + 1) u (‖p‖ + ‖h‖)²
+        # whatever the summation order, the exact formula by (k + 2) u (‖p‖ + ‖h‖)²;
+        # a true k-best entry therefore always scores within 2 margins of the k-th
         # smallest score.
-        margin = (4.0 * (n_dims + 8) * _U32 * (self._max_norm + q_norm) ** 2).astype(np.float32)
+        margin = 4.0 * (n_dims + 8) * _U32 * (self._max_norm + q_norm) ** 2
+        width = int(np.clip(self.block_scores // n_q, self.entry_block, self.max_entry_block))
+        starts = np.arange(0, self.n_entries, width)
+        block_best = np.empty((n_q, starts.size), dtype=np.float32)
         kth = np.full((n_q, top_k), np.inf, dtype=np.float32)
-        width = max(self.entry_block, self.block_scores // n_q)
-        found_q, found_i, found_s = [], [], []
-        for lo in range(0, self.n_entries, width):
-            scores = minus_2q @ self.points[lo : lo + width].T
-            scores += self._sq_norms[lo : lo + width]
+        for b, lo in enumerate(starts):
+            scores = augmented @ self._augmented[lo : lo + width].T
             if top_k == 1:
-                np.minimum(kth[:, 0], scores.min(axis=1), out=kth[:, 0])
+                block_best[:, b] = scores.min(axis=1)
+                np.minimum(kth[:, 0], block_best[:, b], out=kth[:, 0])
             else:
                 part = min(top_k, scores.shape[1])
                 smallest = np.partition(scores, part - 1, axis=1)[:, :part]
+                block_best[:, b] = smallest.min(axis=1)
                 kth = np.partition(np.hstack([kth, smallest]), top_k - 1, axis=1)[:, :top_k]
-            threshold = kth.max(axis=1) + 2.0 * margin
-            flat = np.flatnonzero(scores <= threshold[:, None])
-            rows, cols = np.divmod(flat, scores.shape[1])
-            found_q.append(rows)
-            found_i.append(cols + lo)
-            found_s.append(scores.ravel()[flat])
-        rows, cols, scores = map(np.concatenate, (found_q, found_i, found_s))
-        keep = scores <= (kth.max(axis=1) + 2.0 * margin)[rows]
-        return rows[keep], cols[keep]
+        threshold = (kth.max(axis=1) + 2.0 * margin).astype(np.float32)
+        # Second pass: score again only the blocks that may hold a k-best entry.
+        rows, blocks = np.nonzero(block_best <= threshold[:, None])
+        found_q, found_i = [], []
+        for b in np.unique(blocks):
+            lo = starts[b]
+            these = rows[blocks == b]
+            scores = augmented[these] @ self._augmented[lo : lo + width].T
+            flat = np.flatnonzero(scores <= threshold[these, None])
+            r, c = np.divmod(flat, scores.shape[1])
+            found_q.append(these[r])
+            found_i.append(c + lo)
+        return np.concatenate(found_q), np.concatenate(found_i)
 
 
 def brute_force(points, ids, queries, top_k: int = 1) -> SearchResult:

@@ -276,7 +276,12 @@ class Store:
                 host, port = target.rsplit(":", 1)
                 try:
                     storage = ClientStorage(
-                        (host, int(port)), read_only=read_only, wait_timeout=ZEO_WAIT_S
+                        (host, int(port)),
+                        read_only=read_only,
+                        wait_timeout=ZEO_WAIT_S,
+                        # a new transaction asks the server, so refresh() sees every
+                        # commit made before it was called
+                        server_sync=True,
                     )
                 except ClientDisconnected as exc:
                     raise DatabaseError(f"{uri}: no ZEO server answered ({exc})") from exc
@@ -379,13 +384,15 @@ class Store:
             raise DatabaseError(f"{self.uri}: commit failed, nothing was written: {exc}") from exc
         finally:
             self._in_transaction = False
-        self._load_arrays()
+        if "schema_version" in self._root():
+            self._load_arrays()
 
     def refresh(self) -> None:
         """See what other clients committed since (reloads the in-memory arrays)."""
         if self._in_transaction:
             raise DatabaseError("refresh() inside an open transaction would discard it")
         self._tm.abort()
+        self._tm.begin()
         self._check_schema()
         self._load_arrays()
 
@@ -686,6 +693,8 @@ class Store:
 
     def arrays(self) -> StoreArrays:
         """The in-memory arrays (as of the last open, commit or :meth:`refresh`)."""
+        if self._db is None:
+            raise DatabaseError(f"{self.uri}: the store is closed")
         if self._arrays is None:
             self._load_arrays()
         return self._arrays

@@ -68,7 +68,7 @@ def test_equals_brute_force_on_a_million_points():
     points = motion_like(1_000_000, 20, 2000, rng)
     ids = np.arange(points.shape[0])
     tree = tree_of(points, ids, n_axes=4, n_sections=8)
-    queries = queries_like(points, 10_000, rng)
+    queries = queries_like(points, 10_000, rng, unknown=0.02)
     found = tree.search(queries)
     assert_same(found, BruteForceIndex.from_arrays(points, ids).search(queries))
     # Exact, yet it looked at a small fraction of the entries.

@@ -1,0 +1,305 @@
+"""Exact search through the key tree against brute force, KDTree and FAISS.
+
+Run from the repository root::
+
+    python benchmarks/bench_search.py                 # 10^3 … 10^6 entries, k = 32
+    python benchmarks/bench_search.py --sizes 1000 100000 --dims 24
+
+For each database size it builds every index over the same points and answers the same
+queries, and prints one Markdown table: build time, search time per query (all queries
+in one call, and one query per call), the ratio against numpy brute force, the entries
+examined, and how many answers equal the exact ones.  Then two smaller tables: the
+queries of motions that are not in the database, and the key settings (equal-width vs
+quantile sections, and the patent's plain exact-key lookup).
+
+Times are CPU seconds of this process (``time.process_time``) with every library held
+to one thread, so that a busy shared machine changes them little.  FAISS
+(``pip install faiss-cpu``, the ``bench`` extra) is optional: its rows are skipped with
+a note when it is missing.
+
+Points are drawn like motion-image points: per-axis spread decaying like an
+eigenvalue spectrum (std ∝ 1/√axis), in clusters of 500 entries (one per motion and
+view), each cluster a smooth random walk (the time window sliding along the motion)
+plus noise.  Known-motion queries are entries plus fresh noise of 1.5 times the
+entries' own; unknown-motion queries come from clusters that are not in the database.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from eigmotion.keys import Quantizer  # noqa: E402
+from eigmotion.search import BruteForceIndex, SearchResult, TreeIndex  # noqa: E402
+
+CLUSTER = 500
+
+
+def motion_like(n: int, n_dims: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, n_dims) float32 points in clusters of ``CLUSTER`` (see the module docstring)."""
+    scale = (1.0 / np.sqrt(np.arange(1, n_dims + 1))).astype(np.float32)
+    groups = max(1, -(-n // CLUSTER))
+    out = np.empty((groups * CLUSTER, n_dims), dtype=np.float32)
+    for first in range(0, groups, 200):  # 200 clusters at a time bounds memory
+        count = min(200, groups - first)
+        centres = rng.standard_normal((count, 1, n_dims), dtype=np.float32) * scale
+        walk = rng.standard_normal((count, CLUSTER, n_dims), dtype=np.float32) * (0.03 * scale)
+        walk = np.cumsum(walk, axis=1) + centres
+        walk += rng.standard_normal(walk.shape, dtype=np.float32) * (0.02 * scale)
+        out[first * CLUSTER : (first + count) * CLUSTER] = walk.reshape(-1, n_dims)
+    return out[:n]
+
+
+def known_queries(points: np.ndarray, n: int, rng) -> np.ndarray:
+    scale = 1.0 / np.sqrt(np.arange(1, points.shape[1] + 1))
+    noise = 0.03 * scale * rng.standard_normal((n, points.shape[1]))
+    return (points[rng.integers(0, len(points), n)] + noise).astype(np.float32)
+
+
+def unknown_queries(n: int, n_dims: int, rng) -> np.ndarray:
+    return motion_like(n * CLUSTER, n_dims, rng)[
+        rng.integers(0, CLUSTER, n) + CLUSTER * np.arange(n)
+    ]
+
+
+def cpu(fn, *args):
+    start = time.process_time()
+    out = fn(*args)
+    return out, time.process_time() - start
+
+
+class Method:
+    """One index: how to build it and how to search it (ids (Q,), examined (Q,))."""
+
+    name = ""
+
+    def build(self, points, ids):
+        raise NotImplementedError
+
+    def search(self, queries):
+        raise NotImplementedError
+
+
+class Brute(Method):
+    name = "numpy brute force"
+
+    def build(self, points, ids):
+        self.index = BruteForceIndex.from_arrays(points, ids)
+
+    def search(self, queries):
+        r = self.index.search(queries)
+        return r.ids[:, 0], r.examined
+
+
+class Tree(Method):
+    def __init__(self, n_axes=4, n_sections=8, method="quantile", leaf_size=32):
+        self.params = (n_axes, n_sections, method, leaf_size)
+        self.name = f"tree R={n_sections} K={n_axes} {method}"
+
+    def build(self, points, ids):
+        n_axes, n_sections, method, leaf_size = self.params
+        quantizer = Quantizer(n_axes, n_sections, method).fit(points)
+        keys = quantizer.keys(points)
+        self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
+
+    def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
+        r: SearchResult = self.index.search(queries)
+        return r.ids[:, 0], r.examined
+
+
+class KeyLookup(Method):
+    """The patent's query: nearest entry among those under the query's own key."""
+
+    def __init__(self, n_axes, n_sections):
+        self.params = (n_axes, n_sections)
+        self.name = f"exact-key lookup R={n_sections} K={n_axes}"
+
+    def build(self, points, ids):
+        n_axes, n_sections = self.params
+        self.quantizer = Quantizer(n_axes, n_sections).fit(points)
+        keys = self.quantizer.keys(points)
+        order = np.argsort(keys, kind="stable")
+        self.keys, self.points, self.ids = keys[order], points[order], ids[order]
+
+    def search(self, queries):
+        keys = self.quantizer.keys(queries)
+        lo = np.searchsorted(self.keys, keys, side="left")
+        hi = np.searchsorted(self.keys, keys, side="right")
+        found = np.full(len(queries), -1)
+        for i, (a, b) in enumerate(zip(lo, hi, strict=True)):
+            if b > a:
+                d = ((self.points[a:b] - queries[i]) ** 2).sum(axis=1)
+                found[i] = self.ids[a + int(np.argmin(d))]
+        return found, hi - lo
+
+
+class SkKDTree(Method):
+    name = "sklearn KDTree"
+
+    def build(self, points, ids):
+        from sklearn.neighbors import KDTree
+
+        self.index, self.ids = KDTree(points, leaf_size=40), ids
+
+    def search(self, queries):
+        _, found = self.index.query(queries, k=1)
+        return self.ids[found[:, 0]], np.full(len(queries), -1)
+
+
+class FaissFlat(Method):
+    name = "FAISS IndexFlatL2"
+
+    def build(self, points, ids):
+        import faiss
+
+        self.index, self.ids = faiss.IndexFlatL2(points.shape[1]), ids
+        self.index.add(points)
+
+    def search(self, queries):
+        _, found = self.index.search(np.ascontiguousarray(queries, dtype=np.float32), 1)
+        return self.ids[found[:, 0]], np.full(len(queries), len(self.ids))
+
+
+class FaissHNSW(Method):
+    name = "FAISS HNSW (M=32, ef=64)"
+
+    def build(self, points, ids):
+        import faiss
+
+        self.index, self.ids = faiss.IndexHNSWFlat(points.shape[1], 32), ids
+        self.index.hnsw.efConstruction = 64
+        self.index.add(points)
+        self.index.hnsw.efSearch = 64
+
+    def search(self, queries):
+        _, found = self.index.search(np.ascontiguousarray(queries, dtype=np.float32), 1)
+        return self.ids[found[:, 0]], np.full(len(queries), -1)
+
+
+def have_faiss() -> bool:
+    try:
+        import faiss
+
+        faiss.omp_set_num_threads(1)
+    except ImportError:
+        return False
+    return True
+
+
+def measure(method: Method, points, ids, queries, reference, n_single: int) -> dict:
+    _, build_s = cpu(method.build, points, ids)
+    (found, examined), batch_s = cpu(method.search, queries)
+    single_s = 0.0
+    for q in queries[:n_single]:
+        _, t = cpu(method.search, q[None, :])
+        single_s += t
+    return {
+        "build_s": build_s,
+        "batch_us": 1e6 * batch_s / len(queries),
+        "single_us": 1e6 * single_s / max(n_single, 1),
+        "examined": float(np.mean(examined)) if np.all(examined >= 0) else None,
+        "exact": float(np.mean(found == reference)),
+    }
+
+
+def fmt_row(n, name, row, base) -> str:
+    examined = (
+        "—"
+        if row["examined"] is None
+        else f"{row['examined']:.0f} ({100 * row['examined'] / n:.3g}%)"
+    )
+    return (
+        f"| {n:,} | {name} | {row['build_s']:.2f} | {row['batch_us']:.0f} | "
+        f"{base['batch_us'] / row['batch_us']:.1f}× | {row['single_us']:.0f} | "
+        f"{base['single_us'] / row['single_us']:.1f}× | {examined} | {100 * row['exact']:.1f}% |"
+    )
+
+
+HEADER = (
+    "| entries | method | build s | µs/query (batch) | vs brute | µs/query (single) | "
+    "vs brute | examined (mean) | exact |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|"
+)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000, 1_000_000])
+    parser.add_argument("--dims", type=int, default=32, help="eigen-coordinates k")
+    parser.add_argument("--queries", type=int, default=1000)
+    parser.add_argument("--single", type=int, default=50, help="queries timed one by one")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    rng = np.random.default_rng(args.seed)
+    faiss_ok = have_faiss()
+
+    print(
+        f"k = {args.dims} eigen-coordinates, {args.queries} known-motion queries per size, "
+        f"{args.single} timed one by one; CPU time, one thread.\n"
+    )
+    print(HEADER)
+    last = None
+    for n in args.sizes:
+        points = motion_like(n, args.dims, rng)
+        ids = np.arange(n)
+        queries = known_queries(points, args.queries, rng)
+        brute = Brute()
+        brute.build(points, ids)
+        reference, _ = brute.search(queries)
+        methods = [brute, Tree(), SkKDTree()]
+        if faiss_ok:
+            methods += [FaissFlat(), FaissHNSW()]
+        rows = {}
+        for method in methods:
+            rows[method.name] = measure(method, points, ids, queries, reference, args.single)
+            print(fmt_row(n, method.name, rows[method.name], rows[brute.name]), flush=True)
+        last = (n, points, ids, rows[brute.name])
+    if not faiss_ok:
+        print("\nFAISS rows skipped: faiss is not importable (pip install faiss-cpu).")
+
+    n, points, ids, base = last
+    print(f"\nQueries of motions not in the database, {n:,} entries:\n")
+    print(HEADER)
+    queries = unknown_queries(min(args.queries, 200), args.dims, rng)
+    brute = Brute()
+    brute.build(points, ids)
+    reference, _ = brute.search(queries)
+    rows = {}
+    for method in (brute, Tree()):
+        rows[method.name] = measure(method, points, ids, queries, reference, min(args.single, 20))
+        print(fmt_row(n, method.name, rows[method.name], rows[brute.name]), flush=True)
+
+    n_keys = min(100_000, max(args.sizes))
+    print(f"\nKey settings, {n_keys:,} entries (known-motion queries):\n")
+    print(HEADER)
+    points, ids = motion_like(n_keys, args.dims, rng), np.arange(n_keys)
+    queries = known_queries(points, args.queries, rng)
+    brute = Brute()
+    brute.build(points, ids)
+    reference, _ = brute.search(queries)
+    base = measure(brute, points, ids, queries, reference, args.single)
+    methods = [
+        Tree(4, 8, "quantile"),
+        Tree(4, 8, "equal"),
+        Tree(2, 16, "quantile"),
+        Tree(2, 16, "equal"),
+        Tree(8, 4, "quantile"),
+        Tree(8, 4, "equal"),
+        KeyLookup(4, 4),
+        KeyLookup(4, 8),
+        KeyLookup(2, 16),
+    ]
+    for method in methods:
+        row = measure(method, points, ids, queries, reference, args.single)
+        print(fmt_row(n_keys, method.name, row, base), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

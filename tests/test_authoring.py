@@ -1,0 +1,430 @@
+"""Keyframe engine (eigmotion.authoring) and the authored basic motions it produces."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from eigmotion.authoring import (
+    Key,
+    Target,
+    aim_deg,
+    animate,
+    body_surface_points,
+    foot_targets,
+    lowest_point_m,
+    rest_positions_m,
+    standing_root_height_m,
+    two_bone_ik,
+)
+from eigmotion.bvh import read_bvh
+from eigmotion.canonical import CANONICAL_JOINTS, canonical_skeleton
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.kinematics import forward_kinematics
+from eigmotion.rotations import euler_to_matrix
+
+REPO = Path(__file__).resolve().parents[1]
+AUTHORED = REPO / "database" / "motions" / "authored"
+
+#: Motions in which both feet stay planted from start to end.
+PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_")
+
+
+def _load_generator():
+    spec = importlib.util.spec_from_file_location("authored_generate", AUTHORED / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def generator():
+    return _load_generator()
+
+
+@pytest.fixture(scope="module")
+def regenerated(generator, tmp_path_factory):
+    out = tmp_path_factory.mktemp("authored")
+    return {p.stem: p for p in generator.write_all(out)}
+
+
+@pytest.fixture(scope="module")
+def authored_poses():
+    """FK of every shipped authored BVH, not re-grounded (the file's own floor)."""
+    out = {}
+    for path in sorted(AUTHORED.glob("*.bvh")):
+        motion = read_bvh(path)
+        out[path.stem] = (motion, forward_kinematics(motion, ground=False))
+    return out
+
+
+@pytest.fixture(scope="module")
+def skeleton():
+    return canonical_skeleton()
+
+
+def _joint(pose, name):
+    return pose.positions[:, pose.names.index(name)]
+
+
+# -- the shipped files ---------------------------------------------------------------------------
+
+
+def test_every_generated_motion_is_shipped(generator):
+    shipped = {p.stem for p in AUTHORED.glob("*.bvh")}
+    assert shipped == set(generator.MOTIONS)
+
+
+def test_shipped_bvhs_equal_a_fresh_generation(regenerated):
+    """Running generate.py reproduces the shipped BVH files."""
+    assert regenerated
+    for name, fresh_path in regenerated.items():
+        shipped = read_bvh(AUTHORED / f"{name}.bvh")
+        fresh = read_bvh(fresh_path)
+        assert shipped.skeleton.names == fresh.skeleton.names
+        np.testing.assert_allclose(shipped.skeleton.offsets, fresh.skeleton.offsets, atol=1e-6)
+        assert shipped.n_frames == fresh.n_frames
+        assert shipped.frame_time_s == pytest.approx(fresh.frame_time_s)
+        # Compare rotations, not Euler angles (equal rotations may have other angles).
+        np.testing.assert_allclose(
+            shipped.local_rotations(), fresh.local_rotations(), atol=1e-5, err_msg=name
+        )
+        np.testing.assert_allclose(
+            shipped.local_translations(), fresh.local_translations(), atol=1e-5, err_msg=name
+        )
+
+
+def test_authored_durations_and_rate(authored_poses):
+    for name, (motion, _) in authored_poses.items():
+        assert 1.5 <= motion.duration_s <= 4.0, name
+        assert motion.fps == pytest.approx(30.0), name
+        assert motion.skeleton.names == CANONICAL_JOINTS
+
+
+@pytest.mark.parametrize("label", ["lift", "sit_down", "cover_head", "fall_down"])
+def test_two_or_three_variations_per_label(generator, label):
+    names = [n for n in generator.MOTIONS if n.startswith(label + "_")]
+    assert 2 <= len(names) <= 3
+
+
+def test_nothing_sinks_below_the_floor(authored_poses):
+    for name, (_, pose) in authored_poses.items():
+        assert pose.all_points()[..., 1].min() >= -0.01, name
+
+
+def _feet_points(pose):
+    names = ("LeftFoot", "LeftToeBase", "RightFoot", "RightToeBase")
+    joints = [pose.names.index(n) for n in names]
+    ends = [i for i, j in enumerate(pose.end_site_joints) if pose.names[j] in names]
+    return np.concatenate([pose.positions[:, joints], pose.end_sites[:, ends]], axis=1)
+
+
+def test_feet_on_the_floor_while_standing(authored_poses):
+    """Standing phase: the hips above 0.5 m, i.e. the legs bear the weight."""
+    for name, (_, pose) in authored_poses.items():
+        standing = _joint(pose, "Hips")[:, 1] > 0.5
+        assert standing[0], name
+        lowest_foot = _feet_points(pose)[standing, :, 1].min(axis=1)
+        assert lowest_foot.max() <= 0.02, name
+
+
+@pytest.mark.parametrize("prefix", PLANTED_PREFIXES)
+def test_planted_feet_do_not_slide(authored_poses, prefix):
+    checked = 0
+    for name, (_, pose) in authored_poses.items():
+        if not name.startswith(prefix):
+            continue
+        for foot in ("LeftFoot", "RightFoot"):
+            xz = _joint(pose, foot)[:, [0, 2]]
+            assert np.linalg.norm(xz - xz[0], axis=1).max() < 0.01, (name, foot)
+        checked += 1
+    assert checked >= 2
+
+
+def _segment_distance(points, a, b):
+    ab = b - a
+    t = np.clip(np.sum((points - a) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
+    return np.linalg.norm(points - (a + t[..., None] * ab), axis=-1)
+
+
+def test_hands_stay_outside_the_torso(authored_poses):
+    """Hand joints keep >= 9 cm from the spine line (the belly is 12-17 cm in front)."""
+    spine = ("Hips", "LowerBack", "Spine", "Spine1", "Neck")
+    for name, (_, pose) in authored_poses.items():
+        for hand in ("LeftHand", "LeftFingerBase", "RightHand", "RightFingerBase"):
+            p = _joint(pose, hand)
+            d = min(
+                _segment_distance(p, _joint(pose, a), _joint(pose, b)).min()
+                for a, b in zip(spine[:-1], spine[1:], strict=True)
+            )
+            assert d >= 0.09, (name, hand, d)
+
+
+def test_hands_stay_outside_the_head(authored_poses):
+    for name, (_, pose) in authored_poses.items():
+        head = pose.rotations[:, pose.names.index("Head")]
+        centre = _joint(pose, "Head") + np.einsum("fab,b->fa", head, [0.0, 0.08, 0.03])
+        for hand in ("LeftHand", "RightHand"):
+            assert np.linalg.norm(_joint(pose, hand) - centre, axis=1).min() >= 0.09, name
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["sit_down_holding_stomach_slow", "sit_down_holding_stomach_fast", "sit_down_doubled_over"],
+)
+def test_sitting_ends_on_a_chair_with_hands_on_the_stomach(authored_poses, generator, name):
+    _, pose = authored_poses[name]
+    hips = _joint(pose, "Hips")[-1]
+    # The buttocks (about 0.11 m under the hip joint) rest at seat height.
+    assert hips[1] - 0.11 == pytest.approx(generator.SEAT_HEIGHT_M, abs=0.03)
+    lower_back = pose.rotations[-1, pose.names.index("LowerBack")]
+    for hand in ("LeftHand", "RightHand"):
+        local = lower_back.T @ (_joint(pose, hand)[-1] - _joint(pose, "LowerBack")[-1])
+        assert 0.05 <= local[2] <= 0.2 and -0.05 <= local[1] <= 0.25, (hand, local)
+
+
+@pytest.mark.parametrize("name", ["cover_head_standing", "cover_head_crouching"])
+def test_cover_head_ends_with_both_hands_on_the_crown(authored_poses, name):
+    _, pose = authored_poses[name]
+    crown = pose.end_sites[-1, list(pose.end_site_joints).index(pose.names.index("Head"))]
+    for hand in ("LeftHand", "RightHand"):
+        assert np.linalg.norm(_joint(pose, hand)[-1] - crown) < 0.15
+
+
+@pytest.mark.parametrize(
+    "name", ["fall_down_forwards", "fall_down_backwards", "fall_down_sideways"]
+)
+def test_falls_end_lying_on_the_floor(authored_poses, name):
+    _, pose = authored_poses[name]
+    assert _joint(pose, "Head")[0, 1] > 1.4
+    assert _joint(pose, "Head")[-1, 1] < 0.5
+    assert _joint(pose, "Hips")[-1, 1] < 0.3
+
+
+# -- the engine ----------------------------------------------------------------------------------
+
+
+def test_rest_keys_stand_on_the_floor(skeleton):
+    motion = animate([Key(0.0), Key(1.0)], skeleton, fps=30.0)
+    assert motion.n_frames == 31
+    assert motion.length_unit_m == 1.0
+    pose = forward_kinematics(motion, ground=False)
+    assert pose.all_points()[..., 1].min(axis=1) == pytest.approx(np.zeros(31), abs=1e-9)
+    np.testing.assert_allclose(pose.rotations, np.broadcast_to(np.eye(3), pose.rotations.shape))
+    assert _joint(pose, "Hips")[:, 1] == pytest.approx(standing_root_height_m(skeleton))
+
+
+@pytest.mark.parametrize("order", ["ZXY", "XYZ", "YZX"])
+@pytest.mark.parametrize("fps", [24.0, 30.0, 60.0])
+def test_interpolation_passes_through_the_keys(skeleton, order, fps):
+    angles = {"LowerBack": (30.0, 10.0, -5.0), "LeftArm": (-40.0, 20.0, 35.0)}
+    keys = [Key(0.0), Key(0.5, angles), Key(1.5, {"LowerBack": (0, 0, 0)})]
+    motion = animate(keys, skeleton, fps=fps, order=order, ground=False)
+    frame = round(0.5 * fps)
+    local = motion.local_rotations()[frame]
+    perm = ["XYZ".index(a) for a in order]
+    for joint, xyz in angles.items():
+        want = euler_to_matrix(np.asarray(xyz)[perm], order)
+        np.testing.assert_allclose(local[skeleton.index(joint)], want, atol=1e-6)
+
+
+def test_interpolation_does_not_overshoot(skeleton):
+    keys = [
+        Key(0.0),
+        Key(0.4, {"LeftLeg": (60, 0, 0)}),
+        Key(0.9, {}),
+        Key(1.5, {"LeftLeg": (0, 0, 0)}),
+    ]
+    motion = animate(keys, skeleton, ground=False)
+    knee = motion.local_rotations()[:, skeleton.index("LeftLeg")]
+    angle = np.degrees(Rotation.from_matrix(knee).magnitude())
+    assert angle.max() <= 60.0 + 1e-6
+    assert angle[0] == pytest.approx(0.0, abs=1e-6) and angle[-1] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_unnamed_joints_hold_their_previous_rotation(skeleton):
+    keys = [Key(0.0, {"Head": (20, 0, 0)}), Key(1.0, {"Spine": (10, 0, 0)})]
+    motion = animate(keys, skeleton, ground=False)
+    head = motion.local_rotations()[:, skeleton.index("Head")]
+    np.testing.assert_allclose(head, np.broadcast_to(head[0], head.shape), atol=1e-9)
+
+
+@pytest.mark.parametrize("drop_m", [0.1, 0.3, 0.45])
+def test_planted_feet_stay_while_the_hips_go_down(skeleton, drop_m):
+    feet = foot_targets(skeleton, extra_width_m=0.05, toe_out_deg=10.0)
+    keys = [
+        Key(0.0, targets=feet),
+        Key(1.0, {}, (0.0, -drop_m, -0.3 * drop_m)),
+        Key(2.0, {}, (0, 0, 0)),
+    ]
+    pose = forward_kinematics(animate(keys, skeleton), ground=False)
+    for foot, target in feet.items():
+        np.testing.assert_allclose(
+            _joint(pose, foot), np.broadcast_to(target.position_m, (pose.n_frames, 3)), atol=2e-3
+        )
+    hips = _joint(pose, "Hips")[:, 1]
+    assert hips.min() == pytest.approx(standing_root_height_m(skeleton) - drop_m, abs=0.02)
+    # The knees bend forwards, never backwards.
+    for knee, hip in (("LeftLeg", "LeftUpLeg"), ("RightLeg", "RightUpLeg")):
+        assert np.all(_joint(pose, knee)[:, 2] >= _joint(pose, hip)[:, 2] - 0.01)
+
+
+@pytest.mark.parametrize("frame", [None, "Spine1", "Head"])
+def test_hand_targets_are_reached(skeleton, frame):
+    target = (0.2, -0.1, 0.35) if frame else (0.25, 1.2, 0.35)
+    keys = [
+        Key(0.0, {"LowerBack": (0, 0, 0)}),
+        Key(1.0, {"LowerBack": (20, 0, 0)}, targets={"LeftHand": Target(target, frame)}),
+        Key(1.5, {}),
+    ]
+    pose = forward_kinematics(animate(keys, skeleton, ground=False), ground=False)
+    hand = _joint(pose, "LeftHand")[30]
+    if frame is None:
+        want = np.asarray(target)
+    else:
+        j = pose.names.index(frame)
+        want = pose.positions[30, j] + pose.rotations[30, j] @ np.asarray(target)
+    np.testing.assert_allclose(hand, want, atol=2e-3)
+    # The untargeted arm is untouched by IK.
+    assert _joint(pose, "RightHand")[0] == pytest.approx(rest_positions_m(skeleton)["RightHand"])
+
+
+def test_target_rotation_sets_the_end_joint_orientation(skeleton):
+    feet = foot_targets(skeleton, heel_raise_deg=40.0)
+    keys = [Key(0.0, targets=foot_targets(skeleton)), Key(1.0, {}, (0, -0.1, 0), feet)]
+    pose = forward_kinematics(animate(keys, skeleton, ground=False), ground=False)
+    foot = pose.rotations[-1, pose.names.index("LeftFoot")]
+    np.testing.assert_allclose(foot, euler_to_matrix([40.0, 0.0, 0.0], "XYZ"), atol=1e-6)
+
+
+def test_heel_raise_pivots_about_the_ball_of_the_foot(skeleton):
+    rest = rest_positions_m(skeleton)
+    for heel_deg in (0.0, 30.0, 75.0):
+        target = foot_targets(skeleton, heel_raise_deg=heel_deg)["LeftFoot"]
+        rot = euler_to_matrix(np.asarray(target.rotation_deg)[[2, 0, 1]], "ZXY")
+        ball = np.asarray(target.position_m) + rot @ (rest["LeftToeBase"] - rest["LeftFoot"])
+        np.testing.assert_allclose(ball, rest["LeftToeBase"], atol=1e-9)
+
+
+def test_ground_puts_the_lowest_point_on_the_floor(skeleton):
+    points = body_surface_points()
+    keys = [Key(0.0), Key(1.0, {"Hips": (80, 0, 0)}, (0.0, -0.6, 0.5))]
+    motion = animate(keys, skeleton, contact_points_m=points)
+    local = motion.local_rotations()
+    root = motion.local_translations()[:, 0]
+    np.testing.assert_allclose(lowest_point_m(skeleton, local, root, points), 0.0, atol=1e-9)
+    # Lying face down, the chest rests on its skin, above the spine joints.
+    pose = forward_kinematics(motion, ground=False)
+    assert _joint(pose, "Spine1")[-1, 1] > 0.05
+
+
+def test_body_surface_points():
+    points = body_surface_points()
+    assert set(points) <= set(CANONICAL_JOINTS)
+    assert "LeftFoot" not in points and "Head" in points
+    for joint, pts in points.items():
+        assert pts.ndim == 2 and pts.shape[1] == 3 and 1 <= len(pts) <= 26, joint
+        assert np.abs(pts).max() < 0.5, joint
+    # The crown lies about 0.15 m above the Head joint.
+    assert points["Head"][:, 1].max() == pytest.approx(0.152, abs=0.01)
+
+
+def test_two_bone_ik_keeps_bone_lengths(rng):
+    a = rng.normal(size=(50, 3))
+    b = a + rng.normal(size=(50, 3)) * 0.3
+    c = b + rng.normal(size=(50, 3)) * 0.3
+    l1 = np.linalg.norm(b - a, axis=1)
+    l2 = np.linalg.norm(c - b, axis=1)
+    reach = rng.uniform(np.abs(l1 - l2) + 0.01, l1 + l2 - 0.01)
+    direction = rng.normal(size=(50, 3))
+    t = a + direction / np.linalg.norm(direction, axis=1, keepdims=True) * reach[:, None]
+    mid, end = two_bone_ik(a, b, c, t)
+    np.testing.assert_allclose(end, t, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(mid - a, axis=1), l1, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(end - mid, axis=1), l2, atol=1e-9)
+
+
+def test_two_bone_ik_out_of_reach_points_at_the_target():
+    a, b, c = np.zeros((1, 3)), np.array([[0, -0.4, 0.0]]), np.array([[0, -0.8, 0.0]])
+    mid, end = two_bone_ik(a, b, c, np.array([[0.0, 0.0, 2.0]]), pole_hint=[0.0, -1.0, 0.0])
+    np.testing.assert_allclose(end, [[0, 0, 0.8]], atol=1e-6)
+    np.testing.assert_allclose(mid, [[0, 0, 0.4]], atol=1e-3)
+
+
+def test_aim_deg_turns_vectors_onto_targets():
+    rest = [(0.24, -0.43, 0.87), (-0.84, -0.52, -0.15)]
+    want = [(-1.0, 0.0, 0.0), (0.0, 0.0, -1.0)]
+    for order in ("ZXY", "XYZ"):
+        xyz = aim_deg(rest, want, order)
+        rot = euler_to_matrix(np.asarray(xyz)[["XYZ".index(a) for a in order]], order)
+        np.testing.assert_allclose(
+            rot @ np.asarray(rest[0]) / np.linalg.norm(rest[0]), want[0], atol=1e-9
+        )
+
+
+# -- errors ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("keys", "match"),
+    [
+        ([Key(0.0)], "at least 2 keys"),
+        ([Key(0.0), Key(0.0)], "increase strictly"),
+        ([Key(1.0), Key(0.5)], "increase strictly"),
+        ([Key(0.0, {"Tail": (1, 2, 3)}), Key(1.0)], "Tail"),
+        ([Key(0.0, targets={"Hips": Target((0, 1, 0))}), Key(1.0)], "two-bone limb"),
+        (
+            [
+                Key(0.0, targets={"LeftHand": Target((0, 1, 0)), "LeftForeArm": Target((0, 1, 0))}),
+                Key(1.0),
+            ],
+            "overlap",
+        ),
+        (
+            [
+                Key(0.0, targets={"LeftHand": Target((0, 1, 0), "Spine")}),
+                Key(1.0, targets={"LeftHand": Target((0, 1, 0), "Head")}),
+            ],
+            "several frames",
+        ),
+        (
+            [
+                Key(
+                    0.0,
+                    targets={
+                        "LeftHand": Target((0, 1, 0), "RightHand"),
+                        "RightHand": Target((0, 1, 0)),
+                    },
+                ),
+                Key(1.0),
+            ],
+            "IK limb moves",
+        ),
+    ],
+)
+def test_bad_keys_raise(skeleton, keys, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        animate(keys, skeleton)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: Key(float("nan")),
+        lambda: Key(0.0, {"Head": (1, 2)}),
+        lambda: Key(0.0, {"Head": (1, 2, float("inf"))}),
+        lambda: Key(0.0, root_offset_m=(0, 1)),
+        lambda: Key(0.0, targets={"LeftHand": (0, 1, 0)}),
+        lambda: Target((0, 1)),
+        lambda: Target((0, 1, 0), rotation_deg=(0, float("nan"), 0)),
+        lambda: animate([Key(0.0), Key(1.0)], fps=0.0),
+        lambda: animate([Key(0.0), Key(1.0)], order="XXY"),
+    ],
+)
+def test_bad_values_raise_project_errors(make):
+    with pytest.raises(EigmotionError):
+        make()

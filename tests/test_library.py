@@ -1,0 +1,315 @@
+"""The basic-motion library: manifest, loader, and that each trimmed clip shows its label."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eigmotion.bvh import read_bvh
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.kinematics import forward_kinematics
+from eigmotion.library import (
+    DEFAULT_MANIFEST,
+    DISTRACTOR_LABELS,
+    LABELS,
+    LibraryMotion,
+    find_motion,
+    load_library,
+    motion_names,
+    read_manifest,
+)
+from eigmotion.naming import canonical_joint_map
+
+REPO = Path(__file__).resolve().parents[1]
+MOTIONS_DIR = REPO / "database" / "motions"
+PATIENT_LABELS = ("lift", "pick_up", "sit_down", "cover_head", "walk", "fall_down")
+AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down")
+
+
+@pytest.fixture(scope="module")
+def library() -> list[LibraryMotion]:
+    return load_library(include_distractors=True)
+
+
+@pytest.fixture(scope="module")
+def poses(library):
+    """Name → (canonical joint name → (F, 3) positions, metres, grounded)."""
+    out = {}
+    for lm in library:
+        pose = forward_kinematics(lm.motion)
+        joints = canonical_joint_map(lm.motion.skeleton)
+        out[lm.name] = {name: pose.positions[:, j] for name, j in joints.items()}
+    return out
+
+
+# -- manifest and loader ----------------------------------------------------------------------
+
+
+def test_default_manifest_is_the_bundled_one():
+    assert DEFAULT_MANIFEST == MOTIONS_DIR / "library.toml"
+    assert DEFAULT_MANIFEST.is_file()
+
+
+def test_every_entry_loads_with_a_known_label(library):
+    entries = read_manifest()
+    assert [lm.name for lm in library] == [e.name for e in entries]
+    for lm in library:
+        allowed = DISTRACTOR_LABELS if lm.role == "distractor" else LABELS
+        assert lm.label in allowed, lm.name
+        assert lm.motion.name == lm.name
+        assert lm.motion.fps > 0 and lm.motion.n_frames >= 2
+        assert lm.licence and lm.performer and lm.variation and lm.attribution
+        assert all(p.is_file() for p in lm.source)
+
+
+def test_durations(library):
+    for lm in library:
+        if lm.performer == "authored":
+            assert 1.5 <= lm.motion.duration_s <= 4.0, lm.name
+        else:
+            assert 1.0 <= lm.motion.duration_s <= 6.0, lm.name
+
+
+def test_frame_ranges_match_the_trimmed_motions(library):
+    for lm in library:
+        start, stop = lm.frame_range
+        assert lm.motion.n_frames == stop - start, lm.name
+
+
+def test_authored_entries_cover_their_whole_file(library):
+    """The manifest follows generate.py: an authored entry spans its whole BVH."""
+    for lm in library:
+        if lm.performer == "authored":
+            assert lm.frame_range == (0, read_bvh(lm.source[0]).n_frames), lm.name
+
+
+@pytest.mark.parametrize("label", LABELS)
+def test_every_label_has_a_motion(library, label):
+    motions = [lm for lm in library if lm.label == label and lm.role == "basic"]
+    assert motions
+    authored = [lm for lm in motions if lm.performer == "authored"]
+    if label in AUTHORED_LABELS:
+        assert 2 <= len(authored) <= 3
+
+
+def test_the_patents_six_labels_are_there():
+    assert set(PATIENT_LABELS) <= set(LABELS)
+    assert len(LABELS) == 12
+
+
+def test_distractors_are_left_out_by_default(library):
+    default = load_library()
+    assert all(lm.role == "basic" for lm in default)
+    distractors = [lm for lm in library if lm.role == "distractor"]
+    assert {lm.label for lm in distractors} == set(DISTRACTOR_LABELS)
+    assert len(default) + len(distractors) == len(library)
+    assert set(motion_names(include_distractors=False)) == {lm.name for lm in default}
+
+
+def test_sources_md_lists_every_motion():
+    text = (MOTIONS_DIR / "SOURCES.md").read_text(encoding="utf-8")
+    for entry in read_manifest():
+        assert f"`{entry.name}`" in text, entry.name
+    assert "mocap.cs.cmu.edu" in text and "NSF EIA-0196217" in text and "CC0" in text
+
+
+# -- find_motion ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["pick_up_02_06_a", "cover_head_standing", "block_135_05"])
+def test_find_motion_by_name(library, name):
+    motion = find_motion(name)
+    expected = next(lm.motion for lm in library if lm.name == name)
+    np.testing.assert_array_equal(motion.values, expected.values)
+
+
+def test_find_motion_by_path():
+    bvh = MOTIONS_DIR / "authored" / "lift_floor_to_chest.bvh"
+    assert find_motion(bvh).n_frames == read_bvh(bvh).n_frames
+    amc = find_motion(str(MOTIONS_DIR / "cmu/amc/16_35.amc"), asf=MOTIONS_DIR / "cmu/asf/16.asf")
+    assert amc.n_frames == 162
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (("no_such_motion",), "known motions: walk_02_01"),
+        (("missing.bvh",), "not found"),
+        (("missing.amc", "x.asf"), "not found"),
+        ((str(MOTIONS_DIR / "cmu/amc/16_35.amc"),), r"needs its skeleton"),
+        ((str(MOTIONS_DIR / "cmu/amc/16_35.amc"), "missing.asf"), "not found"),
+        (("clip.mp4",), "unsupported motion file type"),
+    ],
+)
+def test_find_motion_errors(args, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        find_motion(*args)
+
+
+# -- broken manifests ---------------------------------------------------------------------------
+
+GOOD_ENTRY = """
+[[motion]]
+name = "x"
+label = "run"
+source = ["cmu/amc/16_35.amc", "cmu/asf/16.asf"]
+frame_range = [0, 100]
+performer = "cmu_16"
+variation = "v"
+licence = "l"
+attribution = "a"
+"""
+
+
+def _manifest(tmp_path: Path, text: str) -> Path:
+    cmu = tmp_path / "cmu"
+    (cmu / "amc").mkdir(parents=True)
+    (cmu / "asf").mkdir()
+    shutil.copy(MOTIONS_DIR / "cmu/amc/16_35.amc", cmu / "amc")
+    shutil.copy(MOTIONS_DIR / "cmu/asf/16.asf", cmu / "asf")
+    path = tmp_path / "library.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_a_good_manifest_elsewhere_loads(tmp_path):
+    (lm,) = load_library(_manifest(tmp_path, GOOD_ENTRY))
+    assert lm.name == "x" and lm.motion.n_frames == 100 and lm.role == "basic"
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("", "one or more"),
+        ("[[motion]\n", "not a valid TOML"),
+        (GOOD_ENTRY.replace('label = "run"\n', ""), "'label'"),
+        (GOOD_ENTRY.replace('"run"', '"dance"'), "dance"),
+        (GOOD_ENTRY.replace('"run"', '"duck"'), "not a known basic label"),
+        (GOOD_ENTRY + GOOD_ENTRY, "duplicate name"),
+        (GOOD_ENTRY.replace('name = "x"', 'name = "x y"'), "letters, digits"),
+        (GOOD_ENTRY.replace("[0, 100]", "[100, 10]"), "frame_range"),
+        (GOOD_ENTRY.replace("[0, 100]", "[0.5, 10]"), "frame_range"),
+        (
+            GOOD_ENTRY.replace(
+                'source = ["cmu/amc/16_35.amc", "cmu/asf/16.asf"]', 'source = "cmu/amc/16_35.amc"'
+            ),
+            "with its .asf",
+        ),
+        (GOOD_ENTRY + 'role = "extra"\n', "role must be one of"),
+        (GOOD_ENTRY + 'colour = "red"\n', "unknown field"),
+        (GOOD_ENTRY.replace('performer = "cmu_16"', "performer = 16"), "'performer'"),
+    ],
+)
+def test_broken_manifests_raise(tmp_path, text, match):
+    path = _manifest(tmp_path, text)
+    with pytest.raises(InvalidParameterError, match=match):
+        load_library(path)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (GOOD_ENTRY.replace("16_35.amc", "16_99.amc"), "file not found"),
+        (GOOD_ENTRY.replace("[0, 100]", "[0, 1000]"), "runs past the end"),
+    ],
+)
+def test_entries_that_cannot_load_raise(tmp_path, text, match):
+    path = _manifest(tmp_path, text)
+    read_manifest(path)  # the manifest itself is fine
+    with pytest.raises(InvalidParameterError, match=match):
+        load_library(path)
+
+
+def test_missing_manifest_raises(tmp_path):
+    with pytest.raises(EigmotionError, match="manifest not found"):
+        load_library(tmp_path / "nope.toml")
+    with pytest.raises(InvalidParameterError, match="known motions"):
+        find_motion("x", manifest=_manifest(tmp_path, GOOD_ENTRY.replace('"x"', '"y"')))
+
+
+# -- each clip shows its label ----------------------------------------------------------------
+
+
+def _travel(p):
+    return float(np.linalg.norm(p["Hips"][-1, [0, 2]] - p["Hips"][0, [0, 2]]))
+
+
+def _both_feet_height(p):
+    """(F,) height of the lower ankle: > 0 only when both feet are off the floor."""
+    return np.minimum(p["LeftFoot"][:, 1], p["RightFoot"][:, 1])
+
+
+def _hands(p):
+    return np.stack([p["LeftHand"], p["RightHand"]], axis=1)
+
+
+def _yaw_change_deg(p):
+    d = p["LeftUpLeg"] - p["RightUpLeg"]
+    yaw = np.degrees(np.unwrap(np.arctan2(-d[:, 2], d[:, 0])))
+    n = max(1, len(yaw) // 10)
+    return abs(yaw[-n:].mean() - yaw[:n].mean())
+
+
+def _check_label(label: str, p, frame_time_s: float) -> None:
+    hips_y = p["Hips"][:, 1]
+    head_y = p["Head"][:, 1]
+    hands = _hands(p)
+    if label == "walk":
+        assert _travel(p) >= 2.0 and _both_feet_height(p).max() < 0.18
+    elif label == "run":
+        assert _travel(p) >= 2.5 and _both_feet_height(p).max() >= 0.18
+    elif label == "jump":
+        assert _travel(p) < 0.5 and _both_feet_height(p).max() >= 0.25
+    elif label == "pick_up":
+        assert hips_y[0] - hips_y.min() >= 0.3 and hands[..., 1].min() <= 0.3
+    elif label == "lift":
+        # The hands end higher than their lowest point, loaded from below.
+        assert hands[-1, :, 1].min() - hands[..., 1].min() >= 0.3 or (
+            (hands[..., 1] > head_y[:, None]).all(axis=1).any()
+        )
+    elif label == "sit_down":
+        # Onto a chair (the hips end well down) or a high stool (the feet end up on
+        # its rung, off the floor).
+        drop = hips_y.max() - hips_y[-1]
+        assert drop >= 0.08 and (drop >= 0.2 or _both_feet_height(p)[-1] >= 0.15)
+    elif label == "cover_head":
+        late = slice(len(head_y) // 2, None)
+        near = np.linalg.norm(hands[late] - p["Head"][late, None], axis=-1) < 0.3
+        assert near.all()
+    elif label == "fall_down":
+        assert head_y[0] > 1.4 and head_y[-1] < 0.5
+    elif label == "wave":
+        assert (hands[..., 1] > head_y[:, None]).any(axis=1).mean() >= 0.5
+    elif label == "kick":
+        feet_y = np.stack([p["LeftFoot"][:, 1], p["RightFoot"][:, 1]], axis=1)
+        assert (feet_y - feet_y.min()).max() >= 0.8
+    elif label == "punch":
+        speed = np.linalg.norm(np.diff(hands, axis=0), axis=-1) / frame_time_s
+        assert speed.max() >= 2.5
+    elif label == "turn":
+        assert _yaw_change_deg(p) >= 60 and _travel(p) >= 0.8
+    elif label == "duck":
+        assert _travel(p) >= 3.0 and hips_y.max() - hips_y.min() >= 0.15
+    elif label == "block":
+        assert (hands[..., 1] > p["Spine1"][:, None, 1] - 0.1).any()
+    else:  # pragma: no cover - every label is listed above
+        raise AssertionError(label)
+
+
+def test_each_clip_shows_its_label(library, poses):
+    """Crude body measures that tell the labels apart, so a wrong trim is caught."""
+    for lm in library:
+        try:
+            _check_label(lm.label, poses[lm.name], lm.motion.frame_time_s)
+        except AssertionError as exc:
+            raise AssertionError(f"{lm.name} does not look like {lm.label!r}") from exc
+
+
+@pytest.mark.parametrize(("label", "other"), [("walk", "run"), ("jump", "walk"), ("wave", "punch")])
+def test_label_checks_can_fail(library, poses, label, other):
+    lm = next(lm for lm in library if lm.label == other)
+    with pytest.raises(AssertionError):
+        _check_label(label, poses[lm.name], lm.motion.frame_time_s)
