@@ -183,15 +183,44 @@ def _body(shape: tuple[float | None, float], low_poly_faces: int):
     return avatar.decimated(low_poly_faces)
 
 
+def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
+    """A motion on a body, and the rig aimed at it: what every view of it is rendered from.
+
+    Parameters
+    ----------
+    motion : Motion
+    body : Avatar
+    rig : CameraRig
+    render_fps : float
+        Frames per second the motion is resampled to.
+
+    Returns
+    -------
+    vertices : (F, V, 3) float32
+        The skinned body per frame, metres.
+    fitted : CameraRig
+        The rig re-aimed so that the whole motion stays in every camera's frame.
+    """
+    _, vertices = body.animate(motion.resample(render_fps))
+    return vertices, rig.fitted(hull_points(vertices))
+
+
+def build_body(shape: tuple[float | None, float], low_poly_faces: int):
+    """The (cached) low-poly avatar of one body shape ``(height_m or None, girth)``."""
+    return _body(shape, low_poly_faces)
+
+
 @lru_cache(maxsize=2)
 def _posed(motion_index: int, shape_index: int):
-    """Vertices of a motion on a body and the rig aimed at it, cached per worker
-    process (the views of one motion share them)."""
-    library, rig, config = (_WORKER_STATE["library"], _WORKER_STATE["rig"], _WORKER_STATE["config"])
+    """:func:`pose_for_views` cached per worker process (the views of one motion share it)."""
+    library, rig, config = (
+        _WORKER_STATE["library"],
+        _WORKER_STATE["rig"],
+        _WORKER_STATE["config"],
+    )
     body = _body(config.body_shapes[shape_index], config.low_poly_faces)
-    motion = library[motion_index].motion.resample(config.render_fps)
-    _, vertices = body.animate(motion)
-    return vertices, body.faces, rig.fitted(hull_points(vertices))
+    vertices, fitted = pose_for_views(library[motion_index].motion, body, rig, config.render_fps)
+    return vertices, body.faces, fitted
 
 
 def hull_points(vertices: np.ndarray) -> np.ndarray:

@@ -42,7 +42,7 @@ bound ≤ distance holds in floating point and the answers agree bit for bit.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from numbers import Integral
+from numbers import Integral, Real
 
 import numpy as np
 
@@ -64,9 +64,11 @@ class SearchResult:
     Attributes
     ----------
     ids : (Q, top_k) int64
-        Entry ids, nearest first; equal distances in increasing id order.
+        Entry ids, nearest first; equal distances in increasing id order;
+        ``NO_ENTRY`` (-1) in slots left empty by ``max_distance``.
     distances : (Q, top_k) float64
-        Euclidean distances (not squared) in eigen-coordinate units.
+        Euclidean distances (not squared) in eigen-coordinate units; inf in empty
+        slots.
     examined : (Q,) int64
         Entries whose distance to the query was computed.
     """
@@ -133,6 +135,15 @@ def _check_queries(queries, n_dims: int) -> np.ndarray:
     return q
 
 
+def _check_max_distance(max_distance) -> float:
+    """The squared cutoff of a ``max_distance`` parameter (>= 0, may be inf)."""
+    if isinstance(max_distance, bool) or not isinstance(max_distance, Real):
+        raise InvalidParameterError(f"max_distance must be a number, got {max_distance!r}")
+    if not float(max_distance) >= 0.0:
+        raise InvalidParameterError(f"max_distance must be >= 0, got {max_distance!r}")
+    return float(max_distance) ** 2
+
+
 def _check_top_k(top_k, n_entries: int) -> int:
     if isinstance(top_k, bool) or not isinstance(top_k, Integral) or top_k < 1:
         raise InvalidParameterError(f"top_k must be a positive integer, got {top_k!r}")
@@ -141,17 +152,28 @@ def _check_top_k(top_k, n_entries: int) -> int:
     return int(top_k)
 
 
-class _TopK:
-    """Running k best (squared distance, id) per query, ties by smaller id."""
+#: Id of an empty slot in a result (fewer than top_k entries within max_distance).
+NO_ENTRY = -1
 
-    def __init__(self, n_queries: int, top_k: int):
+_SENTINEL = np.iinfo(np.int64).max
+
+
+class _TopK:
+    """Running k best (squared distance, id) per query, ties by smaller id.
+
+    Empty slots hold ``(max_sq, _SENTINEL)``, which sorts after any entry at the same
+    distance, so entries at exactly ``max_distance`` are kept.
+    """
+
+    def __init__(self, n_queries: int, top_k: int, max_sq: float = np.inf):
         self.top_k = top_k
-        self.sq = np.full((n_queries, top_k), np.inf)
-        self.ids = np.zeros((n_queries, top_k), dtype=np.int64)
+        self.max_sq = max_sq
+        self.sq = np.full((n_queries, top_k), max_sq)
+        self.ids = np.full((n_queries, top_k), _SENTINEL, dtype=np.int64)
         self.examined = np.zeros(n_queries, dtype=np.int64)
 
     def bound(self) -> np.ndarray:
-        """(Q,) float64: the k-th best squared distance so far (inf until k found)."""
+        """(Q,) float64: the k-th best squared distance so far (max_sq until k found)."""
         return self.sq[:, -1]
 
     def add(self, q: np.ndarray, sq: np.ndarray, ids: np.ndarray) -> None:
@@ -160,17 +182,23 @@ class _TopK:
             return
         if self.sq.shape[0] == 1:  # one query: no grouping needed
             self.examined[0] += q.size
-            have = np.isfinite(self.sq[0])
-            all_sq = np.concatenate([self.sq[0, have], sq])
-            all_ids = np.concatenate([self.ids[0, have], ids])
+            better = sq <= self.sq[0, -1]
+            if not better.any():
+                return
+            all_sq = np.concatenate([self.sq[0], sq[better]])
+            all_ids = np.concatenate([self.ids[0], ids[better]])
             order = np.lexsort((all_ids, all_sq))[: self.top_k]
-            self.sq[0, : order.size] = all_sq[order]
-            self.ids[0, : order.size] = all_ids[order]
+            self.sq[0] = all_sq[order]
+            self.ids[0] = all_ids[order]
             return
         self.examined += np.bincount(q, minlength=self.examined.size)
+        better = sq <= self.sq[q, -1]  # only these can enter the k best
+        if not better.any():
+            return
+        q, sq, ids = q[better], sq[better], ids[better]
         rows = np.unique(q)
         old_sq, old_ids = self.sq[rows], self.ids[rows]
-        have = np.isfinite(old_sq)
+        have = old_ids != _SENTINEL
         old_q = np.broadcast_to(rows[:, None], old_sq.shape)[have]
         all_q = np.concatenate([old_q, q])
         all_sq = np.concatenate([old_sq[have], sq])
@@ -179,12 +207,16 @@ class _TopK:
         all_q, all_sq, all_ids = all_q[order], all_sq[order], all_ids[order]
         rank = _rank_in_groups(all_q)
         keep = rank < self.top_k
-        self.sq[rows] = np.inf
+        self.sq[rows] = self.max_sq
+        self.ids[rows] = _SENTINEL
         self.sq[all_q[keep], rank[keep]] = all_sq[keep]
         self.ids[all_q[keep], rank[keep]] = all_ids[keep]
 
     def result(self) -> SearchResult:
-        return SearchResult(self.ids.copy(), np.sqrt(self.sq), self.examined.copy())
+        empty = self.ids == _SENTINEL
+        ids = np.where(empty, NO_ENTRY, self.ids)
+        distances = np.where(empty, np.inf, np.sqrt(self.sq))
+        return SearchResult(ids, distances, self.examined.copy())
 
 
 def _rank_in_groups(groups: np.ndarray) -> np.ndarray:
@@ -252,14 +284,17 @@ class BruteForceIndex:
     def n_entries(self) -> int:
         return self.points.shape[0]
 
-    def search(self, queries, top_k: int = 1) -> SearchResult:
+    def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
         """The ``top_k`` nearest entries of each query, by scanning all of them.
 
         Parameters
         ----------
         queries : (k,) or (Q, k) array of float
+            Rounded to float32, like the points.
         top_k : int
             At most the number of entries.
+        max_distance : float
+            Entries farther than this are not returned.
 
         Returns
         -------
@@ -268,22 +303,26 @@ class BruteForceIndex:
         """
         q = _check_queries(queries, self.points.shape[1])
         top_k = _check_top_k(top_k, self.n_entries)
-        best = _TopK(q.shape[0], top_k)
+        max_sq = _check_max_distance(max_distance)
+        best = _TopK(q.shape[0], top_k, max_sq)
         for lo in range(0, q.shape[0], self.query_block):
             block = q[lo : lo + self.query_block]
-            cand_q, cand_i = self._screen(block, top_k)
+            cand_q, cand_i = self._screen(block, top_k, max_sq)
             sq = _pair_sq_distances(self.points[cand_i], block[cand_q])
             best.add(cand_q + lo, sq, self.ids[cand_i])
         best.examined[:] = self.n_entries
         return best.result()
 
-    def _screen(self, queries: np.ndarray, top_k: int) -> tuple[np.ndarray, np.ndarray]:
+    def _screen(
+        self, queries: np.ndarray, top_k: int, max_sq: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (query row, entry index) that may be among each query's k best."""
         n_q, n_dims = queries.shape
         augmented = np.empty((n_q, n_dims + 1), dtype=np.float32)
         augmented[:, :n_dims] = queries * np.float32(-2.0)  # exact scaling
         augmented[:, n_dims] = 1.0
-        q_norm = np.sqrt(np.einsum("ij,ij->i", queries, queries, dtype=np.float64))
+        q_sq = np.einsum("ij,ij->i", queries, queries, dtype=np.float64)
+        q_norm = np.sqrt(q_sq)
         # A float32 product of k + 1 terms errs by at most (k + 1) u (‖p‖ + ‖h‖)²
         # whatever the summation order, the exact formula by (k + 2) u (‖p‖ + ‖h‖)²;
         # a true k-best entry therefore always scores within 2 margins of the k-th
@@ -303,7 +342,9 @@ class BruteForceIndex:
                 smallest = np.partition(scores, part - 1, axis=1)[:, :part]
                 block_best[:, b] = smallest.min(axis=1)
                 kth = np.partition(np.hstack([kth, smallest]), top_k - 1, axis=1)[:, :top_k]
-        threshold = (kth.max(axis=1) + 2.0 * margin).astype(np.float32)
+        # Scores are squared distances less ‖h‖², so the cutoff moves by ‖h‖² too.
+        threshold = np.minimum(kth.max(axis=1), max_sq - q_sq) + 2.0 * margin
+        threshold = threshold.astype(np.float32)
         # Second pass: score again only the blocks that may hold a k-best entry.
         rows, blocks = np.nonzero(block_best <= threshold[:, None])
         found_q, found_i = [], []
@@ -318,7 +359,7 @@ class BruteForceIndex:
         return np.concatenate(found_q), np.concatenate(found_i)
 
 
-def brute_force(points, ids, queries, top_k: int = 1) -> SearchResult:
+def brute_force(points, ids, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
     """Exact nearest neighbours by scanning every entry.
 
     Parameters
@@ -329,13 +370,15 @@ def brute_force(points, ids, queries, top_k: int = 1) -> SearchResult:
         Unique entry ids.
     queries : (k,) or (Q, k) array of float
     top_k : int
+    max_distance : float
+        Entries farther than this are not returned.
 
     Returns
     -------
     SearchResult
         The reference :meth:`TreeIndex.search` must equal.
     """
-    return BruteForceIndex.from_arrays(points, ids).search(queries, top_k)
+    return BruteForceIndex.from_arrays(points, ids).search(queries, top_k, max_distance)
 
 
 # -- the tree ----------------------------------------------------------------------
@@ -654,15 +697,20 @@ class TreeIndex:
     #: Queries searched together (bounds the size of the working arrays).
     query_block = 512
 
-    def search(self, queries, top_k: int = 1) -> SearchResult:
+    def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
 
         Parameters
         ----------
         queries : (k,) or (Q, k) array of float
-            Points in the eigenspace (``Eigenspace.transform`` of query images).
+            Points in the eigenspace (``Eigenspace.transform`` of query images),
+            rounded to float32 like the entries.
         top_k : int
             At most the number of entries.
+        max_distance : float
+            Entries farther than this are not returned (the patent's "unknown
+            motion" threshold); it also prunes the search from the start, so
+            queries with nothing near are answered quickly.
 
         Returns
         -------
@@ -672,8 +720,9 @@ class TreeIndex:
         """
         q = _check_queries(queries, self.n_dims)
         top_k = _check_top_k(top_k, self.n_entries)
+        max_sq = _check_max_distance(max_distance)
         parts = [
-            self._search_block(q[lo : lo + self.query_block], top_k)
+            self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
             for lo in range(0, q.shape[0], self.query_block)
         ]
         if len(parts) == 1:
@@ -739,9 +788,9 @@ class TreeIndex:
             ]
         return current
 
-    def _search_block(self, queries: np.ndarray, top_k: int) -> SearchResult:
+    def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> SearchResult:
         n_q = queries.shape[0]
-        best = _TopK(n_q, top_k)
+        best = _TopK(n_q, top_k, max_sq)
         rows = np.arange(n_q)
         greedy = self._greedy(queries, top_k)
         self._examine(best, rows, greedy, queries)
@@ -761,16 +810,36 @@ class TreeIndex:
             keep = lb <= bound[c_rows]
             c_rows, c_nodes, lb = c_rows[keep], c_nodes[keep], lb[keep]
             leaf = self._is_leaf[c_nodes]
-            leaf_rows.append(c_rows[leaf])
-            leaf_nodes.append(c_nodes[leaf])
-            leaf_bounds.append(lb[leaf])
-            f_rows, f_nodes = c_rows[~leaf], c_nodes[~leaf]
+            if leaf.any():
+                # Examine each query's most promising new leaf at once: a tighter
+                # k-th distance prunes the deeper levels.
+                l_rows, l_nodes, l_bounds = c_rows[leaf], c_nodes[leaf], lb[leaf]
+                fresh = (self._start[l_nodes] < g_start[l_rows]) | (
+                    self._end[l_nodes] > g_end[l_rows]
+                )
+                l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
+                order = np.lexsort((l_bounds, l_rows))
+                l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
+                take = _rank_in_groups(l_rows) < 1
+                self._examine(best, l_rows[take], l_nodes[take], queries)
+                bound = best.bound() * _SLACK
+                rest = ~take
+                leaf_rows.append(l_rows[rest])
+                leaf_nodes.append(l_nodes[rest])
+                leaf_bounds.append(l_bounds[rest])
+                inner = ~leaf
+                inner[inner] = lb[inner] <= bound[c_rows[inner]]
+                f_rows, f_nodes = c_rows[inner], c_nodes[inner]
+            else:
+                f_rows, f_nodes = c_rows, c_nodes
 
         # Leaves nearest bound first, in growing batches, re-pruning after each; the
         # leaves inside the first node were examined already.
+        if not leaf_rows:
+            return best.result()
         l_rows, l_nodes, l_bounds = map(np.concatenate, (leaf_rows, leaf_nodes, leaf_bounds))
-        fresh = (self._start[l_nodes] < g_start[l_rows]) | (self._end[l_nodes] > g_end[l_rows])
-        l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
+        keep = l_bounds <= bound[l_rows]
+        l_rows, l_nodes, l_bounds = l_rows[keep], l_nodes[keep], l_bounds[keep]
         order = np.lexsort((l_bounds, l_rows))
         l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
         batch = 2

@@ -121,7 +121,7 @@ class TrackerConfig:
     body_scale_estimates: int = 8
     exhaustive: bool = False
     init_branching: int = 24
-    init_beam: int = 3
+    init_beam: int = 5
     init_refinements: int = 4
     recovery_ratio: float | None = 0.93
     recovery_window: int = 15
