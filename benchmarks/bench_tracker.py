@@ -146,6 +146,14 @@ def main() -> None:
     parser.add_argument("--video", action="store_true", help="go through background subtraction")
     parser.add_argument("--frames", type=int, default=0, help="frames per clip (0: all)")
     parser.add_argument("--figure", help="save a picture of estimates drawn over both views (.png)")
+    parser.add_argument(
+        "--body-scale",
+        type=float,
+        help="fix the body model's scale (default: measured on the first frames)",
+    )
+    parser.add_argument(
+        "--no-recovery", action="store_true", help="no whole-dictionary search on poor scores"
+    )
     args = parser.parse_args()
 
     t0 = time.perf_counter()

@@ -14,29 +14,38 @@ record):
   starts with one ``d``-digit prefix (a contiguous range of the sorted B-tree keys),
   its children split it by the next digit; level K nodes are the bins, the B-tree's
   occupied keys;
-* a bin larger than ``leaf_size`` entries is split further at the median of its widest
-  coordinate (any of the k axes, not only the K key axes) until every leaf holds at
-  most ``leaf_size`` entries; a key-prefix node that is already that small is a leaf;
+* a bin larger than ``leaf_size`` entries is split further at the median of its
+  widest coordinate (any of the k axes, not only the K key axes; the width is judged
+  on 16 sampled entries) until every leaf holds at most ``leaf_size`` entries; a
+  key-prefix node that is already that small is a leaf;
 * every node keeps the tight bounding box of its entries over all k coordinates, so
-  ``Σ_a gap_a(h, box)²`` is a lower bound on the squared distance from a query ``h``
-  to anything in it, usually far tighter than the section boundaries alone, and it
-  covers the axes beyond K;
-* nodes with a single child are skipped.
+  the squared distance from a query ``h`` to the box's nearest point is a lower bound
+  on its squared distance to anything inside, far tighter than the section
+  boundaries alone, and it covers the axes beyond K;
+* for searching, each node's children are its highest descendants holding at most
+  1/16 of its entries (or leaves), so a query takes a few wide, vectorised steps
+  however deep the built tree is.
 
 A query (all steps vectorised over queries and nodes with numpy):
 
 1. *Key lookup*: the query's own key (the patent's step) finds the deepest occupied
-   key prefix; from there the child with the smallest bound is followed down to a
-   leaf, whose entries give a first k-th best distance.
-2. *Pruned descent*: from the root, level by level, every child whose bound does not
-   exceed the current k-th best distance is kept; leaves are collected.
+   key prefix; below it the child with the smallest bound is followed until at most
+   8 leaves' worth of entries remain; their distances give a first k-th best.
+2. *Pruned descent*: from the root, step by step, every child whose bound does not
+   exceed the current k-th best is kept; leaves are collected.
 3. *Leaves in bound order*: each query's leaves are examined nearest bound first, in
-   growing batches; after each batch the k-th best distance shrinks and leaves whose
+   batches of 2, 8, 32, …; after each batch the k-th best shrinks and leaves whose
    bound exceeds it are dropped.
 
-Distances are computed as ``Σ_a (p_a − h_a)²`` in float64 from the float32 points by one
-function shared with :class:`BruteForceIndex`, and bounds by the same arithmetic, so
-bound ≤ distance holds in floating point and the answers agree bit for bit.
+``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
+that distance, so a query with nothing near is answered after a few steps.
+
+Arithmetic: queries are rounded to float32 like the points; a squared distance is
+``Σ_a (p_a − h_a)²`` in float32 by one function shared with :class:`BruteForceIndex`,
+and a bound is the same sum with each ``p_a`` replaced by the box's nearest
+coordinate.  Rounding is monotonic, so bound ≤ distance holds in floating point, no
+entry that brute force would return is ever pruned, and the answers agree bit for
+bit.
 """
 
 from __future__ import annotations
@@ -85,11 +94,12 @@ def _pair_sq_distances(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """Squared distances of row pairs, (m, k) and (m, k) or (k,) float32 → (m,) float32.
 
     The single distance formula of this module: brute force and the tree both call it,
-    so equal pairs give bit-identical distances.
+    so equal pairs give bit-identical distances.  ``points`` must be a fresh array (a
+    gather): it is overwritten.
     """
-    diff = points - queries
-    diff *= diff
-    return diff.sum(axis=1)
+    points -= queries
+    points *= points
+    return points.sum(axis=1)
 
 
 def _check_points(points, name: str = "points") -> np.ndarray:
@@ -110,6 +120,8 @@ def _check_ids(ids, n: int) -> np.ndarray:
     if i.shape != (n,) or (n and not np.issubdtype(i.dtype, np.integer)):
         raise InvalidParameterError(f"ids must be ({n},) integers, got {i.dtype} {i.shape}")
     i = i.astype(np.int64)
+    if n and (i.min() < 0 or i.max() == np.iinfo(np.int64).max):
+        raise InvalidParameterError("ids must lie in 0 … 2**63 − 2 (-1 marks an empty slot)")
     if n > 1 and not np.all(i[1:] > i[:-1]):
         ordered = np.sort(i)
         same = np.flatnonzero(ordered[1:] == ordered[:-1])
@@ -192,7 +204,11 @@ class _TopK:
             self.ids[0] = all_ids[order]
             return
         self.examined += np.bincount(q, minlength=self.examined.size)
-        better = sq <= self.sq[q, -1]  # only these can enter the k best
+        bound = self.sq[:, -1]
+        if self.top_k == 1:  # only each query's nearest new candidates matter
+            bound = bound.copy()
+            np.minimum.at(bound, q, sq)
+        better = sq <= bound[q]  # only these can enter the k best
         if not better.any():
             return
         q, sq, ids = q[better], sq[better], ids[better]
@@ -308,7 +324,9 @@ class BruteForceIndex:
         for lo in range(0, q.shape[0], self.query_block):
             block = q[lo : lo + self.query_block]
             cand_q, cand_i = self._screen(block, top_k, max_sq)
-            sq = _pair_sq_distances(self.points[cand_i], block[cand_q])
+            sq = _pair_sq_distances(
+                np.take(self.points, cand_i, axis=0), np.take(block, cand_q, axis=0)
+            )
             best.add(cand_q + lo, sq, self.ids[cand_i])
         best.examined[:] = self.n_entries
         return best.result()
@@ -356,6 +374,8 @@ class BruteForceIndex:
             r, c = np.divmod(flat, scores.shape[1])
             found_q.append(these[r])
             found_i.append(c + lo)
+        if not found_q:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         return np.concatenate(found_q), np.concatenate(found_i)
 
 
@@ -404,7 +424,7 @@ class TreeIndex:
     quantizer : Quantizer
         The quantizer that made the keys (gives a query its own key).
     depth : int
-        Levels below the root before skipping single-child nodes.
+        Levels of the built tree below the root (key digits, then bin splits).
     """
 
     def __init__(self):
@@ -734,20 +754,26 @@ class TreeIndex:
         )
 
     def _lower_bounds(self, nodes: np.ndarray, rows: np.ndarray, queries: np.ndarray):
-        """(m,) float64 squared distance from query ``rows`` to the boxes of ``nodes``."""
-        qq = queries[0] if queries.shape[0] == 1 else queries[rows]
-        gap = self._lo[nodes] - qq
-        np.maximum(gap, qq - self._hi[nodes], out=gap)
-        np.maximum(gap, 0.0, out=gap)
-        gap *= gap
-        return gap.sum(axis=1)
+        """(m,) float32 squared distance from query ``rows`` to the boxes of ``nodes``.
+
+        The box's nearest point minus the query, squared and summed: term by term the
+        same arithmetic as the distance to any entry inside, so never larger.
+        """
+        qq = queries[0] if queries.shape[0] == 1 else np.take(queries, rows, axis=0)
+        near = np.take(self._lo, nodes, axis=0)  # np.take gathers faster than indexing
+        np.maximum(near, qq, out=near)
+        np.minimum(near, np.take(self._hi, nodes, axis=0), out=near)
+        near -= qq
+        near *= near
+        return near.sum(axis=1)
 
     def _examine(self, best: _TopK, rows: np.ndarray, nodes: np.ndarray, queries) -> None:
         counts = self._size[nodes]
         entries = _expand_ranges(self._start[nodes], counts)
         rows = np.repeat(rows, counts)
-        qq = queries[0] if queries.shape[0] == 1 else queries[rows]
-        best.add(rows, _pair_sq_distances(self.points[entries], qq), self.ids[entries])
+        qq = queries[0] if queries.shape[0] == 1 else np.take(queries, rows, axis=0)
+        sq = _pair_sq_distances(np.take(self.points, entries, axis=0), qq)
+        best.add(rows, sq, np.take(self.ids, entries))
 
     #: The first node a query examines holds at most this many leaves' worth of entries.
     _GREEDY_LEAVES = 8
@@ -810,36 +836,16 @@ class TreeIndex:
             keep = lb <= bound[c_rows]
             c_rows, c_nodes, lb = c_rows[keep], c_nodes[keep], lb[keep]
             leaf = self._is_leaf[c_nodes]
-            if leaf.any():
-                # Examine each query's most promising new leaf at once: a tighter
-                # k-th distance prunes the deeper levels.
-                l_rows, l_nodes, l_bounds = c_rows[leaf], c_nodes[leaf], lb[leaf]
-                fresh = (self._start[l_nodes] < g_start[l_rows]) | (
-                    self._end[l_nodes] > g_end[l_rows]
-                )
-                l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
-                order = np.lexsort((l_bounds, l_rows))
-                l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
-                take = _rank_in_groups(l_rows) < 1
-                self._examine(best, l_rows[take], l_nodes[take], queries)
-                bound = best.bound() * _SLACK
-                rest = ~take
-                leaf_rows.append(l_rows[rest])
-                leaf_nodes.append(l_nodes[rest])
-                leaf_bounds.append(l_bounds[rest])
-                inner = ~leaf
-                inner[inner] = lb[inner] <= bound[c_rows[inner]]
-                f_rows, f_nodes = c_rows[inner], c_nodes[inner]
-            else:
-                f_rows, f_nodes = c_rows, c_nodes
+            leaf_rows.append(c_rows[leaf])
+            leaf_nodes.append(c_nodes[leaf])
+            leaf_bounds.append(lb[leaf])
+            f_rows, f_nodes = c_rows[~leaf], c_nodes[~leaf]
 
         # Leaves nearest bound first, in growing batches, re-pruning after each; the
         # leaves inside the first node were examined already.
-        if not leaf_rows:
-            return best.result()
         l_rows, l_nodes, l_bounds = map(np.concatenate, (leaf_rows, leaf_nodes, leaf_bounds))
-        keep = l_bounds <= bound[l_rows]
-        l_rows, l_nodes, l_bounds = l_rows[keep], l_nodes[keep], l_bounds[keep]
+        fresh = (self._start[l_nodes] < g_start[l_rows]) | (self._end[l_nodes] > g_end[l_rows])
+        l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
         order = np.lexsort((l_bounds, l_rows))
         l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
         batch = 2

@@ -43,6 +43,9 @@ from .errors import InvalidParameterError, VideoError
 
 BACKGROUND_METHODS = ("median", "mog2")
 
+#: Gaussian sigma, pixels, of the smoothing before the shadow test.
+SHADOW_SIGMA_PX = 1.0
+
 #: Frame rate assumed for an ``.npz`` of masks that stores none, frames per second.
 DEFAULT_NPZ_FPS = 30.0
 
@@ -91,7 +94,7 @@ class SilhouetteConfig:
     max_background_frames: int = 60
     low_factor: float = 3.0
     high_factor: float = 7.0
-    min_delta_e: float = 3.0
+    min_delta_e: float = 5.0
     shadow_ratio: tuple[float, float] = (0.35, 0.92)
     shadow_chroma: float = 0.10
     smooth_sigma_px: float = 1.0
@@ -307,7 +310,8 @@ def _masked_quantile(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.n
     lo = np.take_along_axis(values, lo_index, axis=0)[0]
     hi = np.take_along_axis(values, hi_index, axis=0)[0]
     frac = (position - lo_index)[0]
-    out = lo + frac * (hi - lo)
+    with np.errstate(invalid="ignore"):  # inf - inf where every frame is excluded
+        out = lo + frac * (hi - lo)
     out[valid[0, ..., 0] == 0] = np.nan
     return out
 
@@ -437,14 +441,19 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
     n, h, w = frames.shape[:3]
     bg_rgb = background.astype(np.float32)
     bg_lab = cv2.cvtColor(bg_rgb * (1.0 / 255.0), cv2.COLOR_RGB2Lab)
-    bg_norm2 = np.maximum((bg_rgb * bg_rgb).sum(axis=2), 1.0)
+    # The shadow test compares lightly smoothed colours: video codecs halve the colour
+    # resolution, which scatters the chromaticity of single pixels.
+    bg_soft = cv2.GaussianBlur(bg_rgb, (0, 0), SHADOW_SIGMA_PX)
+    bg_norm2 = np.maximum((bg_soft * bg_soft).sum(axis=2), 1.0)
     bg_bright = np.sqrt(bg_norm2)
     smooth = config.smooth_sigma_px > 0.0
 
+    gains = _exposure_gains(frames, bg_rgb)
     raw = np.empty((n, h, w), np.float32)
     smoothed = np.empty((n, h, w), np.float32) if smooth else raw
     for i in range(n):
-        lab = cv2.cvtColor(frames[i].astype(np.float32) * (1.0 / 255.0), cv2.COLOR_RGB2Lab)
+        rgb = frames[i].astype(np.float32) / gains[i]
+        lab = cv2.cvtColor(np.clip(rgb, 0.0, 255.0) * (1.0 / 255.0), cv2.COLOR_RGB2Lab)
         diff = lab - bg_lab
         raw[i] = np.sqrt((diff * diff).sum(axis=2))
         if smooth:
@@ -454,11 +463,8 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
             smoothed[i] = np.sqrt((diff * diff).sum(axis=2))
     low_raw, _ = _thresholds(raw, config)
     low, high = _thresholds(smoothed, config) if smooth else (low_raw, _)
-    rgb_noise = float(
-        np.median(
-            np.linalg.norm(frames[:, ::4, ::4].astype(np.float32) - bg_rgb[::4, ::4], axis=-1)
-        )
-    )
+    sample = frames[:, ::4, ::4].astype(np.float32) / gains[:, None, None, :]
+    rgb_noise = float(np.median(np.linalg.norm(sample - bg_rgb[::4, ::4], axis=-1)))
 
     scale = h / 240.0
     close_d = max(1, int(round(config.close_px * scale))) | 1
@@ -473,16 +479,8 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
         weak = smoothed[i] > low
         if not weak.any():
             continue
-        rgb = frames[i].astype(np.float32)
-        # Brightness distortion alpha and chromaticity distortion of the pixel against
-        # its background colour: a shadow scales the colour down, keeping its direction.
-        alpha = (rgb * bg_rgb).sum(axis=2) / bg_norm2
-        chroma = np.sqrt(((rgb - alpha[..., None] * bg_rgb) ** 2).sum(axis=2))
-        shadow = (
-            (alpha >= config.shadow_ratio[0])
-            & (alpha <= config.shadow_ratio[1])
-            & (chroma <= config.shadow_chroma * alpha * bg_bright + rgb_noise)
-        )
+        rgb = frames[i].astype(np.float32) / gains[i]
+        shadow = _shadow(rgb, bg_soft, bg_norm2, bg_bright, rgb_noise, config, cv2)
         weak &= ~shadow
         strong = weak & (smoothed[i] > high)
         mask = _hysteresis(weak, strong, speck, cv2)
@@ -491,13 +489,48 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
         mask = _person_blob(mask, min_area, config.keep_piece_frac, cv2)
         if not mask.any():
             continue
-        # Holes are judged pixel by pixel: smoothing bleeds the legs into the gap between.
-        mask = _fill_holes(mask, raw[i], low_raw, config.small_hole_frac, cv2)
+        evidence = (smoothed[i], low, raw[i], low_raw)
+        mask = _fill_holes(mask, evidence, shadow, reach, config.small_hole_frac, cv2)
         if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
             interior = cv2.erode(mask.astype(np.uint8), inner).astype(bool)
             mask &= interior | ((raw[i] > low_raw) & ~shadow)
         out[i] = _refine_boundary(mask, rgb, bg_rgb, 4.0 * rgb_noise, cv2)
     return out
+
+
+def _exposure_gains(frames: np.ndarray, bg_rgb: np.ndarray) -> np.ndarray:
+    """(F, 3) float32: per frame and channel, the median ratio frame / background.
+
+    Absorbs exposure and white-balance drift, and the colour bias of a lossy codec,
+    between the frames and a background photographed apart from them.  The median
+    over the image ignores the person as long as they cover less than half of it.
+    """
+    bg = bg_rgb[::2, ::2]
+    usable = bg >= 16.0  # ratios of near-black pixels are noise
+    gains = np.ones((frames.shape[0], 3), np.float32)
+    for c in range(3):
+        if usable[..., c].sum() < 16:
+            continue
+        ratios = frames[:, ::2, ::2, c][:, usable[..., c]] / bg[..., c][usable[..., c]]
+        gains[:, c] = np.median(ratios, axis=1)
+    return np.clip(gains, 0.5, 2.0)
+
+
+def _shadow(rgb, bg_soft, bg_norm2, bg_bright, rgb_noise, config, cv2) -> np.ndarray:
+    """(H, W) bool: pixels explained as the background in a cast shadow.
+
+    Brightness distortion ``alpha`` (pixel ≈ alpha × background) within
+    ``shadow_ratio`` and chromaticity distortion ``|pixel − alpha × background|``
+    small relative to the background's brightness (Horprasert et al. 1999).
+    """
+    soft = cv2.GaussianBlur(rgb, (0, 0), SHADOW_SIGMA_PX)
+    alpha = (soft * bg_soft).sum(axis=2) / bg_norm2
+    chroma = np.sqrt(((soft - alpha[..., None] * bg_soft) ** 2).sum(axis=2))
+    return (
+        (alpha >= config.shadow_ratio[0])
+        & (alpha <= config.shadow_ratio[1])
+        & (chroma <= config.shadow_chroma * alpha * bg_bright + rgb_noise)
+    )
 
 
 def _thresholds(distances: np.ndarray, config: SilhouetteConfig) -> tuple[float, float]:
@@ -569,22 +602,51 @@ def _person_blob(mask: np.ndarray, min_area: float, keep_frac: float, cv2) -> np
     return keep[labels]
 
 
-def _fill_holes(mask: np.ndarray, distance: np.ndarray, low: float, small_frac: float, cv2):
-    """Fill holes that are small, or whose pixels differ from the background."""
+def _fill_holes(
+    mask: np.ndarray,
+    evidence: tuple[np.ndarray, float, np.ndarray, float],
+    shadow: np.ndarray,
+    reach: int,
+    small_frac: float,
+    cv2,
+) -> np.ndarray:
+    """Fill the holes inside the person that are clothing, not background.
+
+    A hole is filled when it is small, or when its pixels differ from the
+    background — judged on the smoothed distance over the part of the hole more than
+    ``reach`` pixels from its edge (the smoothing bleeds the body into narrow gaps),
+    else on the raw distance — unless it touches the floor line of the body (its
+    lowest 15 %) and is partly a cast shadow: the gap between the legs and the shadow
+    they enclose.
+
+    ``evidence`` is ``(smoothed, low_smoothed, raw, low_raw)``: (H, W) ΔE distances
+    and their low thresholds.
+    """
+    smoothed, low_smoothed, raw, low_raw = evidence
     inverse = (~mask).astype(np.uint8)
     count, labels, stats, _ = cv2.connectedComponentsWithStats(inverse, 4)
     if count <= 2:
         return mask
-    h, w = mask.shape
     border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
     area = float(mask.sum())
+    rows = np.flatnonzero(mask.any(axis=1))
+    floor_line = rows[-1] - 0.15 * (rows[-1] - rows[0] + 1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     out = mask.copy()
     for label in range(1, count):
         if label in border:
             continue
         hole = labels == label
-        if stats[label, cv2.CC_STAT_AREA] <= small_frac * area or (
-            float(np.median(distance[hole])) > 0.5 * low
-        ):
+        if stats[label, cv2.CC_STAT_AREA] <= small_frac * area:
+            out |= hole
+            continue
+        core = cv2.erode(hole.astype(np.uint8), kernel).astype(bool) if reach else hole
+        if core.any():
+            differs = float(np.median(smoothed[core])) > low_smoothed
+        else:
+            differs = float(np.median(raw[hole])) > low_raw
+        bottom = stats[label, cv2.CC_STAT_TOP] + stats[label, cv2.CC_STAT_HEIGHT] - 1
+        floor_shadow = bottom >= floor_line and float(shadow[hole].mean()) > 0.3
+        if differs and not floor_shadow:
             out |= hole
     return out

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.keys import Quantizer
@@ -45,7 +46,7 @@ def naive(points, ids, queries, top_k):
     p = np.asarray(points, dtype=np.float32)
     out_ids, out_d = [], []
     for q in np.atleast_2d(queries).astype(np.float32):
-        sq = pair_sq_distances(p, q)
+        sq = pair_sq_distances(p.copy(), q)
         order = np.lexsort((ids, sq))[:top_k]
         out_ids.append(ids[order])
         out_d.append(np.sqrt(sq[order].astype(np.float64)))
@@ -70,7 +71,10 @@ def test_equals_brute_force_on_a_million_points():
     tree = tree_of(points, ids, n_axes=4, n_sections=8)
     queries = queries_like(points, 10_000, rng, unknown=0.02)
     found = tree.search(queries)
-    assert_same(found, BruteForceIndex.from_arrays(points, ids).search(queries))
+    # Multi-threaded BLAS on small blocks is slower on a busy machine, not faster.
+    with threadpool_limits(limits=1):
+        reference = BruteForceIndex.from_arrays(points, ids).search(queries)
+    assert_same(found, reference)
     # Exact, yet it looked at a small fraction of the entries.
     assert np.median(found.examined) < 0.001 * points.shape[0]
     assert found.examined.mean() < 0.01 * points.shape[0]
@@ -203,3 +207,38 @@ def test_empty_index_refuses_queries():
     assert tree.n_entries == 0 and tree.n_bins == 0
     with pytest.raises(InvalidParameterError, match="exceeds the 0 entries"):
         tree.search(np.zeros(3))
+
+
+@pytest.mark.parametrize("top_k", [1, 3])
+def test_max_distance_cuts_like_brute_force(top_k):
+    rng = np.random.default_rng(9)
+    points = motion_like(20_000, 16, 40, rng)
+    ids = np.arange(20_000)
+    tree = tree_of(points, ids, 4, 8)
+    queries = queries_like(points, 400, rng, unknown=0.5)
+    full = brute_force(points, ids, queries, top_k)
+    cutoff = float(np.median(full.distances[:, -1]))
+    found = tree.search(queries, top_k, max_distance=cutoff)
+    assert_same(found, brute_force(points, ids, queries, top_k, max_distance=cutoff))
+    inside = full.distances <= cutoff
+    np.testing.assert_array_equal(found.ids, np.where(inside, full.ids, -1))
+    np.testing.assert_array_equal(found.distances, np.where(inside, full.distances, np.inf))
+    unknown = ~inside[:, 0]
+    # Queries with nothing near stop early instead of scanning far.
+    assert found.examined[unknown].mean() < 0.2 * full.examined[0]
+    assert found.examined[unknown].mean() < tree.search(queries[unknown]).examined.mean()
+
+
+def test_max_distance_keeps_entries_exactly_at_the_cutoff():
+    points = np.array([[1.0, 0.0], [0.0, 1.0], [3.0, 0.0]], dtype=np.float32)
+    ids = np.array([7, 3, 5])
+    tree = tree_of(points, ids, 1, 2, leaf_size=1)
+    at = tree.search(np.zeros(2), top_k=3, max_distance=1.0)
+    np.testing.assert_array_equal(at.ids, [[3, 7, -1]])
+    np.testing.assert_array_equal(at.distances, [[1.0, 1.0, np.inf]])
+    below = tree.search(np.zeros(2), top_k=2, max_distance=0.999)
+    np.testing.assert_array_equal(below.ids, [[-1, -1]])
+    assert_same(below, brute_force(points, ids, np.zeros(2), 2, max_distance=0.999))
+    for bad in (-1.0, float("nan"), "far"):
+        with pytest.raises(InvalidParameterError, match="max_distance"):
+            tree.search(np.zeros(2), max_distance=bad)

@@ -175,7 +175,6 @@ def test_only_plain_data_is_pickled(tmp_path, fitted):
 
 
 def test_schema_mismatch_and_missing_files(tmp_path, fitted):
-    import transaction
     import ZODB
     from ZODB.FileStorage import FileStorage
 
@@ -202,7 +201,6 @@ def test_schema_mismatch_and_missing_files(tmp_path, fitted):
     garbage.write_bytes(b"not a database at all")
     with pytest.raises(DatabaseError, match="garbage.fs"):
         Store.open(garbage)
-    del transaction
 
 
 def test_read_only_and_transaction_rules(tmp_path, fitted):

@@ -171,8 +171,13 @@ def test_candidates_are_near_and_sorted(walk_dictionary, max_candidates):
     assert set(cands) <= set(every)
     if len(every) > len(cands):
         assert every_close[len(cands)] >= closeness[-1]
-    # turned copies (90 degrees away) are never candidates
+    # turned copies (90 degrees away) are never candidates ...
     assert np.all(np.abs(wrap_deg(d.vectors[every, 0] - d.vectors[prev, 0])) < 20.0)
+    # ... unless the heading has its own, wider threshold
+    wide, wide_close = select_candidates(d, prev, views, 20.0, 10.0, len(d), max_heading_deg=100.0)
+    turned = np.abs(wrap_deg(d.vectors[wide, 0] - d.vectors[prev, 0]))
+    assert np.any(turned > 80.0) and np.all(turned < 100.0)
+    assert np.all(wide_close < 1.0) and wide[0] == prev
 
 
 def test_bodies_follow_the_dictionary(walk_dictionary):

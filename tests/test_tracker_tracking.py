@@ -62,12 +62,12 @@ def walk_setup(cmu):
         face_forward=True,
     )  # fmt: skip
     bodies = avatar_bodies(dictionary)
-    subject = load_default_avatar().with_shape(height_m=1.65, girth=1.15)
+    subject = load_default_avatar().with_shape(height_m=1.55, girth=1.15)
     rot, pos = stage_clip(cmu("02_02").trim(0, 120).resample(25), subject, 90.0, (-0.6, 0.0))
     cams = walkway_cameras()
     vertices = subject.skin(rot, pos)
     masks = [render_masks(vertices, subject.faces, cam) for cam in cams]
-    return dictionary, bodies, cams, masks, pos
+    return dictionary, bodies, cams, masks, pos, subject.height_m / load_default_avatar().height_m
 
 
 def mpjpe_mm(result, truth):
@@ -76,12 +76,14 @@ def mpjpe_mm(result, truth):
 
 
 def test_tracks_an_unseen_walk(walk_setup):
-    dictionary, bodies, cams, masks, truth = walk_setup
+    dictionary, bodies, cams, masks, truth, scale = walk_setup
     tree = SilhouetteTracker(dictionary, cams, bodies).track(masks, frame_time_s=1 / 25)
     full = SilhouetteTracker(dictionary, cams, bodies, TrackerConfig(exhaustive=True)).track(
         masks, frame_time_s=1 / 25
     )
     assert tree.n_estimates == len(truth) and np.all(tree.found)
+    # the person is smaller than the body model: the measured body scale says by how much
+    assert abs(tree.estimates[-1].body_scale - scale) < 0.02, (tree.estimates[-1].body_scale, scale)
     err_tree, err_full = mpjpe_mm(tree, truth), mpjpe_mm(full, truth)
     assert err_tree < 80.0, err_tree
     assert err_tree < 1.15 * err_full + 5.0
@@ -125,7 +127,7 @@ def test_single_camera_aligns_a_known_motion(cmu):
 
 
 def test_camera_pairs_and_missing_views(walk_setup):
-    dictionary, bodies, cams, masks, _ = walk_setup
+    dictionary, bodies, cams, masks, _, _ = walk_setup
     far = [
         look_at([cam.center[0] + 20, cam.center[1], cam.center[2]], [20.5, 0.9, 0], cam.K, 320, 240)
         for cam in cams
@@ -146,7 +148,7 @@ def test_camera_pairs_and_missing_views(walk_setup):
 
 
 def test_errors(walk_setup):
-    dictionary, bodies, cams, masks, _ = walk_setup
+    dictionary, bodies, cams, masks, _, _ = walk_setup
     tracker = SilhouetteTracker(dictionary, cams, bodies)
     with pytest.raises(InvalidParameterError, match="2 cameras"):
         tracker.step([masks[0][0]])

@@ -35,7 +35,13 @@ from .dictionary import (
 )
 from .generation import VariableSpeedPlayback, playback_motion, variable_speed_playback
 from .position import intersect_plane_lines, locate, mask_centroid, select_pair
-from .search import beam_search, build_two_layer_tree, exhaustive_search, two_layer_search
+from .search import (
+    beam_search,
+    build_cluster_tree,
+    build_two_layer_tree,
+    exhaustive_search,
+    two_layer_search,
+)
 from .similarity import score_masks, similarity
 from .tracker import Estimate, SilhouetteTracker, TrackerConfig, TrackResult
 
@@ -52,6 +58,7 @@ __all__ = [
     "VariableSpeedPlayback",
     "avatar_bodies",
     "beam_search",
+    "build_cluster_tree",
     "build_dictionary",
     "build_two_layer_tree",
     "calibrate_camera",

@@ -414,8 +414,7 @@ class PostureDictionary:
     def subset(self, indices: np.ndarray) -> PostureDictionary:
         """The dictionary restricted to some entries (base postures renumbered)."""
         indices = np.asarray(indices, dtype=np.int64).reshape(-1)
-        bases, base_index = np.unique(self.base_index[indices], return_inverse=True)
-        del bases
+        _, base_index = np.unique(self.base_index[indices], return_inverse=True)
         return PostureDictionary(
             self.joint_names,
             self.parents,
@@ -723,21 +722,16 @@ def dictionary_from_motion(motion: Motion, avatar=None, mapping: dict | None = N
     return build_dictionary([motion], avatar, mapping, threshold_deg=0.0)
 
 
-def _closeness(
-    vectors_a: np.ndarray,
-    vectors_b: np.ndarray,
-    d2: np.ndarray,
-    max_d1_deg: float,
-    max_d2_m: float,
-    max_heading_deg: float | None,
+def _angle_closeness(
+    vectors_a: np.ndarray, vectors_b: np.ndarray, max_d1_deg: float, max_heading_deg: float | None
 ) -> np.ndarray:
-    """``max(d1 / T_d1, d2 / T_d2)``, or with the heading apart:
-    ``max(d1' / T_d1, |heading difference| / T_h, d2 / T_d2)`` (d1' without heading)."""
+    """``d1 / T_d1``, or with the heading apart ``max(d1' / T_d1, |Δheading| / T_h)``
+    where d1' leaves the heading out."""
     if max_heading_deg is None:
-        return np.maximum(d1_distance(vectors_a, vectors_b) / max_d1_deg, d2 / max_d2_m)
+        return d1_distance(vectors_a, vectors_b) / max_d1_deg
     body = np.abs(vectors_a[..., 1:] - vectors_b[..., 1:]).max(axis=-1, initial=0.0)
     heading = np.abs(wrap_deg(vectors_a[..., 0] - vectors_b[..., 0]))
-    return np.maximum(np.maximum(body / max_d1_deg, heading / max_heading_deg), d2 / max_d2_m)
+    return np.maximum(body / max_d1_deg, heading / max_heading_deg)
 
 
 def select_candidates(
@@ -784,9 +778,7 @@ def select_candidates(
     heading_limit = max_d1_deg if max_heading_deg is None else max_heading_deg
     # The heading difference alone already bounds the closeness: a cheap first cut.
     near = np.flatnonzero(np.abs(wrap_deg(vectors[:, 0] - ref[0])) < heading_limit)
-    closeness = _closeness(
-        vectors[near], ref, np.zeros(len(near)), max_d1_deg, 1.0, max_heading_deg
-    )
+    closeness = _angle_closeness(vectors[near], ref, max_d1_deg, max_heading_deg)
     ok = closeness < 1.0
     near, closeness = near[ok], closeness[ok]
     proj = projected_joints(dictionary.joint_positions[near], view_rotations)
@@ -813,4 +805,4 @@ def closeness_matrix(
     pa = projected_joints(dictionary.joint_positions[a], view_rotations)
     pb = projected_joints(dictionary.joint_positions[b], view_rotations)
     d2 = d2_distance(pa[:, None], pb[None, :])
-    return _closeness(va, vb, d2, max_d1_deg, max_d2_m, max_heading_deg)
+    return np.maximum(_angle_closeness(va, vb, max_d1_deg, max_heading_deg), d2 / max_d2_m)

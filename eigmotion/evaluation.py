@@ -1,0 +1,511 @@
+"""Scoring of retrieval queries: accuracy per label, confusion matrix, rejection rates.
+
+A query of a clip whose true label is known becomes one :class:`QueryOutcome`: the
+labels the database ranked (distinct, nearest first), whether it accepted the best
+match, and whether the true label is one the database holds at all ("in library").
+:func:`score` turns a list of them into a :class:`Score`:
+
+* top-1 / top-3 accuracy, overall and per label, over the in-library queries only (an
+  out-of-library query cannot be answered right);
+* a confusion matrix of every query: true label rows × top-1 label columns;
+* rejection rates: the fraction of out-of-library queries answered ``accepted:
+  false`` (should be 1) and the fraction of in-library queries answered so (the false
+  rejection rate, should be 0);
+* the mean query time.
+
+:func:`format_score` prints it as Markdown tables.  Nothing here runs a query.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InvalidParameterError
+
+#: Cell shown for a zero count in printed confusion matrices.
+ZERO_CELL = "·"
+
+
+@dataclass(frozen=True)
+class QueryOutcome:
+    """One answered query and its truth.
+
+    Attributes
+    ----------
+    true_label : str
+        What the clip shows.
+    ranked_labels : tuple of str
+        Distinct labels in the database's answer, nearest first (see
+        :func:`ranked_labels`); at least one.
+    accepted : bool
+        The database took the best match as known (distance under its threshold).
+    in_library : bool
+        ``true_label`` is a label the queried database holds.
+    query_s : float
+        Wall time of the query, seconds (>= 0).
+    """
+
+    true_label: str
+    ranked_labels: tuple[str, ...]
+    accepted: bool
+    in_library: bool
+    query_s: float
+
+    def __post_init__(self):
+        labels = tuple(self.ranked_labels)
+        if not labels:
+            raise InvalidParameterError(
+                f"ranked_labels of a query of {self.true_label!r} must hold at least one label"
+            )
+        if len(set(labels)) != len(labels):
+            raise InvalidParameterError(
+                f"ranked_labels must be distinct, got {list(labels)} (use ranked_labels())"
+            )
+        if not (math.isfinite(self.query_s) and self.query_s >= 0):
+            raise InvalidParameterError(f"query_s must be a finite time >= 0, got {self.query_s}")
+        object.__setattr__(self, "ranked_labels", labels)
+
+    @property
+    def predicted(self) -> str:
+        """The top-1 label."""
+        return self.ranked_labels[0]
+
+    def hit(self, k: int) -> bool:
+        """The true label is among the first ``k`` ranked labels."""
+        if k < 1:
+            raise InvalidParameterError(f"k must be >= 1, got {k}")
+        return self.true_label in self.ranked_labels[:k]
+
+
+def ranked_labels(match_labels: Iterable[str]) -> tuple[str, ...]:
+    """Distinct labels in order of first appearance.
+
+    Parameters
+    ----------
+    match_labels : iterable of str
+        The labels of a query's matches, nearest first (e.g. ``[m["label"] for m in
+        result["top"]]`` of a query's JSON); several matches may share a label.
+
+    Returns
+    -------
+    tuple of str
+    """
+    out: list[str] = []
+    for label in match_labels:
+        if label not in out:
+            out.append(label)
+    return tuple(out)
+
+
+# -- confusion matrix ----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ConfusionMatrix:
+    """Counts of (true label, predicted label) pairs.
+
+    Attributes
+    ----------
+    counts : (T, P) int64
+        ``counts[i, j]``: queries of ``true_labels[i]`` answered ``predicted_labels[j]``.
+    true_labels : tuple of str
+        Row labels (T).
+    predicted_labels : tuple of str
+        Column labels (P).
+    """
+
+    counts: np.ndarray
+    true_labels: tuple[str, ...]
+    predicted_labels: tuple[str, ...]
+
+    def count(self, true_label: str, predicted_label: str) -> int:
+        """One cell; 0 for labels the matrix does not hold."""
+        if true_label not in self.true_labels or predicted_label not in self.predicted_labels:
+            return 0
+        i = self.true_labels.index(true_label)
+        j = self.predicted_labels.index(predicted_label)
+        return int(self.counts[i, j])
+
+    def to_json(self) -> dict:
+        return {
+            "true_labels": list(self.true_labels),
+            "predicted_labels": list(self.predicted_labels),
+            "counts": self.counts.tolist(),
+        }
+
+
+def _ordered(found: Iterable[str], order: Sequence[str] | None) -> tuple[str, ...]:
+    """``order``'s labels that were found, in that order, then the others sorted."""
+    found = set(found)
+    first = [label for label in (order or ()) if label in found]
+    return tuple(first + sorted(found - set(first)))
+
+
+def confusion_matrix(
+    true: Sequence[str], predicted: Sequence[str], label_order: Sequence[str] | None = None
+) -> ConfusionMatrix:
+    """Count (true, predicted) label pairs.
+
+    Parameters
+    ----------
+    true, predicted : sequence of str
+        One label each per query, same length.
+    label_order : sequence of str, optional
+        Preferred order of rows and columns; labels not in it follow, sorted.  Only
+        labels that occur get a row (as a true label) or a column (as a predicted one).
+
+    Returns
+    -------
+    ConfusionMatrix
+    """
+    true, predicted = list(true), list(predicted)
+    if len(true) != len(predicted):
+        raise InvalidParameterError(
+            f"true and predicted must have one label per query, got {len(true)} and "
+            f"{len(predicted)}"
+        )
+    rows = _ordered(true, label_order)
+    cols = _ordered(predicted, label_order)
+    counts = np.zeros((len(rows), len(cols)), dtype=np.int64)
+    row_of = {label: i for i, label in enumerate(rows)}
+    col_of = {label: j for j, label in enumerate(cols)}
+    for t, p in zip(true, predicted, strict=True):
+        counts[row_of[t], col_of[p]] += 1
+    return ConfusionMatrix(counts, rows, cols)
+
+
+# -- scores --------------------------------------------------------------------------
+
+
+def _rate(numerator: int, denominator: int) -> float:
+    return numerator / denominator if denominator else float("nan")
+
+
+def _json_rate(value: float) -> float | None:
+    return None if math.isnan(value) else round(value, 6)
+
+
+@dataclass(frozen=True)
+class LabelScore:
+    """The queries of one true label.
+
+    Attributes
+    ----------
+    label : str
+    in_library : bool
+        The queried database(s) held this label (for every query of it).
+    n : int
+        Queries.
+    top1, topk : int
+        Queries whose true label was ranked first / among the first ``k``.
+    rejected : int
+        Queries answered ``accepted: false``.
+    """
+
+    label: str
+    in_library: bool
+    n: int
+    top1: int
+    topk: int
+    rejected: int
+
+    @property
+    def top1_rate(self) -> float:
+        return _rate(self.top1, self.n)
+
+    @property
+    def topk_rate(self) -> float:
+        return _rate(self.topk, self.n)
+
+    @property
+    def rejected_rate(self) -> float:
+        return _rate(self.rejected, self.n)
+
+    def to_json(self) -> dict:
+        return {
+            "label": self.label,
+            "in_library": self.in_library,
+            "n": self.n,
+            "top1": self.top1,
+            "topk": self.topk,
+            "rejected": self.rejected,
+            "top1_rate": _json_rate(self.top1_rate),
+            "topk_rate": _json_rate(self.topk_rate),
+            "rejected_rate": _json_rate(self.rejected_rate),
+        }
+
+
+@dataclass(frozen=True)
+class RejectionRates:
+    """How often the database said "unknown".
+
+    Attributes
+    ----------
+    n_in_library : int
+        Queries of labels the database holds.
+    false_rejected : int
+        Of those, answered ``accepted: false``.
+    n_out_of_library : int
+        Queries of labels the database does not hold.
+    rejected : int
+        Of those, answered ``accepted: false``.
+    """
+
+    n_in_library: int
+    false_rejected: int
+    n_out_of_library: int
+    rejected: int
+
+    @property
+    def false_rejection_rate(self) -> float:
+        """Fraction of in-library queries rejected (NaN without any)."""
+        return _rate(self.false_rejected, self.n_in_library)
+
+    @property
+    def rejection_rate(self) -> float:
+        """Fraction of out-of-library queries rejected (NaN without any)."""
+        return _rate(self.rejected, self.n_out_of_library)
+
+    def to_json(self) -> dict:
+        return {
+            "n_in_library": self.n_in_library,
+            "false_rejected": self.false_rejected,
+            "false_rejection_rate": _json_rate(self.false_rejection_rate),
+            "n_out_of_library": self.n_out_of_library,
+            "rejected": self.rejected,
+            "rejection_rate": _json_rate(self.rejection_rate),
+        }
+
+
+def rejection_rates(outcomes: Sequence[QueryOutcome]) -> RejectionRates:
+    """Rejections of in-library and of out-of-library queries."""
+    inside = [o for o in outcomes if o.in_library]
+    outside = [o for o in outcomes if not o.in_library]
+    return RejectionRates(
+        len(inside),
+        sum(not o.accepted for o in inside),
+        len(outside),
+        sum(not o.accepted for o in outside),
+    )
+
+
+@dataclass(frozen=True)
+class Score:
+    """Everything :func:`score` measures over a list of queries.
+
+    Attributes
+    ----------
+    k : int
+        The ``k`` of the top-k accuracy (3 by default).
+    n : int
+        In-library queries (those the accuracies count).
+    top1, topk : int
+        In-library queries answered right at rank 1 / within the first ``k`` labels.
+    top1_accepted : int
+        In-library queries answered right at rank 1 AND accepted.
+    per_label : tuple of LabelScore
+        In-library labels first, then out-of-library ones.
+    confusion : ConfusionMatrix
+        Every query: true label × top-1 label.
+    rejection : RejectionRates
+    mean_query_s : float
+        Mean wall time per query, seconds (NaN without queries).
+    n_queries : int
+        All queries, in and out of the library.
+    """
+
+    k: int
+    n: int
+    top1: int
+    topk: int
+    top1_accepted: int
+    per_label: tuple[LabelScore, ...]
+    confusion: ConfusionMatrix
+    rejection: RejectionRates
+    mean_query_s: float
+    n_queries: int
+
+    @property
+    def top1_rate(self) -> float:
+        return _rate(self.top1, self.n)
+
+    @property
+    def topk_rate(self) -> float:
+        return _rate(self.topk, self.n)
+
+    @property
+    def top1_accepted_rate(self) -> float:
+        return _rate(self.top1_accepted, self.n)
+
+    def to_json(self) -> dict:
+        return {
+            "k": self.k,
+            "n_queries": self.n_queries,
+            "n_in_library": self.n,
+            "top1": self.top1,
+            "topk": self.topk,
+            "top1_accepted": self.top1_accepted,
+            "top1_rate": _json_rate(self.top1_rate),
+            "topk_rate": _json_rate(self.topk_rate),
+            "top1_accepted_rate": _json_rate(self.top1_accepted_rate),
+            "per_label": [s.to_json() for s in self.per_label],
+            "confusion": self.confusion.to_json(),
+            "rejection": self.rejection.to_json(),
+            "mean_query_s": _json_rate(self.mean_query_s),
+        }
+
+
+def score(
+    outcomes: Sequence[QueryOutcome], k: int = 3, label_order: Sequence[str] | None = None
+) -> Score:
+    """Accuracy, confusion and rejection of a list of queries.
+
+    Parameters
+    ----------
+    outcomes : sequence of QueryOutcome
+        At least one.
+    k : int
+        Rank for the top-k accuracy, >= 1.
+    label_order : sequence of str, optional
+        Order of labels in ``per_label`` and in the confusion matrix (others follow,
+        sorted).
+
+    Returns
+    -------
+    Score
+
+    Raises
+    ------
+    InvalidParameterError
+        No outcomes, ``k < 1``, or a label that is in the library for some queries and
+        out of it for others (score those separately, one database each).
+    """
+    outcomes = list(outcomes)
+    if not outcomes:
+        raise InvalidParameterError("score needs at least one query outcome, got none")
+    if k < 1:
+        raise InvalidParameterError(f"k must be >= 1, got {k}")
+    status: dict[str, bool] = {}
+    for o in outcomes:
+        if status.setdefault(o.true_label, o.in_library) != o.in_library:
+            raise InvalidParameterError(
+                f"label {o.true_label!r} is in the library for some queries and out of it "
+                "for others; score each database separately"
+            )
+    labels = _ordered(status, label_order)
+    per_label = []
+    for inside in (True, False):
+        for label in labels:
+            if status[label] != inside:
+                continue
+            mine = [o for o in outcomes if o.true_label == label]
+            per_label.append(
+                LabelScore(
+                    label,
+                    inside,
+                    len(mine),
+                    sum(o.hit(1) for o in mine),
+                    sum(o.hit(k) for o in mine),
+                    sum(not o.accepted for o in mine),
+                )
+            )
+    inside = [o for o in outcomes if o.in_library]
+    return Score(
+        k=k,
+        n=len(inside),
+        top1=sum(o.hit(1) for o in inside),
+        topk=sum(o.hit(k) for o in inside),
+        top1_accepted=sum(o.hit(1) and o.accepted for o in inside),
+        per_label=tuple(per_label),
+        confusion=confusion_matrix(
+            [o.true_label for o in outcomes], [o.predicted for o in outcomes], label_order
+        ),
+        rejection=rejection_rates(outcomes),
+        mean_query_s=float(np.mean([o.query_s for o in outcomes])),
+        n_queries=len(outcomes),
+    )
+
+
+# -- printing ------------------------------------------------------------------------
+
+
+def _percent(value: float) -> str:
+    return "—" if math.isnan(value) else f"{100 * value:.1f}%"
+
+
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> list[str]:
+    """A Markdown table, columns padded to their widest cell.
+
+    Parameters
+    ----------
+    header : sequence of str
+    rows : iterable of sequences
+        One cell per header column each (printed with ``str``).
+
+    Returns
+    -------
+    list of str
+        The lines: header, rule, one per row.
+    """
+    rows = [[str(c) for c in r] for r in rows]
+    for i, r in enumerate(rows):
+        if len(r) != len(header):
+            raise InvalidParameterError(
+                f"table row {i} has {len(r)} cells, expected {len(header)} (one per column)"
+            )
+    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(header)]
+
+    def line(cells):
+        return "| " + " | ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)) + " |"
+
+    rule = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
+    return [line(header), rule, *(line(r) for r in rows)]
+
+
+def format_confusion(confusion: ConfusionMatrix) -> str:
+    """The matrix as a Markdown table (rows: true labels, columns: top-1 labels)."""
+    header = ["true \\ top-1", *confusion.predicted_labels]
+    rows = [
+        [label, *(str(c) if c else ZERO_CELL for c in confusion.counts[i])]
+        for i, label in enumerate(confusion.true_labels)
+    ]
+    return "\n".join(markdown_table(header, rows))
+
+
+def format_score(result: Score) -> str:
+    """A score as Markdown: per-label table, overall line, rejection, confusion matrix."""
+    k = result.k
+    rows = []
+    for s in result.per_label:
+        if s.in_library:
+            rows.append(
+                [
+                    s.label,
+                    str(s.n),
+                    f"{s.top1}/{s.n} ({_percent(s.top1_rate)})",
+                    f"{s.topk}/{s.n} ({_percent(s.topk_rate)})",
+                    f"{s.rejected}/{s.n}",
+                ]
+            )
+        else:
+            rows.append([f"{s.label} (out of library)", str(s.n), "—", "—", f"{s.rejected}/{s.n}"])
+    rej = result.rejection
+    lines = markdown_table(["label", "n", "top-1", f"top-{k}", "rejected"], rows)
+    lines += [
+        "",
+        f"overall (in-library queries): top-1 {result.top1}/{result.n} "
+        f"({_percent(result.top1_rate)}), top-{k} {result.topk}/{result.n} "
+        f"({_percent(result.topk_rate)}), top-1 and accepted {result.top1_accepted}/"
+        f"{result.n} ({_percent(result.top1_accepted_rate)})",
+        f"rejection: out-of-library rejected {rej.rejected}/{rej.n_out_of_library} "
+        f"({_percent(rej.rejection_rate)}); in-library falsely rejected "
+        f"{rej.false_rejected}/{rej.n_in_library} ({_percent(rej.false_rejection_rate)})",
+        f"mean query time: {result.mean_query_s:.2f} s over {result.n_queries} queries",
+        "",
+        format_confusion(result.confusion),
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,313 @@
+"""Scoring of retrieval queries (eigmotion.evaluation) and a smoke run of the accuracy
+benchmark's ``seen`` suite."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.evaluation import (
+    ZERO_CELL,
+    QueryOutcome,
+    confusion_matrix,
+    format_confusion,
+    format_score,
+    markdown_table,
+    ranked_labels,
+    rejection_rates,
+    score,
+)
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def outcome(true, ranked, accepted=True, in_library=True, query_s=1.0):
+    return QueryOutcome(true, tuple(ranked), accepted, in_library, query_s)
+
+
+#: Eight hand-made queries against one database holding walk, run and jump (not duck).
+QUERIES = [
+    outcome("walk", ["walk", "run", "jump"], query_s=1.0),
+    outcome("walk", ["run", "walk", "jump"], query_s=2.0),
+    outcome("walk", ["run", "jump", "walk"], accepted=False, query_s=3.0),
+    outcome("run", ["run", "walk"], query_s=1.0),
+    outcome("run", ["jump", "walk", "run"], accepted=False, query_s=1.0),
+    outcome("jump", ["jump"], query_s=2.0),
+    outcome("duck", ["jump", "walk", "run"], accepted=False, in_library=False, query_s=4.0),
+    outcome("duck", ["walk", "run"], accepted=True, in_library=False, query_s=2.0),
+]
+
+
+# -- outcomes and ranked labels -----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("matches", "expected"),
+    [
+        (["kick", "kick", "lift", "kick", "wave"], ("kick", "lift", "wave")),
+        (["walk"], ("walk",)),
+        (["a", "b", "a", "c", "b"], ("a", "b", "c")),
+        ([], ()),
+    ],
+)
+def test_ranked_labels_keeps_first_appearance(matches, expected):
+    assert ranked_labels(iter(matches)) == expected
+
+
+@pytest.mark.parametrize(
+    ("k", "hits"),
+    [(1, [True, False, False]), (2, [True, True, False]), (3, [True, True, True])],
+)
+def test_hit_at_k(k, hits):
+    assert [QUERIES[i].hit(k) for i in range(3)] == hits
+
+
+@pytest.mark.parametrize(
+    ("ranked", "query_s"),
+    [((), 1.0), (("walk", "run", "walk"), 1.0), (("walk",), -0.5), (("walk",), math.nan)],
+)
+def test_bad_outcome_is_refused(ranked, query_s):
+    with pytest.raises(InvalidParameterError):
+        QueryOutcome("walk", ranked, True, True, query_s)
+
+
+def test_hit_needs_positive_k():
+    with pytest.raises(InvalidParameterError, match="k must be >= 1"):
+        QUERIES[0].hit(0)
+
+
+def test_outcome_errors_are_project_and_builtin_errors():
+    with pytest.raises(EigmotionError):
+        QueryOutcome("walk", (), True, True, 1.0)
+    with pytest.raises(ValueError):
+        QueryOutcome("walk", (), True, True, 1.0)
+
+
+# -- confusion matrix ------------------------------------------------------------------
+
+
+def test_confusion_matrix_counts_pairs():
+    true = ["walk", "walk", "walk", "run", "run", "jump"]
+    predicted = ["walk", "run", "run", "run", "jump", "jump"]
+    cm = confusion_matrix(true, predicted, label_order=["walk", "run", "jump"])
+    assert cm.true_labels == ("walk", "run", "jump")
+    assert cm.predicted_labels == ("walk", "run", "jump")
+    np.testing.assert_array_equal(cm.counts, [[1, 2, 0], [0, 1, 1], [0, 0, 1]])
+    assert cm.counts.dtype == np.int64
+    assert cm.count("walk", "run") == 2
+    assert cm.count("walk", "duck") == 0
+    assert cm.counts.sum() == len(true)
+
+
+@pytest.mark.parametrize(
+    ("order", "rows", "cols"),
+    [
+        (None, ("duck", "walk"), ("jump", "walk")),
+        (["walk", "jump", "duck"], ("walk", "duck"), ("walk", "jump")),
+        (["jump"], ("duck", "walk"), ("jump", "walk")),
+    ],
+)
+def test_confusion_matrix_label_order(order, rows, cols):
+    cm = confusion_matrix(["walk", "duck", "walk"], ["walk", "jump", "jump"], order)
+    assert cm.true_labels == rows
+    assert cm.predicted_labels == cols
+    assert cm.count("duck", "jump") == 1
+    assert cm.count("walk", "jump") == 1
+    assert cm.count("walk", "walk") == 1
+
+
+def test_confusion_matrix_needs_one_prediction_per_query():
+    with pytest.raises(InvalidParameterError, match="one label per query"):
+        confusion_matrix(["walk", "run"], ["walk"])
+
+
+def test_confusion_json_and_text():
+    cm = confusion_matrix(["walk", "run"], ["walk", "walk"], ["walk", "run"])
+    data = json.loads(json.dumps(cm.to_json()))
+    assert data == {
+        "true_labels": ["walk", "run"],
+        "predicted_labels": ["walk"],
+        "counts": [[1], [1]],
+    }
+    text = format_confusion(confusion_matrix(["walk", "run"], ["walk", "run"]))
+    assert ZERO_CELL in text
+    assert text.splitlines()[0].split("|")[1].strip() == "true \\ top-1"
+
+
+# -- scores -----------------------------------------------------------------------------
+
+
+def test_score_of_hand_made_queries():
+    result = score(QUERIES, k=3, label_order=["walk", "run", "jump", "duck"])
+    # Accuracy counts the six in-library queries only.
+    assert (result.n, result.n_queries) == (6, 8)
+    assert (result.top1, result.topk, result.top1_accepted) == (3, 6, 3)
+    assert result.top1_rate == pytest.approx(0.5)
+    assert result.topk_rate == pytest.approx(1.0)
+    by_label = {s.label: s for s in result.per_label}
+    assert [s.label for s in result.per_label] == ["walk", "run", "jump", "duck"]
+    walk, run, jump, duck = (by_label[x] for x in ("walk", "run", "jump", "duck"))
+    assert (walk.n, walk.top1, walk.topk, walk.rejected) == (3, 1, 3, 1)
+    assert (run.n, run.top1, run.topk, run.rejected) == (2, 1, 2, 1)
+    assert (jump.n, jump.top1, jump.topk, jump.rejected) == (1, 1, 1, 0)
+    assert not duck.in_library and (duck.n, duck.rejected) == (2, 1)
+    assert walk.top1_rate == pytest.approx(1 / 3)
+    rej = result.rejection
+    assert (rej.n_in_library, rej.false_rejected, rej.n_out_of_library, rej.rejected) == (
+        6,
+        2,
+        2,
+        1,
+    )
+    assert rej.false_rejection_rate == pytest.approx(2 / 6)
+    assert rej.rejection_rate == pytest.approx(0.5)
+    assert result.mean_query_s == pytest.approx(16.0 / 8)
+    assert result.confusion.count("duck", "jump") == 1
+    assert result.confusion.count("run", "jump") == 1
+    assert result.confusion.counts.sum() == 8
+
+
+@pytest.mark.parametrize(("k", "topk"), [(1, 3), (2, 4), (3, 6), (10, 6)])
+def test_score_top_k(k, topk):
+    result = score(QUERIES, k=k)
+    assert result.topk == topk
+    assert result.top1 == 3
+
+
+def test_rejection_rates_without_out_of_library_queries_are_nan():
+    rej = rejection_rates(QUERIES[:6])
+    assert rej.n_out_of_library == 0
+    assert math.isnan(rej.rejection_rate)
+    assert rej.false_rejection_rate == pytest.approx(2 / 6)
+    assert rej.to_json()["rejection_rate"] is None
+
+
+@pytest.mark.parametrize(
+    ("outcomes", "k", "message"),
+    [
+        ([], 3, "at least one"),
+        (QUERIES, 0, "k must be >= 1"),
+        (
+            [outcome("walk", ["walk"]), outcome("walk", ["run"], in_library=False)],
+            3,
+            "in the library for some",
+        ),
+    ],
+)
+def test_score_refuses_bad_input(outcomes, k, message):
+    with pytest.raises(InvalidParameterError, match=message):
+        score(outcomes, k=k)
+
+
+def test_score_json_is_plain_and_complete():
+    data = json.loads(json.dumps(score(QUERIES, label_order=["walk", "run"]).to_json()))
+    assert data["top1"] == 3 and data["n_in_library"] == 6
+    assert data["top1_rate"] == pytest.approx(0.5)
+    assert data["rejection"]["rejected"] == 1
+    assert len(data["per_label"]) == 4
+    assert data["confusion"]["counts"][0] == [1, 2, 0]
+
+
+def test_format_score_shows_counts_rates_and_matrix():
+    text = format_score(score(QUERIES, label_order=["walk", "run", "jump", "duck"]))
+    assert "| walk " in text and "1/3 (33.3%)" in text
+    assert "duck (out of library)" in text
+    assert "top-1 3/6 (50.0%)" in text
+    assert "out-of-library rejected 1/2 (50.0%)" in text
+    assert "falsely rejected 2/6 (33.3%)" in text
+    assert "mean query time: 2.00 s over 8 queries" in text
+    assert "| true \\ top-1 |" in text
+
+
+def test_markdown_table_pads_columns_and_checks_rows():
+    lines = markdown_table(["a", "bb"], [["xxx", 1], ["y", 22]])
+    assert lines == ["| a   | bb |", "|-----|----|", "| xxx | 1  |", "| y   | 22 |"]
+    with pytest.raises(InvalidParameterError, match="row 1 has 1 cells"):
+        markdown_table(["a", "b"], [["1", "2"], ["3"]])
+
+
+# -- the benchmark script --------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location(
+        "bench_accuracy", REPO / "benchmarks" / "bench_accuracy.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop(spec.name, None)
+
+
+@pytest.mark.parametrize(
+    ("rig_file", "azimuths", "elevations"),
+    [
+        ("default.toml", np.arange(15.0, 360.0, 30.0), [10.0]),
+        ("ring6.toml", np.arange(30.0, 360.0, 60.0), [10.0]),
+    ],
+)
+def test_halfway_views(bench, rig_file, azimuths, elevations):
+    from eigmotion.cameras import load_rig
+
+    az, el = bench.halfway_views(load_rig(REPO / "virtual_cameras" / rig_file))
+    np.testing.assert_allclose(np.sort(az), azimuths)
+    np.testing.assert_allclose(el, elevations)
+
+
+def test_person_height_px(bench):
+    masks = np.zeros((3, 20, 10), dtype=bool)
+    masks[0, 2:12, 3] = True  # 10 rows
+    masks[1, 5:19, 4:6] = True  # 14 rows
+    assert bench.person_height_px(masks) == pytest.approx(12.0)  # frame 2 is empty
+    assert bench.person_height_px(np.zeros((2, 4, 4), dtype=bool)) == 0.0
+
+
+@pytest.mark.slow
+def test_seen_quick_smoke_run(bench, tmp_path):
+    """Two motions, a ring6 database built into tmp, one clip each, through the CLI."""
+    out = tmp_path / "seen.json"
+    argv = [
+        "seen",
+        "--quick",
+        "--only",
+        "wave_14_24",
+        "kick_135_04",
+        "--rig",
+        str(REPO / "virtual_cameras" / "ring6.toml"),
+        "--components",
+        "8",
+        "--workers",
+        "1",
+        "--db",
+        str(tmp_path / "tiny.fs"),
+        "--clips-dir",
+        str(tmp_path / "clips"),
+        "--json-out",
+        str(out),
+    ]
+    assert bench.main(argv) == 0
+    data = json.loads(out.read_text())
+    seen = data["suites"]["seen"]
+    assert seen["built"]["n_motions"] == 2
+    scored = seen["scores"]["default"]
+    assert scored["n_queries"] == 2 and scored["n_in_library"] == 2
+    assert scored["database"]["labels"] == ["kick", "wave"]
+    # Two labels far apart (a kick, a wave): both must be told apart.
+    assert scored["top1"] == 2
+    for query in seen["queries"]:
+        assert (query["height_m"], query["girth"]) in bench.BODY_SHAPES
+        assert query["azimuth_deg"] % 60.0 == pytest.approx(30.0)  # halfway between cameras
+        assert query["answers"]["default"]["ranked_labels"][0] == query["label"]
+        assert (tmp_path / "clips" / query["video"]).is_file()
+        assert 50 < query["person_px"] <= 240

@@ -1,0 +1,374 @@
+"""The video front end and the synthetic scene composer.
+
+The done-when checks use the real avatar: a walk rendered by pyrender (the frames)
+and by the CPU rasteriser (the true silhouettes), composed over a textured background
+with a cast shadow, camouflaged clothing and sensor noise.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.motion_image import motion_image
+from eigmotion.scene import (
+    compose_scene,
+    compose_scene_with_layout,
+    procedural_background,
+    stick_figure_masks,
+)
+from eigmotion.video import (
+    DEFAULT_NPZ_FPS,
+    SilhouetteConfig,
+    estimate_background,
+    extract_silhouettes,
+    load_clip_masks,
+    read_background,
+)
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(F,) intersection over union of two (F, H, W) bool stacks."""
+    return (a & b).sum(axis=(1, 2)) / np.maximum((a | b).sum(axis=(1, 2)), 1)
+
+
+def cosine_distance(a: np.ndarray, b: np.ndarray) -> float:
+    return float(1.0 - np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
+
+
+def write_png(path, rgb):
+    cv2.imwrite(str(path), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    return path
+
+
+@pytest.fixture(scope="module")
+def stick_scene():
+    """A small synthetic clip: stick figure walking over a composed scene."""
+    masks = stick_figure_masks(30, 120, 160, fps=30.0, body_height_px=90.0, walk_speed_px_s=60.0)
+    frames, background, layout = compose_scene_with_layout(None, masks, np.random.default_rng(1))
+    return masks, frames, background, layout
+
+
+@pytest.fixture(scope="module")
+def avatar_clip(cmu_dir):
+    """1.5 s of the avatar walking (CMU 02_01) seen from its side at 160×120, 30 fps:
+    shaded frames (pyrender, no floor) and true masks (CPU rasteriser)."""
+    from eigmotion.asf_amc import read_amc
+    from eigmotion.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
+    from eigmotion.cameras import ring_rig
+    from eigmotion.render import render_shaded
+    from eigmotion.silhouettes import render_masks
+
+    motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
+    motion = motion.trim(0, 181).resample(30.0)
+    body = load_default_avatar().decimated(DEFAULT_LOW_POLY_FACES)
+    _, vertices = body.animate(motion)
+    camera = ring_rig(4, 10.0, width=160, height=120).fitted(vertices[:, ::10])[1]
+    masks = render_masks(vertices, body.faces, camera)
+    rgb = render_shaded(vertices, body.faces, camera, floor=False)
+    return rgb, masks
+
+
+@pytest.fixture(scope="module")
+def avatar_scene(avatar_clip):
+    rgb, masks = avatar_clip
+    frames, background, layout = compose_scene_with_layout(
+        rgb, masks, np.random.default_rng(0), shadow=True, camouflage=0.25, noise_sigma=3.0
+    )
+    assert layout.shadow_masks.any() and layout.camouflage_masks.any()
+    return frames, background, masks
+
+
+# -- the done-when checks --------------------------------------------------------------
+
+
+@pytest.mark.parametrize("background_given", [True, False], ids=["background", "estimated"])
+def test_recovers_the_avatar_from_a_textured_shadowed_noisy_video(avatar_scene, background_given):
+    frames, background, truth = avatar_scene
+    masks = extract_silhouettes(frames, background if background_given else None)
+    overlap = iou(masks, truth)
+    assert overlap.mean() >= 0.85, f"mean IoU {overlap.mean():.3f}"
+    assert overlap.min() >= 0.7, f"worst frame IoU {overlap.min():.3f}"
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".avi"])
+def test_written_and_read_back_gives_the_same_motion_image(avatar_scene, tmp_path, suffix):
+    from eigmotion.media import write_video
+
+    frames, background, truth = avatar_scene
+    direct = motion_image(extract_silhouettes(frames), clip_fps=30.0)
+    path = write_video(frames, tmp_path / f"clip{suffix}", 30.0)
+    masks, fps = load_clip_masks(path)
+    assert masks.shape == truth.shape and fps == pytest.approx(30.0)
+    assert cosine_distance(motion_image(masks, clip_fps=fps), direct) < 0.05
+    assert cosine_distance(motion_image(truth, clip_fps=30.0), direct) < 0.05
+
+
+def test_background_image_from_a_file(avatar_scene, tmp_path):
+    from eigmotion.media import write_video
+
+    frames, background, truth = avatar_scene
+    path = write_video(frames, tmp_path / "clip.avi", 30.0)
+    masks, _ = load_clip_masks(path, write_png(tmp_path / "empty.png", background))
+    assert iou(masks, truth).mean() >= 0.8
+
+
+# -- what the front end copes with -------------------------------------------------------
+
+
+def test_cast_shadow_is_not_the_person(stick_scene):
+    masks, frames, background, layout = stick_scene
+    found = extract_silhouettes(frames, background)
+    shadow_px = layout.shadow_masks.sum()
+    assert shadow_px > 0.2 * masks.sum()  # the shadow is there, and big
+    assert (found & layout.shadow_masks).sum() < 0.05 * shadow_px
+    naive = extract_silhouettes(frames, background, SilhouetteConfig(shadow_ratio=(0.01, 0.02)))
+    assert (naive & layout.shadow_masks).sum() > 0.3 * shadow_px  # the test can fail
+
+
+def test_camouflaged_clothing_stays_attached(stick_scene):
+    masks, frames, background, layout = stick_scene
+    found = extract_silhouettes(frames, background)
+    camo = layout.camouflage_masks
+    assert camo.sum() > 0.1 * masks.sum()
+    assert (found & camo).sum() > 0.7 * camo.sum()
+    assert iou(found, masks).mean() > 0.85
+
+
+@pytest.mark.parametrize("gain", [0.75, 1.1])
+def test_exposure_change_against_a_given_background(stick_scene, gain):
+    masks, frames, background, _ = stick_scene
+    brighter = np.clip(frames.astype(np.float32) * gain, 0, 255).astype(np.uint8)
+    assert iou(extract_silhouettes(brighter, background), masks).mean() > 0.85
+
+
+@pytest.mark.parametrize("method, limit", [("median", 6.0), ("mog2", 12.0)])
+def test_background_estimate(stick_scene, method, limit):
+    """Mean absolute error of the estimated empty scene, 0–255 levels."""
+    masks, frames, background, _ = stick_scene
+    estimate = estimate_background(frames, SilhouetteConfig(background=method))
+    assert estimate.shape == background.shape and estimate.dtype == np.uint8
+    error = np.abs(estimate.astype(float) - background).mean()
+    assert error < limit, f"{method}: {error:.2f}"
+
+
+def test_refined_median_removes_the_ghost(stick_scene):
+    masks, frames, background, _ = stick_scene
+    plain = estimate_background(frames)
+    refined = estimate_background(frames, exclude=extract_silhouettes(frames))
+    err = lambda b: np.abs(b.astype(float) - background).max(axis=2)  # noqa: E731
+    assert (err(refined) > 25).mean() <= (err(plain) > 25).mean()
+
+
+# -- errors ------------------------------------------------------------------------------
+
+
+def test_frames_equal_to_the_background_hold_no_person():
+    background = procedural_background(60, 80, 30, np.random.default_rng(1))
+    frames = np.repeat(background[None], 5, axis=0)
+    with pytest.raises(VideoError, match="no person found"):
+        extract_silhouettes(frames, background)
+
+
+def test_background_of_another_size_names_both_sizes(stick_scene):
+    _, frames, background, _ = stick_scene
+    with pytest.raises(VideoError, match=r"background is 80×60 pixels but the frames are 160×120"):
+        extract_silhouettes(frames, background[:60, :80])
+
+
+@pytest.mark.parametrize(
+    "frames, error, pattern",
+    [
+        (np.zeros((0, 32, 32, 3), np.uint8), VideoError, "zero frames"),
+        (np.zeros((4, 32, 32), np.uint8), InvalidParameterError, r"frames must have shape"),
+        (np.zeros((4, 32, 32, 3), np.float32), InvalidParameterError, "frames must be uint8"),
+        (np.zeros((4, 4, 4, 3), np.uint8), InvalidParameterError, "at least 8×8"),
+    ],
+)
+def test_bad_frames(frames, error, pattern):
+    with pytest.raises(error, match=pattern):
+        extract_silhouettes(frames)
+
+
+def test_bad_background_type(stick_scene):
+    _, frames, background, _ = stick_scene
+    with pytest.raises(InvalidParameterError, match="background must be"):
+        extract_silhouettes(frames, background.astype(np.float32))
+
+
+@pytest.mark.parametrize(
+    "name, value",
+    [
+        ("background", "gmm"),
+        ("max_background_frames", 2),
+        ("low_factor", 0.5),
+        ("high_factor", 2.0),  # below the default low_factor
+        ("min_delta_e", 0.0),
+        ("shadow_ratio", (0.9, 0.5)),
+        ("shadow_ratio", (0.5,)),
+        ("shadow_chroma", 0.8),
+        ("smooth_sigma_px", -1.0),
+        ("close_px", 40),
+        ("min_person_frac", 0.0),
+        ("keep_piece_frac", 2.0),
+        ("small_hole_frac", -0.1),
+    ],
+)
+def test_config_rejects_bad_values(name, value):
+    with pytest.raises(InvalidParameterError, match=name):
+        SilhouetteConfig(**{name: value})
+
+
+def test_config_round_trip():
+    config = SilhouetteConfig(background="mog2", shadow_ratio=(0.4, 0.9), close_px=3)
+    assert SilhouetteConfig.from_dict(config.to_dict()) == config
+    with pytest.raises(InvalidParameterError, match="unknown key"):
+        SilhouetteConfig.from_dict({"threshold": 3})
+
+
+# -- loading clips -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fps", [None, 24.0])
+def test_load_npz_masks(tmp_path, fps):
+    masks = stick_figure_masks(6, 40, 50, body_height_px=30.0)
+    path = tmp_path / "clip.npz"
+    if fps is None:
+        np.savez(path, masks=masks.astype(np.uint8))
+    else:
+        np.savez(path, masks=masks, fps=fps)
+    loaded, loaded_fps = load_clip_masks(path)
+    np.testing.assert_array_equal(loaded, masks)
+    assert loaded.dtype == bool
+    assert loaded_fps == (DEFAULT_NPZ_FPS if fps is None else fps)
+
+
+@pytest.mark.parametrize(
+    "arrays, error, pattern",
+    [
+        ({"silhouettes": np.ones((3, 8, 8), bool)}, InvalidParameterError, "no array 'masks'"),
+        ({"masks": np.ones((8, 8), bool)}, InvalidParameterError, r"shape \(F, H, W\)"),
+        ({"masks": np.zeros((0, 8, 8), bool)}, VideoError, "zero frames"),
+        ({"masks": np.zeros((3, 8, 8), bool)}, VideoError, "no person"),
+        ({"masks": np.ones((3, 8, 8), bool), "fps": -1.0}, InvalidParameterError, "fps"),
+    ],
+)
+def test_bad_npz(tmp_path, arrays, error, pattern):
+    path = tmp_path / "bad.npz"
+    np.savez(path, **arrays)
+    with pytest.raises(error, match=pattern):
+        load_clip_masks(path)
+
+
+def test_npz_with_a_background_is_refused(tmp_path):
+    path = tmp_path / "clip.npz"
+    np.savez(path, masks=np.ones((3, 8, 8), bool))
+    with pytest.raises(InvalidParameterError, match="background_path"):
+        load_clip_masks(path, tmp_path / "bg.png")
+
+
+@pytest.mark.parametrize(
+    "name, content, pattern",
+    [
+        ("missing.mp4", None, "no such file"),
+        ("garbage.mp4", b"not a video at all", "cannot be opened|no frame"),
+        ("garbage.npz", b"not a zip file", "not a readable .npz"),
+        ("clip.txt", b"hello", "unknown clip type"),
+    ],
+)
+def test_unreadable_files(tmp_path, name, content, pattern):
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(VideoError, match=pattern):
+        load_clip_masks(path)
+
+
+def test_folder_of_frames(stick_scene, tmp_path):
+    masks, frames, background, _ = stick_scene
+    for i, frame in enumerate(frames[:12]):
+        write_png(tmp_path / f"f{i}.png", frame)
+    loaded, fps = load_clip_masks(tmp_path, write_png(tmp_path.parent / "bg.png", background))
+    assert loaded.shape == masks[:12].shape and fps > 0
+    assert iou(loaded, masks[:12]).mean() > 0.85
+
+
+def test_background_file_of_another_size(stick_scene, tmp_path):
+    _, frames, background, _ = stick_scene
+    for i, frame in enumerate(frames[:4]):
+        write_png(tmp_path / f"f{i}.png", frame)
+    small = write_png(tmp_path.parent / "small.png", background[:100, :150])
+    with pytest.raises(VideoError, match="150×100 pixels but the frames are 160×120"):
+        load_clip_masks(tmp_path, small)
+
+
+@pytest.mark.parametrize("content", [None, b"nonsense"])
+def test_unreadable_background_file(tmp_path, content):
+    path = tmp_path / "bg.png"
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(VideoError, match="background image not found|not a readable image"):
+        read_background(path)
+
+
+# -- the scene composer ------------------------------------------------------------------
+
+
+def test_scene_is_seeded(stick_scene):
+    masks = stick_scene[0][:4]
+    a = compose_scene(None, masks, np.random.default_rng(3))
+    b = compose_scene(None, masks, np.random.default_rng(3))
+    c = compose_scene(None, masks, np.random.default_rng(4))
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+    assert not np.array_equal(a[1], c[1])
+
+
+@pytest.mark.parametrize("noise_sigma", [0.0, 2.0, 6.0])
+def test_scene_noise_level(stick_scene, noise_sigma):
+    masks = stick_scene[0][:3]
+    frames, background = compose_scene(
+        None, masks, np.random.default_rng(2), shadow=False, noise_sigma=noise_sigma
+    )
+    # Far from the person, a frame and the empty scene differ by two noise draws.
+    far = ~np.any(masks, axis=0)
+    far[:, :100] = False
+    diff = frames[0].astype(float)[far] - background.astype(float)[far]
+    assert np.std(diff) == pytest.approx(np.sqrt(2) * noise_sigma, abs=0.6)
+
+
+def test_shadow_darkens_the_floor_keeping_its_colour(stick_scene):
+    masks = stick_scene[0][:5]
+    kwargs = dict(noise_sigma=0.0, camouflage=0.0, shadow_strength=0.4)
+    lit, _ = compose_scene(None, masks, np.random.default_rng(9), shadow=False, **kwargs)
+    dark, _, layout = compose_scene_with_layout(
+        None, masks, np.random.default_rng(9), shadow=True, **kwargs
+    )
+    core = layout.shadow_masks & (cv2.erode(layout.shadow_masks.astype(np.uint8)[0], None) > 0)
+    assert core.any()
+    assert np.all(np.flatnonzero(core.any(axis=(0, 2))) >= layout.horizon_row)
+    ratio = dark[core].astype(float).sum(axis=1) / lit[core].astype(float).sum(axis=1)
+    # Full shadow keeps 1 - 0.4 of the light; its soft edges keep more.
+    assert np.percentile(ratio, 5) == pytest.approx(0.6, abs=0.03)
+    assert np.median(ratio) < 0.8
+    chroma = lambda x: x / x.sum(axis=1, keepdims=True)  # noqa: E731
+    assert np.abs(chroma(dark[core].astype(float)) - chroma(lit[core].astype(float))).max() < 0.05
+
+
+def test_scene_rejects_mismatched_inputs(stick_scene):
+    masks = stick_scene[0][:3]
+    with pytest.raises(InvalidParameterError, match="person_rgb must be uint8 of shape"):
+        compose_scene(np.zeros((3, 10, 10, 3), np.uint8), masks, np.random.default_rng(0))
+    with pytest.raises(InvalidParameterError, match="noise_sigma"):
+        compose_scene(None, masks, np.random.default_rng(0), noise_sigma=-1.0)
+
+
+@pytest.mark.parametrize("fps, factor", [(48.0, 2), (120.0, 5)])
+def test_stick_figure_is_a_function_of_time(fps, factor):
+    """Frame k at 24 fps and the frame at the same time at a higher rate are the same pose."""
+    a = stick_figure_masks(25, fps=24.0)
+    b = stick_figure_masks(24 * factor + 1, fps=fps)
+    np.testing.assert_array_equal(a[::6], b[:: 6 * factor])
+    assert not np.array_equal(a[0], a[6])  # it does move
