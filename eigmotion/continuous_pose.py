@@ -1,0 +1,797 @@
+"""Continuous pose: the retrieved motion aligned to a single-camera clip frame by frame.
+
+Retrieval answers a clip with a basic motion, the window of it that matched and the
+view (azimuth, elevation) of the virtual camera that saw it like the clip's camera
+sees the person.  The linear replay (:mod:`eigmotion.replay`) stretches that window
+over the clip; a person who speeds up or slows down is then out of step.  Here the
+tracker's machinery aligns the motion to the clip instead (MISSION, "How the two
+meet"):
+
+1. **Dictionary.** The matched window and ``margin_s`` around it, on the avatar, at
+   ``reference_fps``: entry ``i`` is reference frame ``i``
+   (:func:`eigmotion.tracker.dictionary_from_sequences`, no pruning), posed on the
+   low-poly body (:func:`eigmotion.tracker.avatar_bodies`).
+2. **Virtual camera.** One camera at the matched view, aimed at the reference as the
+   database build aimed its rig; its image is the clip's.  The person's apparent size
+   and place are unknown: the camera's intrinsics are fitted so that the box around
+   the reference's silhouettes over the matched window covers the box around the
+   clip's silhouettes (a 2D scale and translation).
+3. **Similarity.** A candidate (clip frame, reference frame) is the body in that
+   reference posture, at its own place on the reference's path, moved sideways so that
+   its centre projects onto the silhouette's centroid column, rendered inside the
+   rectangle around the candidates and the observed silhouette, and scored with the
+   tracker's similarity (:func:`eigmotion.tracker.score_masks`) maximised over small
+   shifts and over 2D scales (``scales``) about the centroid.
+4. **Variable-speed playback, solved for the whole clip.** Reference frames are chosen
+   for all clip frames at once, maximising the summed similarity under the playback's
+   rule: never back, at most ``max_speed`` times the clip's speed per frame (dynamic
+   programming over (clip frame, reference frame)).  A coarse pass over every
+   reference frame at ``coarse_fps`` gives the path; the view's azimuth is refined on
+   it (the rig's cameras are ``azimuth_step`` apart; a clip filmed between them fits
+   best a little off the matched view); a fine pass searches ``band_s`` around the
+   coarse path at full rate.
+5. **Output.** The chosen reference frames, lightly smoothed (still never back), are
+   sampled from the reference (slerp) at the clip's frame rate, and the motion is
+   turned so that the clip's camera stands at azimuth 0, as in :mod:`eigmotion.replay`.
+
+Why not :meth:`eigmotion.tracker.SilhouetteTracker.step`: it places the body where
+the ray through the silhouette's centroid meets the plane of the body centre's height;
+a level camera (elevation 0°, most rig views) looks along that plane, so the place is
+undetermined.  Here the place comes from the reference's path and the centroid's
+column, and the whole clip is known, so the playback is solved over all frames rather
+than greedily.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .cameras import Camera, virtual_rig
+from .errors import InvalidParameterError, VideoError
+from .motion import Motion
+
+if TYPE_CHECKING:
+    from .avatar import Avatar
+    from .database import MotionDatabase, QueryResult
+    from .replay import Replay
+
+
+@dataclass(frozen=True)
+class ContinuousPoseConfig:
+    """How a retrieved motion is aligned to a clip.
+
+    Parameters
+    ----------
+    margin_s : float
+        Reference motion taken before and after the matched window, seconds (≥ 0).
+    reference_fps : float or None
+        Rate of the dictionary's frames, frames per second; ``None``: twice the clip's,
+        at least 30.
+    max_speed : float
+        Largest speed of the playback relative to the reference (reference seconds per
+        clip second), > 0; also the largest step per clip frame.
+    speed_weight : float
+        Cost per clip frame of playing at another speed than the reference's:
+        ``speed_weight * |speed - 1|``, in similarity units (≥ 0).  Walking repeats
+        itself and left and right legs look alike in a silhouette; without a prior the
+        playback may hold a posture for a step and then catch up a cycle later.
+    coarse_fps : float
+        Clip frames per second scored in the coarse pass (> 0).
+    coarse_reference_fps : float
+        Reference frames per second scored in the coarse pass (> 0).
+    band_s : float
+        Fine pass: reference time searched either side of the coarse path, seconds.
+    azimuth_search_deg : float
+        The view's azimuth is searched within ± this of the matched one, degrees (0:
+        keep the matched view).
+    azimuth_step_deg : float
+        Step of that search, degrees (> 0).
+    scales : tuple of float
+        2D scales of the candidate silhouettes about the observed centroid.
+    comparison_height_px : float
+        Silhouettes are compared on a grid where the person is about this tall (the
+        clip is block-averaged by an integer factor), pixels.
+    shift_radius_px : int
+        Shifts searched by the similarity, ± pixels of the comparison grid.
+    smoothing_frames : int
+        Width of the moving average applied to the chosen reference frames (1: none).
+    min_silhouette_px : int
+        A clip frame with fewer silhouette pixels carries no evidence.
+    n_faces : int
+        Triangles of the low-poly body that is rendered.
+    """
+
+    margin_s: float = 1.0
+    reference_fps: float | None = None
+    max_speed: float = 2.5
+    speed_weight: float = 0.03
+    coarse_fps: float = 10.0
+    coarse_reference_fps: float = 15.0
+    band_s: float = 0.3
+    azimuth_search_deg: float = 30.0
+    azimuth_step_deg: float = 7.5
+    scales: tuple[float, ...] = (0.94, 1.0, 1.06)
+    comparison_height_px: float = 64.0
+    shift_radius_px: int = 3
+    smoothing_frames: int = 5
+    min_silhouette_px: int = 30
+    n_faces: int = 4000
+
+    def __post_init__(self):
+        positive = (
+            "max_speed",
+            "coarse_fps",
+            "coarse_reference_fps",
+            "azimuth_step_deg",
+            "comparison_height_px",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
+        for name in ("margin_s", "band_s", "azimuth_search_deg", "speed_weight"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InvalidParameterError(f"{name} must be >= 0, got {value!r}")
+        if self.reference_fps is not None and not (
+            np.isfinite(self.reference_fps) and self.reference_fps > 0
+        ):
+            raise InvalidParameterError(
+                f"reference_fps must be None or > 0, got {self.reference_fps!r}"
+            )
+        for name, low in (
+            ("shift_radius_px", 0),
+            ("smoothing_frames", 1),
+            ("min_silhouette_px", 1),
+            ("n_faces", 100),
+        ):
+            value = getattr(self, name)
+            if int(value) != value or value < low:
+                raise InvalidParameterError(f"{name} must be an integer >= {low}, got {value!r}")
+        scales = tuple(float(s) for s in self.scales)
+        if not scales or not all(np.isfinite(s) and 0.2 <= s <= 5.0 for s in scales):
+            raise InvalidParameterError(f"scales must be factors in [0.2, 5], got {self.scales!r}")
+        object.__setattr__(self, "scales", scales)
+
+
+@dataclass(frozen=True, eq=False)
+class ContinuousPose:
+    """A retrieved motion aligned to a clip, one pose per clip frame.
+
+    Attributes
+    ----------
+    motion : Motion
+        On the avatar's canonical skeleton, metres (``length_unit_m = 1``), at the
+        clip's frame rate and frame count, turned so that the clip's camera stands at
+        azimuth 0 (on +Z, as in :mod:`eigmotion.replay`); the root starts above the
+        origin.
+    reference_frames : (F,) int64
+        The frame of the basic motion (its own frames and rate) each clip frame shows;
+        non-decreasing.
+    positions : (F, J, 3) float64
+        World joint positions of :attr:`motion`, metres, Y up, floor at y = 0.
+    names : tuple of str
+        The ``J`` joint names.
+    scores : (F,) float64
+        Similarity of the chosen reference posture per clip frame, in [-1, 1] per
+        scale (NaN where the clip frame shows no person).
+    azimuth_deg, elevation_deg : float
+        The view the motion was aligned under: the matched view with the azimuth
+        refined.
+    matched_azimuth_deg : float
+        The retrieved view's azimuth.
+    source_motion : str
+        The basic motion's name.
+    fps : float
+        The clip's frame rate.
+    """
+
+    motion: Motion
+    reference_frames: np.ndarray
+    positions: np.ndarray
+    names: tuple[str, ...]
+    scores: np.ndarray
+    azimuth_deg: float
+    elevation_deg: float
+    matched_azimuth_deg: float
+    source_motion: str
+    fps: float
+    _timings_s: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.reference_frames)
+
+    def save_npz(self, path) -> None:
+        """Write ``names (J,)``, ``positions (F, J, 3)`` metres, ``reference_frames (F,)``
+        and ``fps`` (frames per second) to an ``.npz`` file."""
+        np.savez_compressed(
+            path,
+            names=np.array(self.names, dtype=str),
+            positions=self.positions,
+            reference_frames=self.reference_frames,
+            fps=np.float64(self.fps),
+        )
+
+    def as_replay(self, avatar: Avatar | None = None) -> Replay:
+        """The aligned motion skinned on the avatar (for :func:`eigmotion.replay.
+        replay_video`)."""
+        from .avatar import load_default_avatar
+        from .replay import Replay
+        from .retarget import retarget
+
+        avatar = avatar or load_default_avatar()
+        anim = retarget(self.motion, avatar)
+        return Replay(self.motion, avatar.pose(anim), avatar.faces, float(self.elevation_deg))
+
+
+# -- the pieces --------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class _Reference:
+    """The extended window on the avatar, frame ``i`` = dictionary entry ``i``."""
+
+    on_avatar: Motion  # avatar skeleton, metres, reference_fps
+    root_m: np.ndarray  # (R, 3) root positions, metres
+    bodies: object  # PostureBodies, root at the origin
+    centre_offsets_m: np.ndarray  # (R, 3) mean vertex minus root
+    first_source_frame: int
+    source_per_reference: float  # source frames per reference frame
+    window: tuple[int, int]  # matched window in reference frames
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.root_m)
+
+
+def _reference(
+    motion: Motion,
+    window: tuple[int, int],
+    reference_fps: float,
+    margin_s: float,
+    avatar,
+    n_faces: int,
+) -> _Reference:
+    from .retarget import animation_to_motion, retarget
+    from .tracker import PostureSequence, avatar_bodies, dictionary_from_sequences
+
+    start, stop = window
+    margin = int(round(margin_s * motion.fps))
+    lo, hi = max(0, start - margin), min(motion.n_frames, stop + margin)
+    part = motion.trim(lo, hi).resample(reference_fps)
+    anim = retarget(part, avatar)
+    sequence = PostureSequence(
+        tuple(avatar.joint_names),
+        np.asarray(avatar.parents),
+        np.asarray(avatar.joint_positions, dtype=np.float64),
+        np.asarray(anim.joint_rotations, dtype=np.float64),
+        np.asarray(anim.joint_positions[:, 0], dtype=np.float64),
+        float(anim.frame_time_s),
+        motion.name,
+    )
+    dictionary = dictionary_from_sequences([sequence], threshold_deg=0.0)
+    bodies = avatar_bodies(dictionary, avatar, n_faces)
+    per = motion.fps / reference_fps
+    w0 = int(np.clip(round((start - lo) / per), 0, part.n_frames - 1))
+    w1 = int(np.clip(round((stop - lo) / per), w0 + 1, part.n_frames))
+    return _Reference(
+        animation_to_motion(anim, avatar),
+        sequence.root_positions,
+        bodies,
+        bodies.base_vertices.mean(axis=1).astype(np.float64),
+        lo,
+        per,
+        (w0, w1),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class _Observed:
+    """Per clip frame: the silhouette's box, centroid and whether it holds a person."""
+
+    masks: np.ndarray  # (F, H, W) bool
+    present: np.ndarray  # (F,) bool
+    centroids_px: np.ndarray  # (F, 2) (u, v), NaN where absent
+    boxes_px: np.ndarray  # (F, 4) x0, y0, x1, y1 (inclusive), NaN where absent
+
+
+def _observe(masks: np.ndarray, min_px: int) -> _Observed:
+    n = len(masks)
+    present = np.zeros(n, dtype=bool)
+    centroids = np.full((n, 2), np.nan)
+    boxes = np.full((n, 4), np.nan)
+    for f, mask in enumerate(masks):
+        ys, xs = np.nonzero(mask)
+        if len(xs) < min_px:
+            continue
+        present[f] = True
+        centroids[f] = xs.mean(), ys.mean()
+        boxes[f] = xs.min(), ys.min(), xs.max(), ys.max()
+    if not present.any():
+        raise VideoError(
+            f"no clip frame shows a silhouette of at least {min_px} pixels: nothing to align"
+        )
+    return _Observed(masks, present, centroids, boxes)
+
+
+def _fitted_camera(
+    reference: _Reference,
+    observed: _Observed,
+    azimuth_deg: float,
+    elevation_deg: float,
+    yfov_deg: float,
+) -> Camera:
+    """The virtual camera at a view, its intrinsics fitted to the clip's silhouettes.
+
+    The camera is aimed at the whole reference as the build aims its rig; then a 2D
+    scale (from the boxes' heights) and translation (their centres) map the box
+    around the reference's silhouettes over the matched window onto the box around
+    all of the clip's silhouettes.
+    """
+    from .build import hull_points
+
+    height, width = observed.masks.shape[1:]
+    every = max(1, reference.n_frames // 40)
+    verts = reference.bodies.vertices(np.arange(0, reference.n_frames, every), np.zeros(3))
+    verts = verts + reference.root_m[::every, None, :].astype(np.float32)
+    cam = virtual_rig([azimuth_deg], [elevation_deg], width, height, yfov_deg).fitted(
+        hull_points(verts)
+    )[0]
+    w0, w1 = reference.window
+    step = max(1, (w1 - w0) // 30)
+    frames = np.arange(w0, w1, step)
+    window_verts = reference.bodies.vertices(frames, np.zeros(3))[:, ::4]
+    window_verts = window_verts + reference.root_m[frames, None, :].astype(np.float32)
+    px, _ = cam.project(window_verts.reshape(-1, 3))
+    ref_box = np.array([px[:, 0].min(), px[:, 1].min(), px[:, 0].max(), px[:, 1].max()])
+    boxes = observed.boxes_px[observed.present]
+    obs_box = np.array(
+        [boxes[:, 0].min(), boxes[:, 1].min(), boxes[:, 2].max() + 1, boxes[:, 3].max() + 1]
+    )
+    scale = (obs_box[3] - obs_box[1]) / max(ref_box[3] - ref_box[1], 1e-6)
+    ref_centre = 0.5 * (ref_box[:2] + ref_box[2:])
+    obs_centre = 0.5 * (obs_box[:2] + obs_box[2:])
+    K = cam.K.copy()
+    K[0, 0] *= scale
+    K[1, 1] *= scale
+    K[:2, 2] = obs_centre + scale * (K[:2, 2] - ref_centre)
+    return Camera(K, cam.R, cam.t, width, height, cam.name, azimuth_deg, elevation_deg)
+
+
+class _Scorer:
+    """Similarity of reference frames against clip frames, under one virtual camera."""
+
+    def __init__(
+        self,
+        reference: _Reference,
+        observed: _Observed,
+        camera: Camera,
+        config: ContinuousPoseConfig,
+    ):
+        self.reference = reference
+        self.observed = observed
+        self.camera = camera
+        self.config = config
+        heights = observed.boxes_px[observed.present, 3] - observed.boxes_px[observed.present, 1]
+        self.downsample = max(1, int(np.median(heights) // config.comparison_height_px))
+        self.n_evaluations = 0
+        import os
+        self.size_from_box = os.environ.get("BOX", "1") == "1"
+        self.centroid_offsets_px, self.heights_px = self._silhouette_facts()
+
+    def _silhouette_facts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each reference frame's silhouette at its place on the reference's path.
+
+        Returns
+        -------
+        centroid_offsets_px : (R, 2) float64
+            Silhouette centroid minus the root's projection, full-resolution pixels.
+        heights_px : (R,) float64
+            Rows from the silhouette's top to its bottom, full-resolution pixels.
+        """
+        from .silhouettes import render_masks
+
+        ref, cam = self.reference, self.camera
+        offsets = np.zeros((ref.n_frames, 2))
+        heights = np.ones(ref.n_frames)
+        root_px, _ = cam.project(ref.root_m)
+        u = np.arange(cam.width)
+        v = np.arange(cam.height)
+        for lo in range(0, ref.n_frames, 64):
+            entries = np.arange(lo, min(lo + 64, ref.n_frames))
+            verts = ref.bodies.vertices(entries, np.zeros(3))
+            verts += ref.root_m[entries, None, :].astype(np.float32)
+            masks = render_masks(verts, ref.bodies.faces, cam)
+            rows = masks.any(axis=2)
+            for i, e in enumerate(entries):
+                r = np.flatnonzero(rows[i])
+                if r.size == 0:
+                    continue
+                heights[e] = r[-1] - r[0] + 1
+                area = float(masks[i].sum())
+                offsets[e] = (masks[i].sum(axis=0) @ u / area, masks[i].sum(axis=1) @ v / area)
+            offsets[entries] -= root_px[entries]
+        return offsets, heights
+
+    def placed_vertices(self, frame: int, entries: np.ndarray) -> np.ndarray:
+        """(M, V, 3) float32 candidate meshes placed for a clip frame.
+
+        Each posture is moved (not scaled) towards or away from the camera until its
+        silhouette is as tall as the clip frame's, then parallel to the image until its
+        silhouette's centroid falls on the clip frame's: the person's distance and
+        size are unknown, and the path of another performance is not the reference's.
+        """
+        ref, cam = self.reference, self.camera
+        root = ref.root_m[entries]
+        root_cam = cam.to_camera(root)
+        x0, y0, x1, y1 = self.observed.boxes_px[frame]
+        magnify = (y1 - y0 + 1) / self.heights_px[entries] if self.size_from_box else 1.0
+        depth = root_cam[:, 2] / magnify
+        target = self.observed.centroids_px[frame] - np.reshape(magnify, (-1, 1)) * self.centroid_offsets_px[entries]
+        moved = np.stack(
+            [(target[:, 0] - cam.cx) * depth / cam.fx, (target[:, 1] - cam.cy) * depth / cam.fy, depth],
+            axis=1,
+        )
+        verts = ref.bodies.vertices(entries, np.zeros(3))
+        verts += ((moved - cam.t) @ cam.R)[:, None, :].astype(np.float32)
+        return verts
+
+    def __call__(self, frame: int, entries: np.ndarray) -> np.ndarray:
+        """(M,) float64: the best similarity over shifts and scales of each entry."""
+        from .silhouettes import render_masks
+        from .tracker import score_masks
+        from .tracker.similarity import view_window
+
+        entries = np.asarray(entries, dtype=np.int64).reshape(-1)
+        if not self.observed.present[frame] or len(entries) == 0:
+            return np.zeros(len(entries))
+        cfg, cam = self.config, self.camera
+        verts = self.placed_vertices(frame, entries)
+        centre = self.observed.centroids_px[frame]
+        corners, _ = cam.project(self._box_corners(entries, verts))
+        scaled = np.concatenate([centre + s * (corners - centre) for s in cfg.scales])
+        x0, y0, x1, y1 = self.observed.boxes_px[frame]
+        points = np.concatenate([scaled, [[x0, y0], [x1, y1]]])
+        margin = (cfg.shift_radius_px + 1) * self.downsample
+        try:
+            window = view_window(cam, points, margin, self.downsample)
+        except InvalidParameterError:
+            return np.zeros(len(entries))
+        observed = window.crop(self.observed.masks[frame])
+        best = np.full(len(entries), -np.inf)
+        for s in cfg.scales:
+            rendered = render_masks(verts, self.reference.bodies.faces, window.window_camera(s, centre))
+            scores, _ = score_masks(observed, rendered, cfg.shift_radius_px)
+            best = np.maximum(best, scores)
+        self.n_evaluations += len(entries) * len(cfg.scales)
+        return best
+
+    @staticmethod
+    def _box_corners(entries: np.ndarray, verts: np.ndarray) -> np.ndarray:
+        """(8 M, 3) corners of each candidate mesh's axis-aligned box, metres."""
+        lo, hi = verts.min(axis=1), verts.max(axis=1)
+        corners = [np.where(np.array(bits, bool), hi, lo) for bits in np.ndindex(2, 2, 2)]
+        return np.concatenate(corners).astype(np.float64)
+
+
+def monotone_path(
+    scores: np.ndarray, max_step: int, step_costs: np.ndarray | None = None
+) -> np.ndarray:
+    """The best non-decreasing path through a score matrix (variable-speed playback).
+
+    Parameters
+    ----------
+    scores : (F, R) float
+        Score of showing reference frame ``r`` at clip frame ``f`` (higher is better;
+        ``-inf``: not allowed).
+    max_step : int
+        Largest step ``r[f + 1] - r[f]``, ≥ 1.
+    step_costs : (max_step + 1,) float, optional
+        Cost subtracted for each step of ``k`` frames (a prior on the speed); default
+        none.
+
+    Returns
+    -------
+    (F,) int64
+        ``r[f]``, non-decreasing, steps at most ``max_step``, maximising
+        ``sum_f scores[f, r[f]] - sum_f step_costs[r[f + 1] - r[f]]`` (ties: the
+        smaller step).
+    """
+    scores = np.asarray(scores, dtype=np.float64)
+    if scores.ndim != 2 or scores.shape[0] == 0 or scores.shape[1] == 0:
+        raise InvalidParameterError(f"scores must be a non-empty (F, R) array, got {scores.shape}")
+    if int(max_step) != max_step or max_step < 1:
+        raise InvalidParameterError(f"max_step must be an integer >= 1, got {max_step!r}")
+    max_step = int(max_step)
+    if step_costs is None:
+        costs = np.zeros(max_step + 1)
+    else:
+        costs = np.asarray(step_costs, dtype=np.float64).reshape(-1)
+        if costs.shape != (max_step + 1,) or not np.all(np.isfinite(costs)):
+            raise InvalidParameterError(
+                f"step_costs must be {max_step + 1} finite numbers, got shape {costs.shape}"
+            )
+    n_f, n_r = scores.shape
+    total = scores[0].copy()
+    back = np.zeros((n_f, n_r), dtype=np.int64)
+    idx = np.arange(n_r)
+    for f in range(1, n_f):
+        best = total - costs[0]
+        arg = idx.copy()
+        for k in range(1, min(max_step, n_r - 1) + 1):
+            shifted = np.full(n_r, -np.inf)
+            shifted[k:] = total[:-k] - costs[k]
+            better = shifted > best
+            best[better] = shifted[better]
+            arg[better] = idx[better] - k
+        total = best + scores[f]
+        back[f] = arg
+    if not np.isfinite(total).any():
+        raise InvalidParameterError("no path through the allowed reference frames")
+    path = np.empty(n_f, dtype=np.int64)
+    path[-1] = int(np.argmax(total))
+    for f in range(n_f - 1, 0, -1):
+        path[f - 1] = back[f, path[f]]
+    return path
+
+
+def speed_costs(max_step: int, unit_step: float, weight: float) -> np.ndarray:
+    """(max_step + 1,) float64: ``weight * |k / unit_step - 1|`` for steps ``k``.
+
+    The playback's prior: the person moves at the reference's speed (a step of
+    ``unit_step`` reference frames per clip frame), and every departure from it costs
+    in proportion.
+    """
+    k = np.arange(int(max_step) + 1, dtype=np.float64)
+    return float(weight) * np.abs(k / float(unit_step) - 1.0)
+
+
+def _coarse_path(scorer: _Scorer, fps: float, reference_fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Clip frames sampled at ``coarse_fps`` and their reference frames (every
+    reference frame at ``coarse_reference_fps`` scored)."""
+    cfg = scorer.config
+    n_clip = len(scorer.observed.masks)
+    clip_step = max(1, int(round(fps / cfg.coarse_fps)))
+    ref_step = max(1, int(round(reference_fps / cfg.coarse_reference_fps)))
+    frames = np.arange(0, n_clip, clip_step)
+    if frames[-1] != n_clip - 1:
+        frames = np.append(frames, n_clip - 1)
+    entries = np.arange(0, scorer.reference.n_frames, ref_step)
+    matrix = np.stack([scorer(int(f), entries) for f in frames])
+    unit = clip_step / fps * reference_fps / ref_step
+    max_step = max(1, int(np.ceil(cfg.max_speed * unit)))
+    costs = speed_costs(max_step, unit, cfg.speed_weight * clip_step)
+    return frames, entries[monotone_path(matrix, max_step, costs)]
+
+
+def _path_score(scorer: _Scorer, frames: np.ndarray, path: np.ndarray) -> float:
+    return float(sum(scorer(int(f), np.array([r]))[0] for f, r in zip(frames, path, strict=True)))
+
+
+def _fine_path(
+    scorer: _Scorer,
+    coarse_frames: np.ndarray,
+    coarse_path: np.ndarray,
+    fps: float,
+    reference_fps: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every clip frame, reference frames within ``band_s`` of the coarse path."""
+    cfg = scorer.config
+    n_clip = len(scorer.observed.masks)
+    n_ref = scorer.reference.n_frames
+    guess = np.interp(np.arange(n_clip), coarse_frames, coarse_path)
+    band = max(1, int(np.ceil(cfg.band_s * reference_fps)))
+    matrix = np.full((n_clip, n_ref), -np.inf)
+    for f in range(n_clip):
+        lo = max(0, int(np.floor(guess[f])) - band)
+        hi = min(n_ref, int(np.ceil(guess[f])) + band + 1)
+        entries = np.arange(lo, hi)
+        matrix[f, lo:hi] = scorer(f, entries)
+    unit = reference_fps / fps
+    max_step = max(1, int(np.ceil(cfg.max_speed * unit)))
+    path = monotone_path(matrix, max_step, speed_costs(max_step, unit, cfg.speed_weight))
+    scores = matrix[np.arange(n_clip), path]
+    scores[~scorer.observed.present] = np.nan
+    return path, scores
+
+
+def _smooth_path(path: np.ndarray, width: int) -> np.ndarray:
+    """(F,) float64 moving average (edges held), still non-decreasing."""
+    path = np.asarray(path, dtype=np.float64)
+    if width <= 1 or len(path) < 2:
+        return path
+    kernel = np.ones(width) / width
+    padded = np.pad(path, (width // 2, width - 1 - width // 2), mode="edge")
+    return np.convolve(padded, kernel, mode="valid")
+
+
+def _sample(motion: Motion, frames: np.ndarray, frame_time_s: float) -> Motion:
+    """The motion at fractional frames (slerp rotations, lerp translations)."""
+    from .rotations import slerp_matrices
+
+    frames = np.clip(np.asarray(frames, dtype=np.float64), 0, motion.n_frames - 1)
+    i0 = np.floor(frames).astype(np.int64)
+    i1 = np.minimum(i0 + 1, motion.n_frames - 1)
+    w = frames - i0
+    rot = motion.local_rotations()
+    trans = motion.local_translations()
+    j = motion.skeleton.n_joints
+    r = slerp_matrices(
+        rot[i0].reshape(-1, 3, 3), rot[i1].reshape(-1, 3, 3), np.repeat(w, j)
+    ).reshape(len(frames), j, 3, 3)
+    t = trans[i0] * (1 - w)[:, None, None] + trans[i1] * w[:, None, None]
+    return motion.with_local_transforms(r, t, frame_time_s=frame_time_s)
+
+
+def _azimuth_offsets(config: ContinuousPoseConfig) -> np.ndarray:
+    n = int(np.floor(config.azimuth_search_deg / config.azimuth_step_deg + 1e-9))
+    offsets = np.arange(-n, n + 1) * config.azimuth_step_deg
+    return offsets[np.argsort(np.abs(offsets), kind="stable")]
+
+
+# -- the stage ---------------------------------------------------------------------
+
+
+def align_motion(
+    motion: Motion,
+    window: tuple[int, int],
+    azimuth_deg: float,
+    elevation_deg: float,
+    masks: np.ndarray,
+    fps: float,
+    config: ContinuousPoseConfig | None = None,
+    avatar: Avatar | None = None,
+    yfov_deg: float = 40.0,
+) -> ContinuousPose:
+    """Align a known motion to a single-camera clip, frame by frame.
+
+    Parameters
+    ----------
+    motion : Motion
+        The basic motion (any skeleton the avatar can be driven by).
+    window : (int, int)
+        ``[start, stop)`` frames of ``motion`` that matched the clip.
+    azimuth_deg, elevation_deg : float
+        The matched virtual camera's view of the motion, degrees.
+    masks : (F, H, W) bool
+        The clip's silhouettes.
+    fps : float
+        The clip's frame rate, frames per second.
+    config : ContinuousPoseConfig, optional
+    avatar : Avatar, optional
+        Default :func:`eigmotion.avatar.load_default_avatar`.
+    yfov_deg : float
+        Vertical field of view of the virtual camera, degrees (the database rig's
+        lens; the clip camera's is unknown and matters little).
+
+    Returns
+    -------
+    ContinuousPose
+    """
+    import time
+
+    from .kinematics import forward_kinematics
+    from .replay import turn_about_vertical
+
+    config = config or ContinuousPoseConfig()
+    masks = np.asarray(masks)
+    if masks.ndim != 3 or masks.shape[0] < 1:
+        raise InvalidParameterError(f"masks must be a non-empty (F, H, W) array, got {masks.shape}")
+    masks = masks.astype(bool, copy=False)
+    if not (np.isfinite(fps) and fps > 0):
+        raise InvalidParameterError(f"fps must be > 0, got {fps!r}")
+    start, stop = int(window[0]), int(window[1])
+    if not 0 <= start < stop <= motion.n_frames:
+        raise InvalidParameterError(
+            f"window [{start}, {stop}) is outside motion {motion.name!r} of "
+            f"{motion.n_frames} frames"
+        )
+    if not (np.isfinite(azimuth_deg) and np.isfinite(elevation_deg) and -89 <= elevation_deg <= 89):
+        raise InvalidParameterError(
+            f"view must be a finite azimuth and an elevation in [-89, 89], got "
+            f"({azimuth_deg!r}, {elevation_deg!r})"
+        )
+    if avatar is None:
+        from .avatar import load_default_avatar
+
+        avatar = load_default_avatar()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    reference_fps = config.reference_fps or max(2.0 * fps, 30.0)
+    reference = _reference(
+        motion, (start, stop), reference_fps, config.margin_s, avatar, config.n_faces
+    )
+    observed = _observe(masks, config.min_silhouette_px)
+    t1 = time.perf_counter()
+    timings["reference"] = t1 - t0
+
+    def scorer_at(az: float) -> _Scorer:
+        cam = _fitted_camera(reference, observed, az, elevation_deg, yfov_deg)
+        return _Scorer(reference, observed, cam, config)
+
+    scorer = scorer_at(float(azimuth_deg))
+    coarse_frames, coarse = _coarse_path(scorer, fps, reference_fps)
+    t2 = time.perf_counter()
+    timings["coarse"] = t2 - t1
+    best_az, best_score = float(azimuth_deg), -np.inf
+    for offset in _azimuth_offsets(config):
+        candidate = scorer_at(float(azimuth_deg) + float(offset))
+        total = _path_score(candidate, coarse_frames, coarse)
+        if total > best_score + 1e-9:
+            best_az, best_score = float(azimuth_deg) + float(offset), total
+    if best_az != azimuth_deg:
+        scorer = scorer_at(best_az)
+    t3 = time.perf_counter()
+    timings["view"] = t3 - t2
+    path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps)
+    t4 = time.perf_counter()
+    timings["fine"] = t4 - t3
+
+    frames = _smooth_path(path, config.smoothing_frames)
+    aligned = _sample(reference.on_avatar, frames, 1.0 / fps)
+    aligned = turn_about_vertical(aligned, -best_az).replace(
+        name=f"{motion.name}_aligned", length_unit_m=1.0
+    )
+    source = reference.first_source_frame + np.round(frames * reference.source_per_reference)
+    source = np.clip(source.astype(np.int64), 0, motion.n_frames - 1)
+    positions = forward_kinematics(aligned, length_unit_m=1.0, ground=False).positions
+    timings["total"] = time.perf_counter() - t0
+    return ContinuousPose(
+        aligned,
+        np.maximum.accumulate(source),
+        positions,
+        tuple(aligned.skeleton.names),
+        scores,
+        best_az,
+        float(elevation_deg),
+        float(azimuth_deg),
+        motion.name,
+        float(fps),
+        timings,
+    )
+
+
+def continuous_pose(
+    db: MotionDatabase,
+    result: QueryResult,
+    masks: np.ndarray,
+    fps: float,
+    config: ContinuousPoseConfig | None = None,
+    avatar: Avatar | None = None,
+) -> ContinuousPose:
+    """The best match of a query, aligned to its clip frame by frame.
+
+    Parameters
+    ----------
+    db : MotionDatabase
+        The database that answered (gives the motion and its rig's lens).
+    result : QueryResult
+        Its answer (:meth:`MotionDatabase.query_masks` or ``query_clip``).
+    masks : (F, H, W) bool
+        The clip's silhouettes.
+    fps : float
+        The clip's frame rate, frames per second.
+    config : ContinuousPoseConfig, optional
+    avatar : Avatar, optional
+
+    Returns
+    -------
+    ContinuousPose
+    """
+    best = result.best
+    yfov_deg = float(np.rad2deg(db.rig[0].yfov_rad)) if len(db.rig) else 40.0
+    return align_motion(
+        db.motion(best.motion_id),
+        best.window,
+        best.azimuth_deg,
+        best.elevation_deg,
+        masks,
+        fps,
+        config,
+        avatar,
+        yfov_deg,
+    )
