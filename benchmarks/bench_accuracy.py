@@ -451,6 +451,7 @@ def judge(records: Sequence[dict], target: Target) -> list[Judged]:
                 a["accepted"],
                 r["label"] in target.labels,
                 a["query_s"],
+                a.get("distance", float("inf")),
             )
             out.append((r, a, outcome))
     return out

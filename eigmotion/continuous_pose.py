@@ -89,6 +89,9 @@ class ContinuousPoseConfig:
         keep the matched view).
     azimuth_step_deg : float
         Step of that search, degrees (> 0).
+    elevation_search_deg, elevation_step_deg : float
+        The same for the elevation, searched after the azimuth (a clip filmed from
+        above or below the rig's rows), degrees.
     scales : tuple of float
         2D scales of the candidate silhouettes about the observed centroid.
     comparison_height_px : float
@@ -113,6 +116,8 @@ class ContinuousPoseConfig:
     band_s: float = 0.3
     azimuth_search_deg: float = 30.0
     azimuth_step_deg: float = 7.5
+    elevation_search_deg: float = 10.0
+    elevation_step_deg: float = 5.0
     scales: tuple[float, ...] = (0.94, 1.0, 1.06)
     comparison_height_px: float = 64.0
     shift_radius_px: int = 3
@@ -126,13 +131,20 @@ class ContinuousPoseConfig:
             "coarse_fps",
             "coarse_reference_fps",
             "azimuth_step_deg",
+            "elevation_step_deg",
             "comparison_height_px",
         )
         for name in positive:
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
-        for name in ("margin_s", "band_s", "azimuth_search_deg", "speed_weight"):
+        for name in (
+            "margin_s",
+            "band_s",
+            "azimuth_search_deg",
+            "elevation_search_deg",
+            "speed_weight",
+        ):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise InvalidParameterError(f"{name} must be >= 0, got {value!r}")
@@ -297,6 +309,7 @@ class _Observed:
     present: np.ndarray  # (F,) bool
     centroids_px: np.ndarray  # (F, 2) (u, v), NaN where absent
     boxes_px: np.ndarray  # (F, 4) x0, y0, x1, y1 (inclusive), NaN where absent
+    areas_px: np.ndarray  # (F,) silhouette pixels
 
 
 def _observe(masks: np.ndarray, min_px: int) -> _Observed:
@@ -315,7 +328,7 @@ def _observe(masks: np.ndarray, min_px: int) -> _Observed:
         raise VideoError(
             f"no clip frame shows a silhouette of at least {min_px} pixels: nothing to align"
         )
-    return _Observed(masks, present, centroids, boxes)
+    return _Observed(masks, present, centroids, boxes, masks.sum(axis=(1, 2)).astype(np.float64))
 
 
 def _fitted_camera(
@@ -363,7 +376,10 @@ def _fitted_camera(
 
 
 class _Scorer:
-    """Similarity of reference frames against clip frames, under one virtual camera."""
+    """Similarity of reference frames against clip frames, under one virtual camera.
+
+    Calling it with a clip frame and (M,) reference frames returns their (M,) scores.
+    """
 
     def __init__(
         self,
@@ -376,12 +392,10 @@ class _Scorer:
         self.observed = observed
         self.camera = camera
         self.config = config
-        heights = observed.boxes_px[observed.present, 3] - observed.boxes_px[observed.present, 1]
-        self.downsample = max(1, int(np.median(heights) // config.comparison_height_px))
-        self.n_evaluations = 0
-        import os
-        self.size_from_box = os.environ.get("BOX", "1") == "1"
-        self.centroid_offsets_px, self.heights_px = self._silhouette_facts()
+        boxes = observed.boxes_px[observed.present]
+        person_px = float(np.median(boxes[:, 3] - boxes[:, 1] + 1))
+        self.downsample = max(1, int(person_px // config.comparison_height_px))
+        self.centroid_offsets_px, self.sizes_px = self._silhouette_facts()
 
     def _silhouette_facts(self) -> tuple[np.ndarray, np.ndarray]:
         """Each reference frame's silhouette at its place on the reference's path.
@@ -390,58 +404,63 @@ class _Scorer:
         -------
         centroid_offsets_px : (R, 2) float64
             Silhouette centroid minus the root's projection, full-resolution pixels.
-        heights_px : (R,) float64
-            Rows from the silhouette's top to its bottom, full-resolution pixels.
+        sizes_px : (R,) float64
+            Square root of the silhouette's area, full-resolution pixels (1 if empty).
         """
         from .silhouettes import render_masks
 
         ref, cam = self.reference, self.camera
         offsets = np.zeros((ref.n_frames, 2))
-        heights = np.ones(ref.n_frames)
+        sizes = np.ones(ref.n_frames)
         root_px, _ = cam.project(ref.root_m)
-        u = np.arange(cam.width)
-        v = np.arange(cam.height)
+        u = np.arange(cam.width, dtype=np.float64)
+        v = np.arange(cam.height, dtype=np.float64)
         for lo in range(0, ref.n_frames, 64):
             entries = np.arange(lo, min(lo + 64, ref.n_frames))
             verts = ref.bodies.vertices(entries, np.zeros(3))
             verts += ref.root_m[entries, None, :].astype(np.float32)
             masks = render_masks(verts, ref.bodies.faces, cam)
-            rows = masks.any(axis=2)
-            for i, e in enumerate(entries):
-                r = np.flatnonzero(rows[i])
-                if r.size == 0:
-                    continue
-                heights[e] = r[-1] - r[0] + 1
-                area = float(masks[i].sum())
-                offsets[e] = (masks[i].sum(axis=0) @ u / area, masks[i].sum(axis=1) @ v / area)
-            offsets[entries] -= root_px[entries]
-        return offsets, heights
+            area = masks.sum(axis=(1, 2)).astype(np.float64)
+            seen = area > 0
+            safe = np.where(seen, area, 1.0)
+            centroid = np.stack([masks.sum(axis=1) @ u, masks.sum(axis=2) @ v], axis=1)
+            offsets[entries] = np.where(
+                seen[:, None], centroid / safe[:, None] - root_px[entries], 0.0
+            )
+            sizes[entries] = np.where(seen, np.sqrt(safe), 1.0)
+        return offsets, sizes
 
     def placed_vertices(self, frame: int, entries: np.ndarray) -> np.ndarray:
-        """(M, V, 3) float32 candidate meshes placed for a clip frame.
+        """(M, V, 3) float32 candidate meshes placed for a clip frame, metres.
 
-        Each posture is moved (not scaled) towards or away from the camera until its
-        silhouette is as tall as the clip frame's, then parallel to the image until its
+        Each posture is moved (not scaled) along the camera's axis until its
+        silhouette's area is the clip frame's, and parallel to the image until its
         silhouette's centroid falls on the clip frame's: the person's distance and
-        size are unknown, and the path of another performance is not the reference's.
+        size are unknown, and another performance does not follow the reference's
+        path.  The area, unlike the height, hardly depends on the posture (a raised
+        arm, a body lying on the floor).
         """
         ref, cam = self.reference, self.camera
-        root = ref.root_m[entries]
-        root_cam = cam.to_camera(root)
-        x0, y0, x1, y1 = self.observed.boxes_px[frame]
-        magnify = (y1 - y0 + 1) / self.heights_px[entries] if self.size_from_box else 1.0
-        depth = root_cam[:, 2] / magnify
-        target = self.observed.centroids_px[frame] - np.reshape(magnify, (-1, 1)) * self.centroid_offsets_px[entries]
-        moved = np.stack(
-            [(target[:, 0] - cam.cx) * depth / cam.fx, (target[:, 1] - cam.cy) * depth / cam.fy, depth],
+        magnify = np.sqrt(self.observed.areas_px[frame]) / self.sizes_px[entries]
+        depth_m = cam.to_camera(ref.root_m[entries])[:, 2] / magnify
+        root_px = (
+            self.observed.centroids_px[frame] - magnify[:, None] * self.centroid_offsets_px[entries]
+        )
+        root_cam = np.stack(
+            [
+                (root_px[:, 0] - cam.cx) * depth_m / cam.fx,
+                (root_px[:, 1] - cam.cy) * depth_m / cam.fy,
+                depth_m,
+            ],
             axis=1,
         )
         verts = ref.bodies.vertices(entries, np.zeros(3))
-        verts += ((moved - cam.t) @ cam.R)[:, None, :].astype(np.float32)
+        verts += ((root_cam - cam.t) @ cam.R)[:, None, :].astype(np.float32)
         return verts
 
     def __call__(self, frame: int, entries: np.ndarray) -> np.ndarray:
-        """(M,) float64: the best similarity over shifts and scales of each entry."""
+        """(M,) float64: each entry's best similarity over shifts and scales (0 for a
+        clip frame without a person)."""
         from .silhouettes import render_masks
         from .tracker import score_masks
         from .tracker.similarity import view_window
@@ -452,30 +471,28 @@ class _Scorer:
         cfg, cam = self.config, self.camera
         verts = self.placed_vertices(frame, entries)
         centre = self.observed.centroids_px[frame]
-        corners, _ = cam.project(self._box_corners(entries, verts))
-        scaled = np.concatenate([centre + s * (corners - centre) for s in cfg.scales])
+        lo, hi = verts.min(axis=1), verts.max(axis=1)
+        corners = np.concatenate(
+            [np.where(np.array(bits, bool), hi, lo) for bits in np.ndindex(2, 2, 2)]
+        )
+        corners_px, _ = cam.project(corners.astype(np.float64))
         x0, y0, x1, y1 = self.observed.boxes_px[frame]
-        points = np.concatenate([scaled, [[x0, y0], [x1, y1]]])
-        margin = (cfg.shift_radius_px + 1) * self.downsample
+        points = np.concatenate(
+            [centre + s * (corners_px - centre) for s in cfg.scales] + [[[x0, y0], [x1, y1]]]
+        )
+        margin_px = (cfg.shift_radius_px + 1) * self.downsample
         try:
-            window = view_window(cam, points, margin, self.downsample)
-        except InvalidParameterError:
+            window = view_window(cam, points, margin_px, self.downsample)
+        except InvalidParameterError:  # nothing of it inside the image
             return np.zeros(len(entries))
         observed = window.crop(self.observed.masks[frame])
         best = np.full(len(entries), -np.inf)
         for s in cfg.scales:
-            rendered = render_masks(verts, self.reference.bodies.faces, window.window_camera(s, centre))
+            camera = window.window_camera(s, centre)
+            rendered = render_masks(verts, self.reference.bodies.faces, camera)
             scores, _ = score_masks(observed, rendered, cfg.shift_radius_px)
             best = np.maximum(best, scores)
-        self.n_evaluations += len(entries) * len(cfg.scales)
         return best
-
-    @staticmethod
-    def _box_corners(entries: np.ndarray, verts: np.ndarray) -> np.ndarray:
-        """(8 M, 3) corners of each candidate mesh's axis-aligned box, metres."""
-        lo, hi = verts.min(axis=1), verts.max(axis=1)
-        corners = [np.where(np.array(bits, bool), hi, lo) for bits in np.ndindex(2, 2, 2)]
-        return np.concatenate(corners).astype(np.float64)
 
 
 def monotone_path(
@@ -550,7 +567,9 @@ def speed_costs(max_step: int, unit_step: float, weight: float) -> np.ndarray:
     return float(weight) * np.abs(k / float(unit_step) - 1.0)
 
 
-def _coarse_path(scorer: _Scorer, fps: float, reference_fps: float) -> tuple[np.ndarray, np.ndarray]:
+def _coarse_path(
+    scorer: _Scorer, fps: float, reference_fps: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Clip frames sampled at ``coarse_fps`` and their reference frames (every
     reference frame at ``coarse_reference_fps`` scored)."""
     cfg = scorer.config
@@ -627,9 +646,10 @@ def _sample(motion: Motion, frames: np.ndarray, frame_time_s: float) -> Motion:
     return motion.with_local_transforms(r, t, frame_time_s=frame_time_s)
 
 
-def _azimuth_offsets(config: ContinuousPoseConfig) -> np.ndarray:
-    n = int(np.floor(config.azimuth_search_deg / config.azimuth_step_deg + 1e-9))
-    offsets = np.arange(-n, n + 1) * config.azimuth_step_deg
+def _offsets(search_deg: float, step_deg: float) -> np.ndarray:
+    """Offsets ``0, ±step, ±2 step … within ±search``, nearest first, degrees."""
+    n = int(np.floor(search_deg / step_deg + 1e-9))
+    offsets = np.arange(-n, n + 1) * step_deg
     return offsets[np.argsort(np.abs(offsets), kind="stable")]
 
 
@@ -709,22 +729,32 @@ def align_motion(
     t1 = time.perf_counter()
     timings["reference"] = t1 - t0
 
-    def scorer_at(az: float) -> _Scorer:
-        cam = _fitted_camera(reference, observed, az, elevation_deg, yfov_deg)
+    def scorer_at(az: float, el: float) -> _Scorer:
+        cam = _fitted_camera(reference, observed, az, el, yfov_deg)
         return _Scorer(reference, observed, cam, config)
 
-    scorer = scorer_at(float(azimuth_deg))
+    scorer = scorer_at(float(azimuth_deg), float(elevation_deg))
     coarse_frames, coarse = _coarse_path(scorer, fps, reference_fps)
     t2 = time.perf_counter()
     timings["coarse"] = t2 - t1
-    best_az, best_score = float(azimuth_deg), -np.inf
-    for offset in _azimuth_offsets(config):
-        candidate = scorer_at(float(azimuth_deg) + float(offset))
-        total = _path_score(candidate, coarse_frames, coarse)
-        if total > best_score + 1e-9:
-            best_az, best_score = float(azimuth_deg) + float(offset), total
-    if best_az != azimuth_deg:
-        scorer = scorer_at(best_az)
+    view = (float(azimuth_deg), float(elevation_deg))
+    for axis, search, step in (
+        (0, config.azimuth_search_deg, config.azimuth_step_deg),
+        (1, config.elevation_search_deg, config.elevation_step_deg),
+    ):
+        best, best_score = view, -np.inf
+        for offset in _offsets(search, step):
+            trial = list(view)
+            trial[axis] += float(offset)
+            if axis == 1 and not -89.0 <= trial[1] <= 89.0:
+                continue
+            total = _path_score(scorer_at(*trial), coarse_frames, coarse)
+            if total > best_score + 1e-9:
+                best, best_score = (trial[0], trial[1]), total
+        view = best
+    if view != (float(azimuth_deg), float(elevation_deg)):
+        scorer = scorer_at(*view)
+    best_az, best_el = view
     t3 = time.perf_counter()
     timings["view"] = t3 - t2
     path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps)
@@ -747,7 +777,7 @@ def align_motion(
         tuple(aligned.skeleton.names),
         scores,
         best_az,
-        float(elevation_deg),
+        best_el,
         float(azimuth_deg),
         motion.name,
         float(fps),

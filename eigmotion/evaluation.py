@@ -11,7 +11,9 @@ match, and whether the true label is one the database holds at all ("in library"
 * rejection rates: the fraction of out-of-library queries answered ``accepted:
   false`` (should be 1) and the fraction of in-library queries answered so (the false
   rejection rate, should be 0);
-* the mean query time.
+* the mean query time;
+* how well the answer's distance alone separates out-of-library from in-library
+  queries (:func:`separation`), whatever threshold the database stores.
 
 :func:`format_score` prints it as Markdown tables.  Nothing here runs a query.
 """
@@ -47,6 +49,9 @@ class QueryOutcome:
         ``true_label`` is a label the queried database holds.
     query_s : float
         Wall time of the query, seconds (>= 0).
+    distance : float or None
+        Distance of the best match, eigen-coordinate units (``inf`` for a query that
+        got no answer); ``None`` when not known.
     """
 
     true_label: str
@@ -54,6 +59,7 @@ class QueryOutcome:
     accepted: bool
     in_library: bool
     query_s: float
+    distance: float | None = None
 
     def __post_init__(self):
         labels = tuple(self.ranked_labels)
@@ -67,6 +73,10 @@ class QueryOutcome:
             )
         if not (math.isfinite(self.query_s) and self.query_s >= 0):
             raise InvalidParameterError(f"query_s must be a finite time >= 0, got {self.query_s}")
+        if self.distance is not None and not self.distance >= 0:
+            raise InvalidParameterError(
+                f"distance must be >= 0 (or inf, or None), got {self.distance}"
+            )
         object.__setattr__(self, "ranked_labels", labels)
 
     @property
@@ -294,6 +304,83 @@ def rejection_rates(outcomes: Sequence[QueryOutcome]) -> RejectionRates:
 
 
 @dataclass(frozen=True)
+class Separation:
+    """How well the best match's distance tells out-of-library queries apart.
+
+    Attributes
+    ----------
+    auc : float
+        Probability that an out-of-library query is farther than an in-library one
+        (ties count half): 1 separates perfectly, 0.5 is chance.
+    quantile : float
+        The in-library distance quantile taken as threshold.
+    threshold : float
+        That quantile, eigen-coordinate units.
+    rejected, n_out_of_library : int
+        Out-of-library queries farther than ``threshold``, and all of them.
+    """
+
+    auc: float
+    quantile: float
+    threshold: float
+    rejected: int
+    n_out_of_library: int
+
+    @property
+    def rejection_rate(self) -> float:
+        return _rate(self.rejected, self.n_out_of_library)
+
+    def to_json(self) -> dict:
+        return {
+            "auc": round(self.auc, 6),
+            "quantile": self.quantile,
+            "threshold": round(self.threshold, 6),
+            "rejected": self.rejected,
+            "n_out_of_library": self.n_out_of_library,
+            "rejection_rate": _json_rate(self.rejection_rate),
+        }
+
+
+def separation(outcomes: Sequence[QueryOutcome], quantile: float = 0.95) -> Separation:
+    """Out-of-library vs in-library queries, by the best match's distance alone.
+
+    Parameters
+    ----------
+    outcomes : sequence of QueryOutcome
+        With distances; at least one in the library and one out of it.
+    quantile : float
+        In (0, 1]: the threshold is this quantile of the in-library distances (so
+        about ``1 - quantile`` of them would be rejected).
+
+    Returns
+    -------
+    Separation
+
+    Raises
+    ------
+    InvalidParameterError
+        A distance missing, ``quantile`` out of range, or one group empty.
+    """
+    if not 0 < quantile <= 1:
+        raise InvalidParameterError(f"quantile must be in (0, 1], got {quantile}")
+    if any(o.distance is None for o in outcomes):
+        raise InvalidParameterError("separation needs the distance of every query")
+    inside = np.array([o.distance for o in outcomes if o.in_library], dtype=np.float64)
+    outside = np.array([o.distance for o in outcomes if not o.in_library], dtype=np.float64)
+    if not len(inside) or not len(outside):
+        raise InvalidParameterError(
+            f"separation needs in-library and out-of-library queries, got {len(inside)} "
+            f"and {len(outside)}"
+        )
+    with np.errstate(invalid="ignore"):  # inf - inf for two unanswered queries: a tie
+        diff = outside[:, None] - inside[None, :]
+    auc = float(np.mean(np.where(np.isnan(diff), 0.5, (diff > 0) + 0.5 * (diff == 0))))
+    finite = inside[np.isfinite(inside)]
+    threshold = float(np.quantile(finite, quantile)) if len(finite) else float("inf")
+    return Separation(auc, quantile, threshold, int(np.sum(outside > threshold)), len(outside))
+
+
+@dataclass(frozen=True)
 class Score:
     """Everything :func:`score` measures over a list of queries.
 
@@ -316,6 +403,9 @@ class Score:
         Mean wall time per query, seconds (NaN without queries).
     n_queries : int
         All queries, in and out of the library.
+    separation : Separation or None
+        See :func:`separation`; ``None`` unless every query has a distance and both
+        in-library and out-of-library queries are present.
     """
 
     k: int
@@ -328,6 +418,7 @@ class Score:
     rejection: RejectionRates
     mean_query_s: float
     n_queries: int
+    separation: Separation | None = None
 
     @property
     def top1_rate(self) -> float:
@@ -356,6 +447,7 @@ class Score:
             "confusion": self.confusion.to_json(),
             "rejection": self.rejection.to_json(),
             "mean_query_s": _json_rate(self.mean_query_s),
+            "separation": None if self.separation is None else self.separation.to_json(),
         }
 
 
@@ -414,6 +506,7 @@ def score(
                 )
             )
     inside = [o for o in outcomes if o.in_library]
+    separable = all(o.distance is not None for o in outcomes) and 0 < len(inside) < len(outcomes)
     return Score(
         k=k,
         n=len(inside),
@@ -427,6 +520,7 @@ def score(
         rejection=rejection_rates(outcomes),
         mean_query_s=float(np.mean([o.query_s for o in outcomes])),
         n_queries=len(outcomes),
+        separation=separation(outcomes) if separable else None,
     )
 
 
@@ -505,7 +599,19 @@ def format_score(result: Score) -> str:
         f"({_percent(rej.rejection_rate)}); in-library falsely rejected "
         f"{rej.false_rejected}/{rej.n_in_library} ({_percent(rej.false_rejection_rate)})",
         f"mean query time: {result.mean_query_s:.2f} s over {result.n_queries} queries",
+        *_separation_lines(result.separation),
         "",
         format_confusion(result.confusion),
     ]
     return "\n".join(lines)
+
+
+def _separation_lines(sep: Separation | None) -> list[str]:
+    if sep is None:
+        return []
+    return [
+        f"distance alone: AUC {sep.auc:.2f} (out-of-library farther than in-library); a "
+        f"threshold at the {100 * sep.quantile:.0f}th percentile of in-library distances "
+        f"({sep.threshold:.3f}) would reject {sep.rejected}/{sep.n_out_of_library} "
+        f"out-of-library queries ({_percent(sep.rejection_rate)})"
+    ]

@@ -121,6 +121,11 @@ def compose_scene_with_layout(
     import cv2
 
     masks = _check_person(person_rgb, person_masks)
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidParameterError(
+            f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
+            f"{type(rng).__name__}"
+        )
     _check_range("shadow_strength", shadow_strength, 0.0, 0.9)
     _check_range("camouflage", camouflage, 0.0, 1.0)
     _check_range("camouflage_delta", camouflage_delta, 0.0, 255.0)

@@ -6,29 +6,40 @@ frames, or masks already made and stored as ``.npz``).
 
 Per frame, against a background image (given, or estimated from the clip)::
 
-    colour distance in CIE L*a*b* (ΔE, robust to small brightness changes in dark
-    areas) ──▶ cast-shadow test: darker than the background by a factor in
-    shadow_ratio with the same chromaticity (RGB brightness and chromaticity
-    distortion, Horprasert et al. 1999) ──▶ not foreground
-    ──▶ hysteresis: weak pixels (ΔE > low) kept when connected to strong ones
-    (ΔE > high), so clothing close to the background colour stays attached to the body
-    ──▶ drop specks, close small gaps ──▶ the largest blob (plus big pieces next to it)
-    ──▶ fill holes inside it that are small or that differ from the background.
+    exposure gain per channel (median frame / background ratio: auto-exposure,
+    white balance, a codec's colour bias) ──▶ colour difference in CIE L*a*b*,
+    smoothed (Gaussian, ``smooth_sigma_px``) before its length ΔE is taken, so
+    a small but consistent offset — clothing close to the background colour —
+    rises above the noise ──▶ cast-shadow test on lightly smoothed RGB: darker
+    than the background by a factor in ``shadow_ratio`` with the same
+    chromaticity (brightness and chromaticity distortion, Horprasert et al.
+    1999) ──▶ not foreground ──▶ hysteresis: weak pixels (ΔE > low) kept when
+    connected to strong ones (ΔE > high) ──▶ drop specks, close small gaps
+    ──▶ the largest blob, plus big pieces above or below it (a head or legs cut
+    off by camouflage) ──▶ fill holes that are small or differ from the
+    background (not a shadow between the feet) ──▶ the rim the smoothing added
+    is kept only where each pixel differs by itself ──▶ boundary pixels whose
+    colour is nearer the background than the body (matting alpha < 0.5) dropped.
 
-The thresholds scale with the clip's noise level, measured as the median ΔE over the
-clip (most pixels are background): ``low = max(min_delta_e, low_factor × noise)``.
+Thresholds follow the clip's noise level, the median ΔE over all pixels (most are
+background): ``low = max(min_delta_e, low_factor × noise)``, ``high`` likewise.  A
+lossy codec removes the fine grain but adds blocky errors, so the raw noise level is
+never taken below :data:`RAW_PER_SMOOTHED_NOISE` times the smoothed one.
 
 Background estimation when none is given (``SilhouetteConfig.background``):
 
 ``"median"``
     Per-pixel temporal median over up to ``max_background_frames`` frames spread over
     the clip, then refined once: the median again, over only the frames where the
-    pixel was not (near) the person in a first segmentation.  Works while the person
-    moves off every pixel for more than half of the clip — typically from the first
-    frame on, as long as they travel or move their limbs.
+    pixel was not (near) the person in a first segmentation and not darker than a
+    shadow would make it.  Works while the person moves off every pixel for more
+    than half of the clip, even when in view from the first frame: a walk across
+    the picture, not a walk towards the camera or a wave on the spot (measured in
+    ``docs/motion-image.md``).
 ``"mog2"``
-    OpenCV's Gaussian-mixture subtractor (``BackgroundSubtractorMOG2``) run over the
-    clip, its background image then used as above.
+    OpenCV's Gaussian-mixture subtractor (``BackgroundSubtractorMOG2``) run twice
+    over the clip, its background image then used as above.  Kept for comparison:
+    it measured worse (it keeps ghosts of a slowly moving person).
 """
 
 from __future__ import annotations

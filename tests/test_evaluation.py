@@ -23,13 +23,14 @@ from eigmotion.evaluation import (
     ranked_labels,
     rejection_rates,
     score,
+    separation,
 )
 
 REPO = Path(__file__).resolve().parents[1]
 
 
-def outcome(true, ranked, accepted=True, in_library=True, query_s=1.0):
-    return QueryOutcome(true, tuple(ranked), accepted, in_library, query_s)
+def outcome(true, ranked, accepted=True, in_library=True, query_s=1.0, distance=None):
+    return QueryOutcome(true, tuple(ranked), accepted, in_library, query_s, distance)
 
 
 #: Eight hand-made queries against one database holding walk, run and jump (not duck).
@@ -224,6 +225,53 @@ def test_format_score_shows_counts_rates_and_matrix():
     assert "falsely rejected 2/6 (33.3%)" in text
     assert "mean query time: 2.00 s over 8 queries" in text
     assert "| true \\ top-1 |" in text
+
+
+def distances(inside, outside):
+    return [outcome("walk", ["walk"], distance=d) for d in inside] + [
+        outcome("duck", ["walk"], in_library=False, distance=d) for d in outside
+    ]
+
+
+@pytest.mark.parametrize(
+    ("inside", "outside", "quantile", "auc", "threshold", "rejected"),
+    [
+        ([0.1, 0.2, 0.3, 0.4], [0.35, 0.5], 0.5, 0.875, 0.25, 2),
+        ([0.1, 0.2, 0.3, 0.4], [0.35, 0.5], 1.0, 0.875, 0.4, 1),
+        ([0.1, 0.2], [0.2, 0.05], 1.0, 0.375, 0.2, 0),  # a tie counts half
+        ([0.3, 0.4], [0.1, 0.2], 0.95, 0.0, 0.395, 0),
+        ([0.3, 0.4], [math.inf, 0.5], 0.95, 1.0, 0.395, 2),
+    ],
+)
+def test_separation(inside, outside, quantile, auc, threshold, rejected):
+    sep = separation(distances(inside, outside), quantile)
+    assert sep.auc == pytest.approx(auc)
+    assert sep.threshold == pytest.approx(threshold)
+    assert (sep.rejected, sep.n_out_of_library) == (rejected, len(outside))
+
+
+@pytest.mark.parametrize(
+    ("outcomes", "quantile", "message"),
+    [
+        (distances([0.1], [0.2]), 0.0, "quantile"),
+        (distances([0.1], []), 0.95, "in-library and out-of-library"),
+        (distances([0.1], [0.2]) + [outcome("walk", ["walk"])], 0.95, "distance of every"),
+    ],
+)
+def test_separation_refuses_bad_input(outcomes, quantile, message):
+    with pytest.raises(InvalidParameterError, match=message):
+        separation(outcomes, quantile)
+
+
+def test_score_reports_separation_only_when_it_can():
+    assert score(QUERIES).separation is None  # no distances
+    with_distances = distances([0.1, 0.2, 0.3, 0.4], [0.35, 0.5])
+    result = score(with_distances)
+    assert result.separation is not None and result.separation.auc == pytest.approx(0.875)
+    assert "AUC 0.88" in format_score(result)
+    assert score(with_distances[:4]).separation is None  # in-library only
+    with pytest.raises(InvalidParameterError, match="distance"):
+        outcome("walk", ["walk"], distance=-1.0)
 
 
 def test_markdown_table_pads_columns_and_checks_rows():

@@ -363,6 +363,8 @@ def test_scene_rejects_mismatched_inputs(stick_scene):
         compose_scene(np.zeros((3, 10, 10, 3), np.uint8), masks, np.random.default_rng(0))
     with pytest.raises(InvalidParameterError, match="noise_sigma"):
         compose_scene(None, masks, np.random.default_rng(0), noise_sigma=-1.0)
+    with pytest.raises(InvalidParameterError, match="rng must be a numpy.random.Generator"):
+        compose_scene(None, masks, 0)
 
 
 @pytest.mark.parametrize("fps, factor", [(48.0, 2), (120.0, 5)])
