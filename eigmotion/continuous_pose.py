@@ -17,19 +17,26 @@ meet"):
    the reference's silhouettes over the matched window covers the box around the
    clip's silhouettes (a 2D scale and translation).
 3. **Similarity.** A candidate (clip frame, reference frame) is the body in that
-   reference posture, at its own place on the reference's path, moved sideways so that
-   its centre projects onto the silhouette's centroid column, rendered inside the
-   rectangle around the candidates and the observed silhouette, and scored with the
-   tracker's similarity (:func:`eigmotion.tracker.score_masks`) maximised over small
-   shifts and over 2D scales (``scales``) about the centroid.
+   reference posture, moved (not scaled) along the camera's axis until its silhouette
+   has the clip frame's area and parallel to the image until the two centroids
+   coincide, rendered inside the rectangle around the candidates and the observed
+   silhouette, and scored with the tracker's similarity
+   (:func:`eigmotion.tracker.score_masks`) maximised over small shifts and over 2D
+   scales (``scales``) about the centroid.  Size and place thus come from each frame's
+   silhouette: another performer does not follow the reference's path, and walking
+   towards the camera changes the apparent size several tens of per cent.
 4. **Variable-speed playback, solved for the whole clip.** Reference frames are chosen
    for all clip frames at once, maximising the summed similarity under the playback's
    rule: never back, at most ``max_speed`` times the clip's speed per frame (dynamic
-   programming over (clip frame, reference frame)).  A coarse pass over every
-   reference frame at ``coarse_fps`` gives the path; the view's azimuth is refined on
-   it (the rig's cameras are ``azimuth_step`` apart; a clip filmed between them fits
-   best a little off the matched view); a fine pass searches ``band_s`` around the
-   coarse path at full rate.
+   programming over (clip frame, reference frame)), with a small cost for playing at
+   another speed than the reference's (``speed_weight``: a walk repeats itself, and a
+   silhouette hardly tells the left leg from the right, so without it the playback
+   may hold a posture for a step and catch up a cycle later).  A coarse pass (clip
+   at ``coarse_fps``, every reference frame at ``coarse_reference_fps``) gives the
+   path; the view is refined on it, first the azimuth then the elevation (the rig's
+   cameras are tens of degrees apart; a clip filmed between them fits best a little
+   off the matched view); a fine pass searches ``band_s`` around the coarse path at
+   full rate.
 5. **Output.** The chosen reference frames, lightly smoothed (still never back), are
    sampled from the reference (slerp) at the clip's frame rate, and the motion is
    turned so that the clip's camera stands at azimuth 0, as in :mod:`eigmotion.replay`.
@@ -37,14 +44,15 @@ meet"):
 Why not :meth:`eigmotion.tracker.SilhouetteTracker.step`: it places the body where
 the ray through the silhouette's centroid meets the plane of the body centre's height;
 a level camera (elevation 0°, most rig views) looks along that plane, so the place is
-undetermined.  Here the place comes from the reference's path and the centroid's
-column, and the whole clip is known, so the playback is solved over all frames rather
-than greedily.
+undetermined.  Here size and place come from each silhouette, and the whole clip is
+known, so the playback is solved over all frames rather than greedily.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -182,7 +190,7 @@ class ContinuousPose:
         origin.
     reference_frames : (F,) int64
         The frame of the basic motion (its own frames and rate) each clip frame shows;
-        non-decreasing.
+        non-decreasing, consecutive values at most :attr:`max_step_frames` apart.
     positions : (F, J, 3) float64
         World joint positions of :attr:`motion`, metres, Y up, floor at y = 0.
     names : tuple of str
@@ -191,14 +199,18 @@ class ContinuousPose:
         Similarity of the chosen reference posture per clip frame, in [-1, 1] per
         scale (NaN where the clip frame shows no person).
     azimuth_deg, elevation_deg : float
-        The view the motion was aligned under: the matched view with the azimuth
-        refined.
-    matched_azimuth_deg : float
-        The retrieved view's azimuth.
+        The view the motion was aligned under (the matched view, refined), degrees.
+    matched_azimuth_deg, matched_elevation_deg : float
+        The retrieved view, degrees.
     source_motion : str
         The basic motion's name.
     fps : float
-        The clip's frame rate.
+        The clip's frame rate, frames per second.
+    max_step_frames : int
+        The playback's largest step between clip frames, in basic-motion frames
+        (``max_speed`` times the clip's frame time, rounded up, plus one for rounding).
+    timings_s : dict of str to float
+        Wall time of each stage, seconds.
     """
 
     motion: Motion
@@ -209,24 +221,36 @@ class ContinuousPose:
     azimuth_deg: float
     elevation_deg: float
     matched_azimuth_deg: float
+    matched_elevation_deg: float
     source_motion: str
     fps: float
-    _timings_s: dict = field(default_factory=dict, repr=False)
+    max_step_frames: int
+    timings_s: dict = field(default_factory=dict, repr=False)
 
     @property
     def n_frames(self) -> int:
         return len(self.reference_frames)
 
-    def save_npz(self, path) -> None:
-        """Write ``names (J,)``, ``positions (F, J, 3)`` metres, ``reference_frames (F,)``
-        and ``fps`` (frames per second) to an ``.npz`` file."""
-        np.savez_compressed(
-            path,
-            names=np.array(self.names, dtype=str),
-            positions=self.positions,
-            reference_frames=self.reference_frames,
-            fps=np.float64(self.fps),
-        )
+    def save_npz(self, path: str | os.PathLike) -> Path:
+        """Write the joints per clip frame to an ``.npz`` file (at exactly ``path``).
+
+        Keys: ``names (J,)`` str, ``positions (F, J, 3)`` float64 metres (Y up, floor
+        y = 0, the clip's camera at azimuth 0), ``reference_frames (F,)`` int64 and
+        ``fps`` float64 (the clip's frames per second).
+        """
+        path = Path(path)
+        try:
+            with path.open("wb") as fh:
+                np.savez_compressed(
+                    fh,
+                    names=np.array(self.names, dtype=str),
+                    positions=self.positions,
+                    reference_frames=self.reference_frames,
+                    fps=np.float64(self.fps),
+                )
+        except OSError as exc:
+            raise InvalidParameterError(f"{path}: cannot write the pose: {exc.strerror}") from None
+        return path
 
     def as_replay(self, avatar: Avatar | None = None) -> Replay:
         """The aligned motion skinned on the avatar (for :func:`eigmotion.replay.
@@ -250,7 +274,6 @@ class _Reference:
     on_avatar: Motion  # avatar skeleton, metres, reference_fps
     root_m: np.ndarray  # (R, 3) root positions, metres
     bodies: object  # PostureBodies, root at the origin
-    centre_offsets_m: np.ndarray  # (R, 3) mean vertex minus root
     first_source_frame: int
     source_per_reference: float  # source frames per reference frame
     window: tuple[int, int]  # matched window in reference frames
@@ -294,7 +317,6 @@ def _reference(
         animation_to_motion(anim, avatar),
         sequence.root_positions,
         bodies,
-        bodies.base_vertices.mean(axis=1).astype(np.float64),
         lo,
         per,
         (w0, w1),
@@ -583,7 +605,7 @@ def _coarse_path(
     matrix = np.stack([scorer(int(f), entries) for f in frames])
     unit = clip_step / fps * reference_fps / ref_step
     max_step = max(1, int(np.ceil(cfg.max_speed * unit)))
-    costs = speed_costs(max_step, unit, cfg.speed_weight * clip_step)
+    costs = speed_costs(max_step, unit, cfg.speed_weight)
     return frames, entries[monotone_path(matrix, max_step, costs)]
 
 
@@ -597,8 +619,12 @@ def _fine_path(
     coarse_path: np.ndarray,
     fps: float,
     reference_fps: float,
+    max_step: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Every clip frame, reference frames within ``band_s`` of the coarse path."""
+    """Every clip frame, reference frames within ``band_s`` of the coarse path.
+
+    Returns the (F,) reference frame per clip frame and its (F,) score (NaN where the
+    clip frame shows no person)."""
     cfg = scorer.config
     n_clip = len(scorer.observed.masks)
     n_ref = scorer.reference.n_frames
@@ -611,7 +637,6 @@ def _fine_path(
         entries = np.arange(lo, hi)
         matrix[f, lo:hi] = scorer(f, entries)
     unit = reference_fps / fps
-    max_step = max(1, int(np.ceil(cfg.max_speed * unit)))
     path = monotone_path(matrix, max_step, speed_costs(max_step, unit, cfg.speed_weight))
     scores = matrix[np.arange(n_clip), path]
     scores[~scorer.observed.present] = np.nan
@@ -729,15 +754,61 @@ def align_motion(
     t1 = time.perf_counter()
     timings["reference"] = t1 - t0
 
-    def scorer_at(az: float, el: float) -> _Scorer:
-        cam = _fitted_camera(reference, observed, az, el, yfov_deg)
-        return _Scorer(reference, observed, cam, config)
+    def scorer_at(view: tuple[float, float]) -> _Scorer:
+        camera = _fitted_camera(reference, observed, view[0], view[1], yfov_deg)
+        return _Scorer(reference, observed, camera, config)
 
-    scorer = scorer_at(float(azimuth_deg), float(elevation_deg))
+    matched = (float(azimuth_deg), float(elevation_deg))
+    scorer = scorer_at(matched)
     coarse_frames, coarse = _coarse_path(scorer, fps, reference_fps)
     t2 = time.perf_counter()
     timings["coarse"] = t2 - t1
-    view = (float(azimuth_deg), float(elevation_deg))
+    view = _refine_view(scorer_at, matched, coarse_frames, coarse, config)
+    if view != matched:
+        scorer = scorer_at(view)
+    t3 = time.perf_counter()
+    timings["view"] = t3 - t2
+    max_step = max(1, int(np.ceil(config.max_speed * reference_fps / fps)))
+    path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps, max_step)
+    t4 = time.perf_counter()
+    timings["fine"] = t4 - t3
+
+    frames = _smooth_path(path, config.smoothing_frames)
+    aligned = _sample(reference.on_avatar, frames, 1.0 / fps)
+    aligned = turn_about_vertical(aligned, -view[0]).replace(
+        name=f"{motion.name}_aligned", length_unit_m=1.0
+    )
+    source = reference.first_source_frame + np.round(frames * reference.source_per_reference)
+    source = np.maximum.accumulate(np.clip(source.astype(np.int64), 0, motion.n_frames - 1))
+    positions = forward_kinematics(aligned, length_unit_m=1.0, ground=False).positions
+    timings["total"] = time.perf_counter() - t0
+    return ContinuousPose(
+        motion=aligned,
+        reference_frames=source,
+        positions=positions,
+        names=tuple(aligned.skeleton.names),
+        scores=scores,
+        azimuth_deg=view[0],
+        elevation_deg=view[1],
+        matched_azimuth_deg=matched[0],
+        matched_elevation_deg=matched[1],
+        source_motion=motion.name,
+        fps=float(fps),
+        max_step_frames=int(np.ceil(max_step * reference.source_per_reference)) + 1,
+        timings_s=timings,
+    )
+
+
+def _refine_view(
+    scorer_at,
+    matched: tuple[float, float],
+    frames: np.ndarray,
+    path: np.ndarray,
+    config: ContinuousPoseConfig,
+) -> tuple[float, float]:
+    """The view, near the matched one, under which a path's postures score best:
+    the azimuth first, then the elevation (degrees)."""
+    view = matched
     for axis, search, step in (
         (0, config.azimuth_search_deg, config.azimuth_step_deg),
         (1, config.elevation_search_deg, config.elevation_step_deg),
@@ -746,43 +817,13 @@ def align_motion(
         for offset in _offsets(search, step):
             trial = list(view)
             trial[axis] += float(offset)
-            if axis == 1 and not -89.0 <= trial[1] <= 89.0:
+            if not -89.0 <= trial[1] <= 89.0:
                 continue
-            total = _path_score(scorer_at(*trial), coarse_frames, coarse)
+            total = _path_score(scorer_at((trial[0], trial[1])), frames, path)
             if total > best_score + 1e-9:
                 best, best_score = (trial[0], trial[1]), total
         view = best
-    if view != (float(azimuth_deg), float(elevation_deg)):
-        scorer = scorer_at(*view)
-    best_az, best_el = view
-    t3 = time.perf_counter()
-    timings["view"] = t3 - t2
-    path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps)
-    t4 = time.perf_counter()
-    timings["fine"] = t4 - t3
-
-    frames = _smooth_path(path, config.smoothing_frames)
-    aligned = _sample(reference.on_avatar, frames, 1.0 / fps)
-    aligned = turn_about_vertical(aligned, -best_az).replace(
-        name=f"{motion.name}_aligned", length_unit_m=1.0
-    )
-    source = reference.first_source_frame + np.round(frames * reference.source_per_reference)
-    source = np.clip(source.astype(np.int64), 0, motion.n_frames - 1)
-    positions = forward_kinematics(aligned, length_unit_m=1.0, ground=False).positions
-    timings["total"] = time.perf_counter() - t0
-    return ContinuousPose(
-        aligned,
-        np.maximum.accumulate(source),
-        positions,
-        tuple(aligned.skeleton.names),
-        scores,
-        best_az,
-        best_el,
-        float(azimuth_deg),
-        motion.name,
-        float(fps),
-        timings,
-    )
+    return view
 
 
 def continuous_pose(

@@ -35,6 +35,11 @@ from .store import Store, parse_uri
 #: Where ``eigmotion build`` with no options writes.
 DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.fs"
 
+#: Working resolution of query silhouettes: the longer side of a frame, pixels.  The
+#: motion image is 32–64 pixels, so segmenting at full video resolution only costs
+#: time (measured in docs/retrieval.md).
+QUERY_SILHOUETTE_SIDE_PX = 160
+
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
 
@@ -589,10 +594,11 @@ class MotionDatabase:
         masks : (F, H, W) bool
         fps : float
         """
-        from .video import load_clip_masks
+        from .video import SilhouetteConfig, load_clip_masks
 
         t0 = time.perf_counter()
-        masks, fps = load_clip_masks(path, background)
+        config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+        masks, fps = load_clip_masks(path, background, config)
         t1 = time.perf_counter()
         result = self.query_masks(masks, fps, top_k)
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}

@@ -103,6 +103,11 @@ class SilhouetteConfig:
     small_hole_frac : float
         Holes inside the person smaller than this fraction of its area are always
         filled; bigger ones only when they differ from the background, in [0, 1].
+    work_max_side_px : int
+        Frames (and the background) larger than this on their longer side are
+        shrunk to it (area averaging) before segmentation, and the masks come back
+        at that size, in [64, 4096].  The motion image is cropped and rescaled to
+        32–64 pixels anyway, so segmenting full-resolution video only costs time.
     """
 
     background: str = "median"
@@ -117,6 +122,7 @@ class SilhouetteConfig:
     min_person_frac: float = 0.002
     keep_piece_frac: float = 0.05
     small_hole_frac: float = 0.01
+    work_max_side_px: int = 4096
 
     def __post_init__(self):
         if self.background not in BACKGROUND_METHODS:
@@ -143,6 +149,7 @@ class SilhouetteConfig:
         _check_real("min_person_frac", self.min_person_frac, 1e-6, 0.5)
         _check_real("keep_piece_frac", self.keep_piece_frac, 0.0, 1.0)
         _check_real("small_hole_frac", self.small_hole_frac, 0.0, 1.0)
+        _check_int("work_max_side_px", self.work_max_side_px, 64, 4096)
 
     def to_dict(self) -> dict:
         """Plain data (the shadow ratio as a list)."""
@@ -197,8 +204,10 @@ def extract_silhouettes(
 
     Returns
     -------
-    (F, H, W) bool
+    (F, H', W') bool
         The person in each frame; all False where none was found in that frame.
+        ``H', W'`` are ``H, W`` shrunk so that the longer side is at most
+        ``config.work_max_side_px`` (the same aspect ratio).
 
     Raises
     ------
@@ -221,8 +230,10 @@ def extract_silhouettes(
                 f"background is {background.shape[1]}×{background.shape[0]} pixels but the "
                 f"frames are {w}×{h}; expected the same size"
             )
+        frames, background = _shrink(frames, config), _shrink(background[None], config)[0]
         masks = _segment(frames, background, config)
     else:
+        frames = _shrink(frames, config)
         masks = _segment(frames, estimate_background(frames, config), config)
         if config.background == "median":
             refined = estimate_background(frames, config, exclude=masks)
@@ -233,6 +244,18 @@ def extract_silhouettes(
             f"covers {config.min_person_frac:.2%} of the image"
         )
     return masks
+
+
+def _shrink(frames: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
+    """Frames (F, H, W, 3) shrunk to the working resolution (area averaging)."""
+    import cv2
+
+    h, w = frames.shape[1:3]
+    factor = config.work_max_side_px / max(h, w)
+    if factor >= 1.0:
+        return frames
+    size = (max(1, round(w * factor)), max(1, round(h * factor)))
+    return np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
 
 
 def estimate_background(

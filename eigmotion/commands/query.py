@@ -5,6 +5,12 @@ Examples::
     eigmotion query clip.mp4 --json
     eigmotion query clip.mp4 --background empty.png --top 5 --bvh-out clip.bvh \\
         --replay-out clip_replay.mp4
+    eigmotion query clip.mp4 --pose-out clip_pose.npz
+
+``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
+frame by frame (:mod:`eigmotion.continuous_pose`): the output has one pose per clip
+frame and follows the clip's own timing.  ``--linear-replay`` stretches the matched
+window linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
 """
 
 from __future__ import annotations
@@ -29,6 +35,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--replay-out", type=Path, help="write input | silhouettes | motion image | replay"
     )
+    parser.add_argument(
+        "--pose-out",
+        type=Path,
+        help="write the 3D joints per clip frame as .npz (names, positions in metres, "
+        "reference_frames, fps)",
+    )
+    parser.add_argument(
+        "--linear-replay",
+        action="store_true",
+        help="for --bvh-out/--replay-out, stretch the matched window over the clip "
+        "instead of aligning it frame by frame",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,12 +55,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.top < 1:
         raise InvalidParameterError(f"--top must be >= 1, got {args.top}")
-    for out in (args.bvh_out, args.replay_out):
+    for out in (args.bvh_out, args.replay_out, args.pose_out):
         if out is not None and not out.parent.is_dir():
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
         result, masks, fps = db.query_clip(args.clip, args.background, args.top)
-        if args.bvh_out or args.replay_out:
+        if args.bvh_out or args.replay_out or args.pose_out:
             _write_replay(db, result, masks, fps, args)
     if args.json:
         print(json.dumps(result.to_json()))
@@ -64,12 +82,23 @@ def run(args: argparse.Namespace) -> int:
 
 def _write_replay(db, result, masks, fps, args) -> None:
     from ..bvh import write_bvh
+    from ..continuous_pose import continuous_pose
     from ..motion_image import motion_image_picture
     from ..replay import replay, replay_video
 
     best = result.best
-    motion = db.motion(best.motion_id)
-    rep = replay(motion, best.window, best.azimuth_deg, best.elevation_deg, len(masks), fps)
+    pose = None
+    if args.pose_out or not args.linear_replay:
+        pose = continuous_pose(db, result, masks, fps)
+    if args.pose_out:
+        pose.save_npz(args.pose_out)
+    if not (args.bvh_out or args.replay_out):
+        rep = None
+    elif args.linear_replay:
+        motion = db.motion(best.motion_id)
+        rep = replay(motion, best.window, best.azimuth_deg, best.elevation_deg, len(masks), fps)
+    else:
+        rep = pose.as_replay()
     if args.bvh_out:
         write_bvh(rep.motion, args.bvh_out)
     if args.replay_out:
@@ -80,7 +109,5 @@ def _write_replay(db, result, masks, fps, args) -> None:
             frames, _ = read_frames(args.clip)
         picture = motion_image_picture(result.motion_image, db.config.motion_image)
         replay_video(rep, frames, masks, picture, args.replay_out, fps, progress=True)
-    print(
-        "wrote " + ", ".join(str(p) for p in (args.bvh_out, args.replay_out) if p),
-        file=sys.stderr,
-    )
+    written = (args.bvh_out, args.replay_out, args.pose_out)
+    print("wrote " + ", ".join(str(p) for p in written if p), file=sys.stderr)
