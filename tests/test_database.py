@@ -223,7 +223,10 @@ def test_sigkill_during_index_keeps_the_database(db_path, tmp_path, other_body, 
             db.store.check()
             again = db.query_masks(masks, 30.0)
             if db.n_entries == n_entries:
-                assert again.best == expected.best
+                # Same entry; the distance may differ in the last float32 bits (BLAS
+                # threads sum in another order from run to run).
+                assert again.best.entry_id == expected.best.entry_id
+                assert again.best.distance == pytest.approx(expected.best.distance, rel=1e-5)
             else:  # the index had committed before the kill: complete, never partial
                 assert db.store.n_motions == len(library) + 1
                 break
