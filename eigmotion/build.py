@@ -14,6 +14,8 @@ The work is split over processes by (motion, view); the vectors then go to
 from __future__ import annotations
 
 import os
+import threading
+import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field, fields
@@ -250,7 +252,22 @@ def hull_points(vertices: np.ndarray) -> np.ndarray:
 _WORKER_STATE: dict = {}
 
 
+def _exit_with_parent() -> None:
+    """End this worker process when the process that started it dies (even by
+    SIGKILL, which gives the pool no chance to stop its workers)."""
+    parent = os.getppid()
+
+    def watch():
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="exit-with-parent").start()
+
+
 def _init_worker(library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig):
+    _exit_with_parent()
     # Each process renders with one core; BLAS threads would only fight each other.
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     _WORKER_STATE.update(library=library, rig=rig, config=config)

@@ -191,6 +191,28 @@ def _eigmotion(*args, **kwargs):
     )
 
 
+def _processes_mentioning(text: str) -> list[int]:
+    """Pids whose command line holds ``text`` (forked workers inherit it)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/cmdline", "rb") as f:
+                    if text.encode() in f.read():
+                        found.append(int(entry))
+            except OSError:
+                continue
+    return found
+
+
+def _wait_until_no_process_mentions(text: str, timeout_s: float = 10.0) -> None:
+    """The killed command's rendering workers must not outlive it."""
+    deadline = time.monotonic() + timeout_s
+    while _processes_mentioning(text) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert not _processes_mentioning(text), "worker processes outlived a killed command"
+
+
 def test_sigkill_during_index_keeps_the_database(db_path, tmp_path, other_body, library):
     work = tmp_path / "killed.fs"
     work.write_bytes(db_path.read_bytes())
@@ -218,6 +240,7 @@ def test_sigkill_during_index_keeps_the_database(db_path, tmp_path, other_body, 
         time.sleep(delay_s)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
+        _wait_until_no_process_mentions(str(work))
         with MotionDatabase.open(work) as db:
             assert db.n_entries in (n_entries, db.store.n_entries)
             db.store.check()

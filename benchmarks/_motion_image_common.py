@@ -1,0 +1,129 @@
+"""Set-up shared by the motion-image and video benchmarks (not a benchmark itself).
+
+The avatar walk (CMU 02_01 on the low-poly default avatar), the cameras that film it,
+the composed test scenes of it, the patent's plain motion image used as the
+baseline, and small numeric helpers.  Imported by ``bench_motion_image_*.py`` and
+``bench_video_*.py`` in this folder.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+
+import numpy as np  # noqa: E402
+
+from eigmotion.asf_amc import read_amc  # noqa: E402
+from eigmotion.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
+from eigmotion.cameras import (  # noqa: E402
+    Camera,
+    fit_distance,
+    intrinsics,
+    look_at,
+    ring_rig,
+    view_direction,
+)
+from eigmotion.motion import Motion  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+CMU = REPO / "database" / "motions" / "cmu"
+
+#: The patent's plain after-image: image frame, equal weights, no filter, 64×64, no
+#: mean-silhouette term.  The baseline every configuration is compared with.
+PLAIN_CONFIG = dict(frame="image", weighting="uniform", filter="none", size=64, silhouette_weight=0.0)
+
+#: Frames of the 1.5 s walk used by the video benchmarks, at 30 fps.
+WALK_FRAMES_30FPS = 46
+
+#: Views of the video benchmarks: name → (width, height, ring index, label); the ring
+#: index picks azimuth ``90 * index`` of :func:`ring_camera`.
+WALK_VIEWS = {
+    "side90": (160, 120, 1, "side az 90"),
+    "side90-320": (320, 240, 1, "side az 90"),
+    "side270": (160, 120, 3, "side az 270"),
+    "front": (160, 120, 0, "front az 0"),
+}
+
+
+def walk_motion() -> Motion:
+    """The walk CMU 02_01 as recorded (120 fps)."""
+    return read_amc(CMU / "amc" / "02_01.amc", CMU / "asf" / "02.asf")
+
+
+def low_poly_avatar() -> Avatar:
+    """The default avatar decimated to the database's face count."""
+    return load_default_avatar().decimated(DEFAULT_LOW_POLY_FACES)
+
+
+def walk_vertices(body: Avatar, fps: float, n_frames: int) -> np.ndarray:
+    """(F, V, 3) vertices of ``body`` walking: the first ``n_frames`` at ``fps``."""
+    _, vertices = body.animate(walk_motion().resample(fps).trim(0, n_frames))
+    return vertices
+
+
+def ring_camera(vertices: np.ndarray, index: int, width: int, height: int) -> Camera:
+    """View ``index`` of a 4-camera ring at 10° elevation (azimuth ``90 * index``),
+    fitted to the whole motion."""
+    rig = ring_rig(4, 10.0, width=width, height=height)
+    return rig.fitted(vertices[:, ::10])[index]
+
+
+def offset_camera(
+    vertices: np.ndarray,
+    azimuth_deg: float,
+    elevation_deg: float,
+    width: int,
+    height: int,
+    distance_factor: float = 1.0,
+    aim_offset_m: Sequence[float] = (0.0, 0.0, 0.0),
+) -> Camera:
+    """A 40° camera ``distance_factor`` times further than the fitted distance, aimed
+    ``aim_offset_m`` away from the centre of the motion (the person small, off-centre)."""
+    points = vertices[:, ::7].reshape(-1, 3)
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    K = intrinsics(width, height, 40.0)
+    distance = fit_distance(points, centre, azimuth_deg, elevation_deg, K, width, height)
+    eye = centre + distance_factor * distance * view_direction(azimuth_deg, elevation_deg)
+    return look_at(eye, centre + np.asarray(aim_offset_m), K, width, height)
+
+
+def composed_walks(
+    views: Sequence[tuple[int, int, int]], seeds: Sequence[int]
+) -> Iterator[tuple[tuple[int, int, int], int, np.ndarray, np.ndarray, np.ndarray]]:
+    """The 1.5 s avatar walk filmed from each ``(width, height, ring index)`` view and
+    composed by :func:`eigmotion.scene.compose_scene` with each seed.
+
+    Yields ``(view, seed, true_masks, frames, background)``.
+    """
+    from eigmotion.render import render_shaded
+    from eigmotion.scene import compose_scene
+    from eigmotion.silhouettes import render_masks
+
+    body = low_poly_avatar()
+    vertices = walk_vertices(body, 30.0, WALK_FRAMES_30FPS)
+    for view in views:
+        width, height, index = view
+        camera = ring_camera(vertices, index, width, height)
+        truth = render_masks(vertices, body.faces, camera)
+        rgb = render_shaded(vertices, body.faces, camera, floor=False)
+        for seed in seeds:
+            frames, background = compose_scene(rgb, truth, np.random.default_rng(seed))
+            yield view, seed, truth, frames, background
+
+
+def cosine_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """1 − cos of the angle between two vectors."""
+    return float(1.0 - np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
+
+
+def ratio(ours: float, baseline: float) -> float:
+    """``ours / baseline`` (nan when the baseline is 0)."""
+    return float(ours) / float(baseline) if baseline else float("nan")
+
+
+def int_list(text: str) -> list[int]:
+    """``"0,1,2"`` → ``[0, 1, 2]`` (an argparse type)."""
+    return [int(part) for part in text.split(",") if part.strip()]
