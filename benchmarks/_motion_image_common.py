@@ -33,7 +33,9 @@ CMU = REPO / "database" / "motions" / "cmu"
 
 #: The patent's plain after-image: image frame, equal weights, no filter, 64×64, no
 #: mean-silhouette term.  The baseline every configuration is compared with.
-PLAIN_CONFIG = dict(frame="image", weighting="uniform", filter="none", size=64, silhouette_weight=0.0)
+PLAIN_CONFIG = dict(
+    frame="image", weighting="uniform", filter="none", size=64, silhouette_weight=0.0
+)
 
 #: Frames of the 1.5 s walk used by the video benchmarks, at 30 fps.
 WALK_FRAMES_30FPS = 46
@@ -46,6 +48,17 @@ WALK_VIEWS = {
     "side270": (160, 120, 3, "side az 270"),
     "front": (160, 120, 0, "front az 0"),
 }
+
+
+def walk_views(names: Sequence[str]) -> tuple[list[tuple[int, int, int]], dict]:
+    """The ``(width, height, ring index)`` views of :data:`WALK_VIEWS` ``names``, and a
+    ``view → "label  WxH"`` dict for printing."""
+    views, labels = [], {}
+    for name in names:
+        width, height, index, label = WALK_VIEWS[name]
+        views.append((width, height, index))
+        labels[width, height, index] = f"{label:<13} {width}x{height:<4}"
+    return views, labels
 
 
 def walk_motion() -> Motion:

@@ -104,9 +104,7 @@ def render_motion(item, out: Path) -> None:
         frames, background = compose_scene(None, masks, rng)
         clean.append(masks)
         video.append(extract_silhouettes(frames, background))
-    np.savez_compressed(
-        out, db=db, clean=np.stack(clean), video=np.stack(video), label=item.label
-    )
+    np.savez_compressed(out, db=db, clean=np.stack(clean), video=np.stack(video), label=item.label)
 
 
 def vectors(clips_by_motion: dict, key: str, config: MotionImageConfig, offset_s: float):

@@ -73,7 +73,9 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
 
     def walk(n_frames=45, fps=30.0, **kwargs):
-        return stick_figure_masks(n_frames, 120, 160, fps=fps, body_height_px=args.body_px, **kwargs)
+        return stick_figure_masks(
+            n_frames, 120, 160, fps=fps, body_height_px=args.body_px, **kwargs
+        )
 
     masks = walk()
     moved = shift_and_scale(masks, args.scale, (30, 90), (200, 260))
@@ -115,7 +117,9 @@ def main(argv=None) -> None:
         near = render_masks(v30, body.faces, offset_camera(v30, 90.0, 5.0, 128, 128))
         far_camera = offset_camera(v30, 90.0, 5.0, 160, 120, 1.7, (0.4, 0.2, 0.0))
         far = render_masks(v30, body.faces, far_camera)
-        rows.append(("avatar walk, fitted vs 1.7x further, 0.4 m off", distances(near, far, 30, 30)))
+        rows.append(
+            ("avatar walk, fitted vs 1.7x further, 0.4 m off", distances(near, far, 30, 30))
+        )
         camera = offset_camera(v120, 90.0, 5.0, 128, 128)
         rows.append(
             (

@@ -44,7 +44,10 @@ from eigmotion.silhouettes import render_masks  # noqa: E402
 CONFIGS = (
     ("default", {}),
     ("size=64", dict(size=64)),
-    ("size=64, filter=none, silhouette_weight=0.0", dict(size=64, filter="none", silhouette_weight=0.0)),
+    (
+        "size=64, filter=none, silhouette_weight=0.0",
+        dict(size=64, filter="none", silhouette_weight=0.0),
+    ),
     ("frame=image", dict(frame="image")),
     ("plain (image, uniform, none, 64, sil 0)", PLAIN_CONFIG),
 )

@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import WALK_VIEWS, composed_walks, cosine_distance, ratio
+from _motion_image_common import WALK_VIEWS, composed_walks, cosine_distance, ratio, walk_views
 
 from eigmotion.media import write_video
 from eigmotion.motion_image import motion_image
@@ -50,8 +50,7 @@ def main(argv=None) -> None:
     )
     args = parser.parse_args(argv)
 
-    views = [WALK_VIEWS[name][:3] for name in args.views]
-    labels = {WALK_VIEWS[name][:3]: WALK_VIEWS[name][3] for name in args.views}
+    views, labels = walk_views(args.views)
     print("cosine distances; ratio = truth-vs-file / truth-vs-direct")
     print(
         f"{'view':<13} {'size':<8} {'seed':>4} {'file':<5} {'direct-vs-file':>14} "
@@ -68,16 +67,17 @@ def main(argv=None) -> None:
             row = (cosine_distance(d, f), cosine_distance(t, d), cosine_distance(t, f))
             rows.append((suffix, *row))
             print(
-                f"{labels[view]:<13} {f'{view[0]}x{view[1]}':<8} {seed:>4} {suffix:<5} "
+                f"{labels[view]} {seed:>4} {suffix:<5} "
                 f"{row[0]:>14.4f} {row[1]:>15.4f} {row[2]:>13.4f} {ratio(row[2], row[1]):>6.2f}",
                 flush=True,
             )
     for suffix in args.formats:
         values = np.array([r[1:] for r in rows if r[0] == suffix])
+        direct, file = values[:, 1].mean(), values[:, 2].mean()
         print(
             f"{suffix}: direct-vs-file {values[:, 0].min():.4f}-{values[:, 0].max():.4f}, "
-            f"truth-vs-direct mean {values[:, 1].mean():.4f}, truth-vs-file mean "
-            f"{values[:, 2].mean():.4f} (ratio of means {ratio(values[:, 2].mean(), values[:, 1].mean()):.2f})"
+            f"truth-vs-direct mean {direct:.4f}, truth-vs-file mean {file:.4f} "
+            f"(ratio of means {ratio(file, direct):.2f})"
         )
 
 

@@ -17,8 +17,8 @@ per frame, and the mean IoU as a ratio of MOG2's on the same frames.
 
 Run from the repository root with the venv active::
 
-    python benchmarks/bench_video_silhouettes.py [--seeds 3] [--views side90 side90-320 side270 front]
-        [--no-mp4]
+    python benchmarks/bench_video_silhouettes.py [--seeds 3] [--no-mp4]
+        [--views side90 side90-320 side270 front]
 
 With the defaults it takes about 1.5 min on two cores; ``--seeds 1`` a third of it.
 """
@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import WALK_VIEWS, composed_walks, ratio
+from _motion_image_common import WALK_VIEWS, composed_walks, ratio, walk_views
 
 from eigmotion.media import read_frames, write_video
 from eigmotion.video import SilhouetteConfig, extract_silhouettes
@@ -55,8 +55,7 @@ def main(argv=None) -> None:
     parser.add_argument("--no-mp4", action="store_true", help="skip the .mp4 round trip")
     args = parser.parse_args(argv)
 
-    views = [WALK_VIEWS[name][:3] for name in args.views]
-    labels = {WALK_VIEWS[name][:3]: WALK_VIEWS[name][3] for name in args.views}
+    views, labels = walk_views(args.views)
     sources = ("direct",) if args.no_mp4 else ("direct", "mp4")
     scores: dict[tuple, list[tuple[float, float]]] = {}
     for view, _seed, truth, frames, background in composed_walks(views, range(args.seeds)):
@@ -88,7 +87,7 @@ def main(argv=None) -> None:
                 values = np.array(scores[view, source, name])
                 mean = values[:, 0].mean()
                 print(
-                    f"{labels[view]:<13} {f'{view[0]}x{view[1]}':<8} {source:<7} {name:<10} "
+                    f"{labels[view]} {source:<7} {name:<10} "
                     f"{mean:>8.3f} {values[:, 0].min():>6.3f} {values[:, 1].mean():>8.4f} "
                     f"{base:>6.3f} {ratio(mean, base):>6.2f}",
                     flush=True,
