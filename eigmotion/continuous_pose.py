@@ -65,6 +65,7 @@ if TYPE_CHECKING:
     from .avatar import Avatar
     from .database import MotionDatabase, QueryResult
     from .replay import Replay
+    from .tracker import PostureBodies
 
 
 @dataclass(frozen=True)
@@ -273,7 +274,7 @@ class _Reference:
 
     on_avatar: Motion  # avatar skeleton, metres, reference_fps
     root_m: np.ndarray  # (R, 3) root positions, metres
-    bodies: object  # PostureBodies, root at the origin
+    bodies: PostureBodies  # entry i = reference frame i, root at the origin
     first_source_frame: int
     source_per_reference: float  # source frames per reference frame
     window: tuple[int, int]  # matched window in reference frames
@@ -288,9 +289,11 @@ def _reference(
     window: tuple[int, int],
     reference_fps: float,
     margin_s: float,
-    avatar,
+    avatar: Avatar,
     n_faces: int,
 ) -> _Reference:
+    """The matched window ± ``margin_s`` of ``motion`` on the avatar, resampled to
+    ``reference_fps``, with the low-poly body posed in every frame."""
     from .retarget import animation_to_motion, retarget
     from .tracker import PostureSequence, avatar_bodies, dictionary_from_sequences
 
@@ -335,6 +338,8 @@ class _Observed:
 
 
 def _observe(masks: np.ndarray, min_px: int) -> _Observed:
+    """What the tracker needs of each clip frame's silhouette (``VideoError`` if no
+    frame shows a person)."""
     n = len(masks)
     present = np.zeros(n, dtype=bool)
     centroids = np.full((n, 2), np.nan)
@@ -854,7 +859,7 @@ def continuous_pose(
     ContinuousPose
     """
     best = result.best
-    yfov_deg = float(np.rad2deg(db.rig[0].yfov_rad)) if len(db.rig) else 40.0
+    yfov_deg = float(np.rad2deg(db.rig[0].yfov_rad))
     return align_motion(
         db.motion(best.motion_id),
         best.window,

@@ -251,6 +251,20 @@ def test_monotone_path_follows_a_changing_speed():
     assert monotone_path(scores, 3).max() < 20
 
 
+def test_speed_prior_carries_the_playback_through_frames_without_evidence():
+    # clip frames 10-19 show nobody (zero scores); the reference moves 2 frames per
+    # clip frame before and after
+    truth = 2 * np.arange(30)
+    scores = np.full((30, 61), -1.0)
+    scores[np.arange(30), truth] = 1.0
+    scores[10:20] = 0.0
+    with_prior = monotone_path(scores, 5, speed_costs(5, 2.0, 0.03))
+    assert np.array_equal(with_prior, truth)
+    # without it, any path through the gap scores the same: it holds, then jumps
+    without = monotone_path(scores, 5)
+    assert np.array_equal(without[:10], truth[:10]) and np.diff(without[9:21]).max() > 2
+
+
 @pytest.mark.parametrize(
     ("scores", "max_step", "costs"),
     [
