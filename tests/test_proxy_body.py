@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mesh_helpers import winding_numbers
 
 from eigmotion.asf_amc import read_amc
 from eigmotion.canonical import canonical_skeleton
@@ -15,24 +16,6 @@ from eigmotion.motion import Motion, Skeleton, standard_channels
 from eigmotion.proxy_body import MIN_BONE_M, capsule_mesh, proxy_body
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
-
-
-def winding_numbers(points: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(P,) generalised winding number of each point (1 inside a closed mesh)."""
-    tri = np.asarray(vertices, np.float64)[faces]
-    out = []
-    for p in np.asarray(points, np.float64).reshape(-1, 3):
-        a, b, c = np.moveaxis(tri - p, 1, 0)
-        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
-        det = np.einsum("ij,ij->i", a, np.cross(b, c))
-        den = (
-            la * lb * lc
-            + np.einsum("ij,ij->i", a, b) * lc
-            + np.einsum("ij,ij->i", a, c) * lb
-            + np.einsum("ij,ij->i", b, c) * la
-        )
-        out.append(np.arctan2(det, den).sum() / (2 * np.pi))
-    return np.array(out)
 
 
 def quadruped() -> Skeleton:
