@@ -451,6 +451,11 @@ class MotionDatabase:
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
         """Open a database built by :func:`build_database`."""
+        if Path(os.fspath(uri)) == DEFAULT_DB_PATH and not DEFAULT_DB_PATH.is_file():
+            raise DatabaseError(
+                f"{DEFAULT_DB_PATH}: the default database has not been built yet; "
+                "run 'eigmotion build' (or pass --db)"
+            )
         return cls(Store.open(uri, read_only=read_only))
 
     def close(self) -> None:
