@@ -66,7 +66,6 @@ from eigmotion.continuous_pose import ContinuousPoseConfig, continuous_pose  # n
 from eigmotion.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 from eigmotion.kinematics import forward_kinematics  # noqa: E402
 from eigmotion.library import load_library  # noqa: E402
-from eigmotion.motion import Motion  # noqa: E402
 from eigmotion.replay import replay  # noqa: E402
 from eigmotion.retarget import retarget  # noqa: E402
 from eigmotion.rotations import axis_rotation  # noqa: E402
@@ -109,18 +108,6 @@ class Row:
     linear_yaw_mm: float
     floor_mm: float
     seconds: float
-
-
-def time_warped(motion: Motion, speeds: tuple[float, ...], fps: float) -> Motion:
-    """The motion cut into equal parts, part ``k`` played at ``speeds[k]`` × its speed,
-    resampled to ``fps``."""
-    bounds = np.linspace(0, motion.n_frames - 1, len(speeds) + 1).round().astype(int)
-    values = []
-    for k, speed in enumerate(speeds):
-        part = motion.trim(bounds[k], bounds[k + 1] + 1)
-        part = part.replace(frame_time_s=motion.frame_time_s / speed).resample(fps)
-        values.append(part.values if k == 0 else part.values[1:])
-    return motion.replace(values=np.concatenate(values), frame_time_s=1.0 / fps)
 
 
 def halfway_views(rig: CameraRig) -> tuple[np.ndarray, np.ndarray]:
@@ -180,7 +167,7 @@ def open_database(path: str | None, workdir: Path) -> tuple[MotionDatabase, str]
 
 
 def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
-    from eigmotion.clips import render_clip
+    from eigmotion.clips import render_clip, time_warped
     from eigmotion.video import extract_silhouettes
 
     azimuths, elevations = halfway_views(rig)

@@ -92,3 +92,29 @@ def render_clip(
         shaded, masks, rng, shadow=shadow, noise_sigma=noise_sigma, camouflage=camouflage
     )
     return SyntheticClip(frames, background, masks, float(fps), camera)
+
+
+def time_warped(motion: Motion, speeds: tuple[float, ...], fps: float) -> Motion:
+    """A motion whose speed changes along the way, for clips that must be aligned in time.
+
+    Parameters
+    ----------
+    motion : Motion
+    speeds : tuple of float
+        The motion is cut into ``len(speeds)`` equal parts; part ``k`` is played at
+        ``speeds[k]`` × its recorded speed (> 0).
+    fps : float
+        Frame rate of the result, frames per second.
+
+    Returns
+    -------
+    Motion
+        At ``fps``; the parts joined without repeating their shared frame.
+    """
+    bounds = np.linspace(0, motion.n_frames - 1, len(speeds) + 1).round().astype(int)
+    values = []
+    for k, speed in enumerate(speeds):
+        part = motion.trim(bounds[k], bounds[k + 1] + 1)
+        part = part.replace(frame_time_s=motion.frame_time_s / speed).resample(fps)
+        values.append(part.values if k == 0 else part.values[1:])
+    return motion.replace(values=np.concatenate(values), frame_time_s=1.0 / fps)

@@ -22,6 +22,7 @@ from eigmotion.build import BuildConfig, hull_points
 from eigmotion.bvh import read_bvh
 from eigmotion.cameras import load_rig, virtual_rig
 from eigmotion.cli import main
+from eigmotion.clips import time_warped
 from eigmotion.continuous_pose import (
     ContinuousPoseConfig,
     align_motion,
@@ -45,17 +46,6 @@ CLIP_FPS = 30.0
 SPEEDS = (0.7, 1.3)
 AVATAR = load_default_avatar()
 BODY_JOINTS = [i for i, n in enumerate(AVATAR.joint_names) if not n.endswith(("1", "Thumb"))]
-
-
-def time_warped(motion, speeds, fps):
-    """The motion cut into equal parts, each played at its own speed, at ``fps``."""
-    bounds = np.linspace(0, motion.n_frames - 1, len(speeds) + 1).round().astype(int)
-    values = []
-    for k, speed in enumerate(speeds):
-        part = motion.trim(bounds[k], bounds[k + 1] + 1)
-        part = part.replace(frame_time_s=motion.frame_time_s / speed).resample(fps)
-        values.append(part.values if k == 0 else part.values[1:])
-    return motion.replace(values=np.concatenate(values), frame_time_s=1.0 / fps)
 
 
 def root_relative(positions, azimuth_deg):
