@@ -62,7 +62,8 @@ def main(argv=None) -> None:
         d = motion_image(extract_silhouettes(frames), clip_fps=30.0)
         for suffix in args.formats:
             with tempfile.TemporaryDirectory() as tmp:
-                masks, fps = load_clip_masks(write_video(frames, Path(tmp) / f"clip{suffix}", 30.0))
+                clip = load_clip_masks(write_video(frames, Path(tmp) / f"clip{suffix}", 30.0))
+                masks, fps = clip.masks, clip.fps
             f = motion_image(masks, clip_fps=fps)
             row = (cosine_distance(d, f), cosine_distance(t, d), cosine_distance(t, f))
             rows.append((suffix, *row))

@@ -31,6 +31,7 @@ from .motion import Motion
 from .motion_image import motion_image
 from .search import BruteForceIndex, TreeIndex
 from .store import Store, parse_uri
+from .video import ClipMasks, SilhouetteConfig, load_clip_masks
 
 #: Where ``eigmotion build`` with no options writes.
 DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.fs"
@@ -589,30 +590,48 @@ class MotionDatabase:
         return segments
 
     def query_clip(
-        self, path: str | os.PathLike, background: str | os.PathLike | None = None, top_k: int = 3
-    ) -> tuple[QueryResult, np.ndarray, float]:
+        self,
+        path: str | os.PathLike,
+        background: str | os.PathLike | None = None,
+        top_k: int = 3,
+        every_frame: bool = False,
+    ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
+
+        Parameters
+        ----------
+        path : str or PathLike
+        background : str or PathLike, optional
+            An image of the empty scene.
+        top_k : int
+        every_frame : bool
+            Cut the person out of every frame (what a frame-by-frame 3D answer needs).
+            By default only the frames the motion image samples are read and cut out
+            (the database's ``sample_fps``); the answer is the same.
 
         Returns
         -------
         result : QueryResult
-        masks : (F, H, W) bool
-        fps : float
+            Segment frames are frames of the clip.
+        clip : ClipMasks
+            The silhouettes the answer was computed from.
         """
-        from .video import SilhouetteConfig, load_clip_masks
-
         t0 = time.perf_counter()
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
-        masks, fps = load_clip_masks(path, background, config)
+        sample_fps = None if every_frame else self.config.motion_image.sample_fps
+        clip = load_clip_masks(path, background, config, sample_fps)
         t1 = time.perf_counter()
-        result = self.query_masks(masks, fps, top_k)
+        result = self.query_masks(clip.masks, clip.fps, top_k)
+        # Segments come in mask indices; a mask's successor starts the next segment.
+        starts = np.append(clip.frame_indices, clip.n_frames)
+        segments = [
+            dataclasses.replace(seg, start_frame=int(starts[seg.start_frame]),
+                                end_frame=int(starts[seg.end_frame]))
+            for seg in result.segments
+        ]  # fmt: skip
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
         timing["total"] = (time.perf_counter() - t0) * 1e3
-        return (
-            dataclasses.replace(result, timing_ms=timing),
-            masks,
-            fps,
-        )
+        return dataclasses.replace(result, segments=segments, timing_ms=timing), clip
 
     # -- indexing ---------------------------------------------------------------------
     def index_motion(self, item: LibraryMotion, progress: bool = True) -> IndexReport:

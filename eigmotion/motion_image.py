@@ -57,6 +57,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from .errors import InvalidParameterError, VideoError
+from .media import sample_indices
 
 FRAMES = ("image", "person")
 WEIGHTINGS = ("uniform", "recency")
@@ -243,31 +244,6 @@ def motion_image(
         stack = stack[sample_indices(stack.shape[0], float(clip_fps), config.sample_fps)]
     aligned = align_frames(stack, config)
     return _image_from_aligned(aligned, config)
-
-
-def sample_indices(n_frames: int, clip_fps: float, sample_fps: float) -> np.ndarray:
-    """Frame indices that sample a clip at ``sample_fps``.
-
-    Parameters
-    ----------
-    n_frames : int
-        Frames in the clip.
-    clip_fps, sample_fps : float
-        The clip's rate and the rate wanted, frames per second.
-
-    Returns
-    -------
-    (F',) int64
-        Increasing indices of the frames nearest to the times ``k / sample_fps``,
-        ``k = 0, 1, …`` up to the clip's duration ``(n_frames - 1) / clip_fps``; every
-        frame when ``clip_fps <= sample_fps``.
-    """
-    if clip_fps <= sample_fps:
-        return np.arange(n_frames)
-    duration_s = (n_frames - 1) / clip_fps
-    # The small epsilon keeps a sample that falls exactly on the last frame.
-    times_s = np.arange(int(math.floor(duration_s * sample_fps + 1e-9)) + 1) / sample_fps
-    return np.minimum(np.rint(times_s * clip_fps).astype(np.int64), n_frames - 1)
 
 
 def align_frames(masks: np.ndarray, config: MotionImageConfig) -> np.ndarray:

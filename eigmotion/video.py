@@ -45,7 +45,9 @@ Background estimation when none is given (``SilhouetteConfig.background``):
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import asdict, dataclass, fields
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +62,14 @@ SHADOW_SIGMA_PX = 1.0
 #: Ratio of the raw to the smoothed median ΔE of sensor noise (white noise blurred
 #: by the optics, smoothed with sigma 1 px; measured 2.7–2.8 on composed scenes).
 RAW_PER_SMOOTHED_NOISE = 2.5
+
+#: Threads the per-frame stages run on (at most one per CPU core), and the fewest
+#: frames worth a thread of their own.
+MAX_THREADS = 4
+MIN_FRAMES_PER_THREAD = 8
+
+#: Pixels per frame and channel whose median ratio to the background is the exposure gain.
+GAIN_SAMPLES = 512
 
 #: Frame rate assumed for an ``.npz`` of masks that stores none, frames per second.
 DEFAULT_NPZ_FPS = 30.0
@@ -105,9 +115,10 @@ class SilhouetteConfig:
         filled; bigger ones only when they differ from the background, in [0, 1].
     work_max_side_px : int
         Frames (and the background) larger than this on their longer side are
-        shrunk to it (area averaging) before segmentation, and the masks come back
-        at that size, in [64, 4096].  The motion image is cropped and rescaled to
-        32–64 pixels anyway, so segmenting full-resolution video only costs time.
+        shrunk by the smallest whole factor that brings them to it (area averaging)
+        before segmentation, and the masks come back at that size, in [64, 4096].
+        The motion image is cropped and rescaled to 32–64 pixels anyway, so
+        segmenting full-resolution video only costs time.
     """
 
     background: str = "median"
@@ -247,15 +258,21 @@ def extract_silhouettes(
 
 
 def _shrink(frames: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
-    """Frames (F, H, W, 3) shrunk to the working resolution (area averaging)."""
+    """Frames (F, H, W, 3) shrunk by the smallest whole factor that brings the longer
+    side to at most ``config.work_max_side_px`` (area averaging over factor × factor
+    blocks; the last rows and columns that do not fill a block are dropped)."""
     import cv2
 
     h, w = frames.shape[1:3]
-    factor = config.work_max_side_px / max(h, w)
-    if factor >= 1.0:
+    factor = math.ceil(max(h, w) / config.work_max_side_px)
+    if factor <= 1:
         return frames
-    size = (max(1, round(w * factor)), max(1, round(h * factor)))
-    return np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in frames])
+    n, rows, cols = frames.shape[0], h // factor, w // factor
+    # Whole blocks never straddle two frames: one resize of the frames stacked.
+    stacked = np.ascontiguousarray(frames[:, : rows * factor, : cols * factor])
+    stacked = stacked.reshape(n * rows * factor, cols * factor, 3)
+    small = cv2.resize(stacked, (cols, n * rows), interpolation=cv2.INTER_AREA)
+    return small.reshape(n, rows, cols, 3)
 
 
 def estimate_background(
@@ -354,11 +371,38 @@ def _masked_quantile(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.n
     return out
 
 
+@dataclass(frozen=True)
+class ClipMasks:
+    """The person's silhouettes in a clip on disk.
+
+    Attributes
+    ----------
+    masks : (F', H, W) bool
+        One per frame taken.
+    frame_indices : (F',) int64
+        Index in the clip of each mask's frame, increasing.
+    n_frames : int
+        Frames in the whole clip.
+    fps : float
+        The rate the masks are spaced at, frames/s: the clip's rate when every frame
+        was taken, else the sample rate asked for.
+    clip_fps : float
+        The clip's frame rate, frames/s.
+    """
+
+    masks: np.ndarray
+    frame_indices: np.ndarray
+    n_frames: int
+    fps: float
+    clip_fps: float
+
+
 def load_clip_masks(
     path: str | Path,
     background_path: str | Path | None = None,
     config: SilhouetteConfig = SilhouetteConfig(),  # noqa: B008 - frozen, immutable
-) -> tuple[np.ndarray, float]:
+    sample_fps: float | None = None,
+) -> ClipMasks:
     """Silhouettes of the person in a clip on disk.
 
     Parameters
@@ -371,12 +415,15 @@ def load_clip_masks(
     background_path : str or Path, optional
         An image of the empty scene, same size as the frames (video input only).
     config : SilhouetteConfig
+    sample_fps : float, optional
+        Take only the frames nearest to this rate (frames/s; see
+        :func:`eigmotion.media.sample_indices`): the motion image samples the clip at
+        its own rate anyway, and frames it skips need no silhouette.  Every frame when
+        ``None``.
 
     Returns
     -------
-    masks : (F, H, W) bool
-    fps : float
-        Frames per second.
+    ClipMasks
 
     Raises
     ------
@@ -384,20 +431,26 @@ def load_clip_masks(
         Missing or unreadable file, zero frames, no person, background of another size.
     InvalidParameterError
         An ``.npz`` without ``masks`` or with masks of the wrong shape; a background
-        given with an ``.npz`` of masks.
+        given with an ``.npz`` of masks; a bad ``sample_fps``.
     """
+    from .media import read_frame_sample, sample_indices
+
     path = Path(path)
     if path.suffix.lower() == ".npz":
         if background_path is not None:
             raise InvalidParameterError(
                 f"{path}: background_path applies to video input, not to stored masks"
             )
-        return _load_npz_masks(path)
-    from .media import read_frames
-
-    frames, fps = read_frames(path)
+        if sample_fps is not None:
+            _check_real("sample_fps", sample_fps, 1e-3, 1e4)
+        masks, clip_fps = _load_npz_masks(path)
+        rate = clip_fps if sample_fps is None else sample_fps
+        indices = sample_indices(len(masks), clip_fps, rate)
+        return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
+    sample = read_frame_sample(path, sample_fps)
     background = None if background_path is None else read_background(background_path)
-    return extract_silhouettes(frames, background, config), fps
+    masks = extract_silhouettes(sample.frames, background, config)
+    return ClipMasks(masks, sample.frame_indices, sample.n_frames, sample.fps, sample.clip_fps)
 
 
 def read_background(path: str | Path) -> np.ndarray:
@@ -473,45 +526,74 @@ def _load_npz_masks(path: Path) -> tuple[np.ndarray, float]:
 
 
 def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
-    """Masks of the person in every frame against one background image."""
+    """Masks of the person in every frame against one background image.
+
+    Two passes over the frames: the per-pixel tests (L*a*b* difference, its smoothed
+    length, shadow test; compiled loops) and then, once the clip's noise level sets
+    the thresholds, hysteresis, closing and the person's blob on the whole image and
+    the stages after it (hole filling, rim, boundary) inside the person's box only.
+    """
     import cv2
 
+    kernels = _kernels()
     n, h, w = frames.shape[:3]
     bg_rgb = background.astype(np.float32)
-    bg_lab = cv2.cvtColor(bg_rgb * (1.0 / 255.0), cv2.COLOR_RGB2Lab)
+    bg_lab = _lab(background[None])[0]
     # The shadow test compares lightly smoothed colours: video codecs halve the colour
     # resolution, which scatters the chromaticity of single pixels.
-    bg_soft = cv2.GaussianBlur(bg_rgb, (0, 0), SHADOW_SIGMA_PX)
-    bg_norm2 = np.maximum((bg_soft * bg_soft).sum(axis=2), 1.0)
-    bg_bright = np.sqrt(bg_norm2)
-    smooth = config.smooth_sigma_px > 0.0
+    bg_soft = cv2.GaussianBlur(background, _gaussian_size(SHADOW_SIGMA_PX), SHADOW_SIGMA_PX)
+    bg_soft = bg_soft.astype(np.float32)
+    bg_norm2 = np.maximum(np.einsum("ijk,ijk->ij", bg_soft, bg_soft), 1.0)
+    bg_bright, inv_norm2 = np.sqrt(bg_norm2), 1.0 / bg_norm2
 
     gains = _exposure_gains(frames, bg_rgb)
+    if np.all(np.abs(gains - 1.0) < 0.5 / 255.0):
+        corrected = frames  # no level would change
+    else:
+        corrected = np.empty_like(frames)
+        tables = _gain_tables(gains)
+        kernels.apply_gains(frames.reshape(n, -1), tables, corrected.reshape(n, -1))
+    grid = _grid_step(h, w)
+    sample = corrected[:, ::grid, ::grid].astype(np.float32) - bg_rgb[::grid, ::grid]
+    rgb_noise = np.float32(np.median(np.linalg.norm(sample.reshape(-1, 3), axis=1)))
+    shadow_args = (
+        bg_soft.ravel(), inv_norm2.ravel(), bg_bright.ravel(), *np.float32(config.shadow_ratio),
+        np.float32(config.shadow_chroma), rgb_noise,
+    )  # fmt: skip
+    shadow_size = _gaussian_size(SHADOW_SIGMA_PX)
+    smooth = config.smooth_sigma_px > 0.0
+    smooth_size = _gaussian_size(config.smooth_sigma_px)
     raw = np.empty((n, h, w), np.float32)
     smoothed = np.empty((n, h, w), np.float32) if smooth else raw
-    for i in range(n):
-        rgb = frames[i].astype(np.float32) / gains[i]
-        lab = cv2.cvtColor(np.clip(rgb, 0.0, 255.0) * (1.0 / 255.0), cv2.COLOR_RGB2Lab)
-        diff = lab - bg_lab
-        raw[i] = np.sqrt((diff * diff).sum(axis=2))
-        if smooth:
-            # Averaging the difference vector (not its length) cancels noise while a
-            # consistent small offset (camouflaged clothing) survives.
-            diff = cv2.GaussianBlur(diff, (0, 0), config.smooth_sigma_px)
-            smoothed[i] = np.sqrt((diff * diff).sum(axis=2))
-    raw_noise = _noise(raw)
+    shadow = np.empty((n, h, w), np.bool_)
+
+    def pixel_tests(start: int, stop: int) -> None:
+        lab = _lab(corrected[start:stop])
+        diff = np.empty((h, w, 3), np.float32)
+        soft = np.empty((h, w, 3), np.uint8)
+        for i in range(start, stop):
+            kernels.lab_differences(
+                lab[i - start].ravel(), bg_lab.ravel(), diff.ravel(), raw[i].ravel()
+            )
+            if smooth:
+                # Averaging the difference vector (not its length) cancels noise while
+                # a consistent small offset (camouflaged clothing) survives.
+                cv2.GaussianBlur(diff, smooth_size, config.smooth_sigma_px, dst=diff)
+                kernels.lengths(diff.ravel(), smoothed[i].ravel())
+            cv2.GaussianBlur(corrected[i], shadow_size, SHADOW_SIGMA_PX, dst=soft)
+            kernels.cast_shadows(soft.ravel(), *shadow_args, shadow[i].ravel())
+
+    _over_frames(pixel_tests, n)
     if smooth:
         smooth_noise = _noise(smoothed)
         # A lossy codec removes the fine grain (lowering the raw median) but leaves
         # blocky low-frequency errors (raising the smoothed one): the raw noise is
         # never taken below what the smoothed noise implies.
-        raw_noise = max(raw_noise, RAW_PER_SMOOTHED_NOISE * smooth_noise)
+        raw_noise = max(_noise(raw), RAW_PER_SMOOTHED_NOISE * smooth_noise)
         low, high = _thresholds(smooth_noise, config)
         low_raw, _ = _thresholds(raw_noise, config)
     else:
-        low, high = low_raw, _ = _thresholds(raw_noise, config)
-    sample = frames[:, ::4, ::4].astype(np.float32) / gains[:, None, None, :]
-    rgb_noise = float(np.median(np.linalg.norm(sample - bg_rgb[::4, ::4], axis=-1)))
+        low, high = low_raw, _ = _thresholds(_noise(raw), config)
 
     scale = h / 240.0
     close_d = max(1, int(round(config.close_px * scale))) | 1
@@ -519,30 +601,263 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
     # Pixels deeper inside than the smoothing reaches are body even where camouflaged.
     reach = int(math.ceil(2.0 * config.smooth_sigma_px))
     inner = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+    # The person-box stages look this far around the person: the rim test's erosion
+    # and the boundary refinement's 7×7 local colour mean.
+    margin = max(reach, 3) + 2
     min_area = config.min_person_frac * h * w
     speck = max(2, int(round(min_area * 0.05)))
     out = np.zeros((n, h, w), bool)
-    for i in range(n):
-        weak = smoothed[i] > low
-        if not weak.any():
-            continue
-        rgb = frames[i].astype(np.float32) / gains[i]
-        shadow = _shadow(rgb, bg_soft, bg_norm2, bg_bright, rgb_noise, config, cv2)
-        weak &= ~shadow
-        strong = weak & (smoothed[i] > high)
-        mask = _hysteresis(weak, strong, speck, cv2)
-        if close_d > 1:
-            mask = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, closing).astype(bool)
-        mask = _person_blob(mask, min_area, config.keep_piece_frac, cv2)
-        if not mask.any():
-            continue
-        evidence = (smoothed[i], low, raw[i], low_raw)
-        mask = _fill_holes(mask, evidence, shadow, reach, config.small_hole_frac, cv2)
-        if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
-            interior = cv2.erode(mask.astype(np.uint8), inner).astype(bool)
-            mask &= interior | ((raw[i] > low_raw) & ~shadow)
-        out[i] = _refine_boundary(mask, rgb, bg_rgb, 4.0 * rgb_noise, cv2)
+
+    def person(start: int, stop: int) -> None:
+        weak = np.empty((h, w), np.uint8)
+        strong = np.empty((h, w), np.bool_)
+        seeded = np.empty((h, w), np.uint8)
+        for i in range(start, stop):
+            if not kernels.seeds(
+                smoothed[i].ravel(), shadow[i].ravel(), low, high, weak.ravel(), strong.ravel()
+            ):
+                continue
+            count, labels = cv2.connectedComponents(weak, connectivity=8, ltype=cv2.CV_32S)
+            kernels.seeded_components(labels.ravel(), count, strong.ravel(), speck, seeded.ravel())
+            mask = seeded
+            if close_d > 1:
+                mask = cv2.morphologyEx(seeded, cv2.MORPH_CLOSE, closing)
+            count, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_32S)
+            boxes = np.zeros((count, 5), np.int64)
+            kernels.component_boxes(labels.ravel(), w, boxes)
+            keep = _person_components(boxes, min_area, config.keep_piece_frac)
+            if keep is None:
+                continue
+            x0, y0 = boxes[keep, 1].min(), boxes[keep, 2].min()
+            x1, y1 = boxes[keep, 3].max() + 1, boxes[keep, 4].max() + 1
+            box = (
+                slice(max(0, y0 - margin), min(h, y1 + margin)),
+                slice(max(0, x0 - margin), min(w, x1 + margin)),
+            )
+            mask = keep[labels[box]]
+            evidence = (smoothed[i][box], low, raw[i][box], low_raw)
+            mask = _fill_holes(mask, evidence, shadow[i][box], reach, config.small_hole_frac, cv2)
+            if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
+                interior = cv2.erode(mask.view(np.uint8), inner).astype(bool)
+                mask &= interior | ((raw[i][box] > low_raw) & ~shadow[i][box])
+            rim_noise = 4.0 * rgb_noise
+            out[i][box] = _refine_boundary(mask, corrected[i][box], bg_rgb[box], rim_noise, cv2)
+
+    _over_frames(person, n)
     return out
+
+
+def _over_frames(work, n_frames: int) -> None:
+    """Run ``work(start, stop)`` over consecutive chunks of ``range(n_frames)`` on
+    threads, one per CPU core (at most :data:`MAX_THREADS`): the compiled loops and
+    OpenCV release the interpreter lock, so the chunks run side by side."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    threads = max(1, min(os.cpu_count() or 1, MAX_THREADS, n_frames // MIN_FRAMES_PER_THREAD))
+    bounds = np.linspace(0, n_frames, threads + 1).round().astype(int)
+    if threads == 1:
+        work(0, n_frames)
+        return
+    with ThreadPoolExecutor(threads) as pool:
+        for future in [pool.submit(work, a, b) for a, b in zip(bounds, bounds[1:], strict=False)]:
+            future.result()
+
+
+def _lab(frames: np.ndarray) -> np.ndarray:
+    """(F, H, W, 3) uint8 RGB → uint8 L*a*b* (OpenCV's 8-bit scaling: L×255/100, a+128, b+128).
+
+    One conversion over the whole clip (the frames stacked into one image); the 8-bit
+    rounding (mean ΔE 0.5) is far below the thresholds.
+    """
+    import cv2
+
+    n, h, w = frames.shape[:3]
+    stacked = np.ascontiguousarray(frames).reshape(n * h, w, 3)
+    return cv2.cvtColor(stacked, cv2.COLOR_RGB2Lab).reshape(n, h, w, 3)
+
+
+def _gaussian_size(sigma_px: float) -> tuple[int, int]:
+    """Kernel size of a Gaussian blur cut at 2 sigma (OpenCV's default cuts at 3–4)."""
+    half = max(1, math.ceil(2.0 * sigma_px))
+    return (2 * half + 1, 2 * half + 1)
+
+
+def _grid_step(h: int, w: int) -> int:
+    """Stride, pixels, of the grid the clip-wide statistics sample: about 1,000 per frame."""
+    return max(1, int(math.sqrt(h * w / 1000.0)))
+
+
+def _gain_tables(gains: np.ndarray) -> np.ndarray:
+    """(F, 3, 256) uint8: per frame and channel, level → level / gain, rounded."""
+    levels = np.arange(256, dtype=np.float32)
+    tables = levels[None, None, :] / gains[:, :, None]
+    return np.clip(np.rint(tables), 0, 255).astype(np.uint8)
+
+
+def _person_components(boxes: np.ndarray, min_area: float, keep_frac: float) -> np.ndarray | None:
+    """Which components are the person: the largest, plus big pieces near its box.
+
+    Parameters
+    ----------
+    boxes : (C, 5) int64
+        Per component (0 is the background): area, x0, y0, x1, y1 (inclusive).
+
+    Returns
+    -------
+    (C,) bool, or None when the largest component is smaller than ``min_area``.
+    """
+    if len(boxes) <= 1:
+        return None
+    area = boxes[:, 0]
+    best = int(np.argmax(area[1:])) + 1
+    if area[best] < min_area:
+        return None
+    _, x, y, right, bottom = boxes[best]
+    bw, bh = right - x + 1, bottom - y + 1
+    # A piece cut off by camouflaged clothing (head, legs) lies above or below.
+    gx, gy = 0.25 * bw, 0.5 * bh
+    near = (
+        (boxes[:, 3] + 1 >= x - gx)
+        & (boxes[:, 1] <= x + bw + gx)
+        & (boxes[:, 4] + 1 >= y - gy)
+        & (boxes[:, 2] <= y + bh + gy)
+    )
+    keep = near & (area >= keep_frac * area[best])
+    keep[0] = False
+    keep[best] = True
+    return keep
+
+
+@lru_cache(maxsize=1)
+def _kernels():
+    """The compiled per-pixel loops (numba is imported and they are compiled here)."""
+    from types import SimpleNamespace
+
+    from numba import njit
+
+    jit = njit(cache=True, nogil=True, fastmath=True)
+    return SimpleNamespace(
+        apply_gains=jit(_apply_gains),
+        lab_differences=jit(_lab_differences),
+        cast_shadows=jit(_cast_shadows),
+        lengths=jit(_lengths),
+        seeds=jit(_seeds),
+        refine_rim=jit(_refine_rim),
+        seeded_components=jit(_seeded_components),
+        component_boxes=jit(_component_boxes),
+    )
+
+
+# The loops below run over flat (raveled, C-contiguous) arrays: numba compiles a 1-D
+# loop over them several times faster than nested loops over 2-D or 3-D indices.
+
+
+def _apply_gains(frames, tables, out):  # pragma: no cover - JIT
+    """``out[f, p, c] = tables[f, c, frames[f, p, c]]``; ``frames``/``out`` are (F, P·3)
+    uint8 (each frame's pixels raveled), ``tables`` (F, 3, 256) uint8."""
+    n, m = frames.shape
+    for f in range(n):
+        src, dst = frames[f], out[f]
+        t0, t1, t2 = tables[f, 0], tables[f, 1], tables[f, 2]
+        for i in range(0, m, 3):
+            dst[i] = t0[src[i]]
+            dst[i + 1] = t1[src[i + 1]]
+            dst[i + 2] = t2[src[i + 2]]
+
+
+def _lab_differences(lab, bg_lab, diff, raw):  # pragma: no cover - JIT
+    """``diff`` (P·3,): ``lab`` − ``bg_lab`` (both (P·3,) 8-bit L*a*b*) in CIE units;
+    ``raw`` (P,): its length (ΔE)."""
+    l_scale = np.float32(100.0 / 255.0)
+    for i in range(raw.shape[0]):
+        k = 3 * i
+        dl = (np.float32(lab[k]) - np.float32(bg_lab[k])) * l_scale
+        da = np.float32(lab[k + 1]) - np.float32(bg_lab[k + 1])
+        db = np.float32(lab[k + 2]) - np.float32(bg_lab[k + 2])
+        diff[k] = dl
+        diff[k + 1] = da
+        diff[k + 2] = db
+        raw[i] = np.sqrt(dl * dl + da * da + db * db)
+
+
+def _cast_shadows(
+    soft, bg_soft, inv_norm2, bg_bright, lo_ratio, hi_ratio, chroma_frac, rgb_noise, shadow
+):  # pragma: no cover - JIT
+    """``shadow`` (P,): pixels explained as the background in a cast shadow.
+
+    Brightness distortion ``alpha`` (``soft ≈ alpha × bg_soft``, both (P·3,);
+    ``inv_norm2`` is ``1 / |bg_soft|²``) within ``[lo_ratio, hi_ratio]`` and
+    chromaticity distortion ``|soft − alpha × bg_soft|`` at most ``chroma_frac × alpha
+    × bg_bright + rgb_noise`` (Horprasert et al. 1999).
+    """
+    for i in range(shadow.shape[0]):
+        k = 3 * i
+        r, g, b = np.float32(soft[k]), np.float32(soft[k + 1]), np.float32(soft[k + 2])
+        br, bg, bb = bg_soft[k], bg_soft[k + 1], bg_soft[k + 2]
+        alpha = (r * br + g * bg + b * bb) * inv_norm2[i]
+        cr, cg, cb = r - alpha * br, g - alpha * bg, b - alpha * bb
+        limit = chroma_frac * alpha * bg_bright[i] + rgb_noise
+        shadow[i] = (
+            (alpha >= lo_ratio)
+            & (alpha <= hi_ratio)
+            & (cr * cr + cg * cg + cb * cb <= limit * limit)
+        )
+
+
+def _lengths(vectors, out):  # pragma: no cover - JIT
+    """``out`` (P,): the length of each 3-vector of ``vectors`` (P·3,)."""
+    for i in range(out.shape[0]):
+        k = 3 * i
+        a, b, c = vectors[k], vectors[k + 1], vectors[k + 2]
+        out[i] = np.sqrt(a * a + b * b + c * c)
+
+
+def _seeds(distance, shadow, low, high, weak, strong):  # pragma: no cover - JIT
+    """Hysteresis seeds of one frame (all (P,)): ``weak`` (uint8 0/1) where
+    ``distance > low`` and not a shadow, ``strong`` where also ``distance > high``.
+    Returns whether any pixel is weak."""
+    found = False
+    for i in range(distance.shape[0]):
+        d = distance[i]
+        is_weak = (d > low) & (not shadow[i])
+        weak[i] = is_weak
+        strong[i] = is_weak & (d > high)
+        found |= is_weak
+    return found
+
+
+def _seeded_components(labels, count, strong, min_area, out):  # pragma: no cover - JIT
+    """``out`` (P,) uint8: 1 on components (``labels`` (P,) > 0) holding a ``strong``
+    pixel and at least ``min_area`` pixels, 0 elsewhere."""
+    area = np.zeros(count, np.int64)
+    seeded = np.zeros(count, np.bool_)
+    for i in range(labels.shape[0]):
+        label = labels[i]
+        area[label] += 1
+        seeded[label] |= strong[i]
+    keep = seeded & (area >= min_area)
+    keep[0] = False
+    for i in range(labels.shape[0]):
+        out[i] = keep[labels[i]]
+
+
+def _component_boxes(labels, width, boxes):  # pragma: no cover - JIT
+    """``boxes`` (C, 5) int64 zeros on entry → per label of ``labels`` (P,) (rows of
+    ``width`` pixels): area, x0, y0, x1, y1 (inclusive)."""
+    boxes[:, 1] = width
+    boxes[:, 2] = labels.shape[0]
+    x = y = 0
+    for i in range(labels.shape[0]):
+        label = labels[i]
+        boxes[label, 0] += 1
+        boxes[label, 1] = min(boxes[label, 1], x)
+        boxes[label, 2] = min(boxes[label, 2], y)
+        boxes[label, 3] = max(boxes[label, 3], x)
+        boxes[label, 4] = max(boxes[label, 4], y)
+        x += 1
+        if x == width:
+            x = 0
+            y += 1
 
 
 def _exposure_gains(frames: np.ndarray, bg_rgb: np.ndarray) -> np.ndarray:
@@ -550,39 +865,27 @@ def _exposure_gains(frames: np.ndarray, bg_rgb: np.ndarray) -> np.ndarray:
 
     Absorbs exposure and white-balance drift, and the colour bias of a lossy codec,
     between the frames and a background photographed apart from them.  The median
-    over the image ignores the person as long as they cover less than half of it.
+    over (a spread of) the image's pixels ignores the person as long as they cover
+    less than half of it.
     """
-    bg = bg_rgb[::2, ::2]
-    usable = bg >= 16.0  # ratios of near-black pixels are noise
+    # Up to GAIN_SAMPLES pixels per channel, spread evenly over the usable ones.
+    bg = bg_rgb.reshape(-1, 3)
+    pixels = frames.reshape(frames.shape[0], -1, 3)
     gains = np.ones((frames.shape[0], 3), np.float32)
     for c in range(3):
-        if usable[..., c].sum() < 16:
+        usable = np.flatnonzero(bg[:, c] >= 16.0)  # ratios of near-black pixels are noise
+        if len(usable) < 16:
             continue
-        ratios = frames[:, ::2, ::2, c][:, usable[..., c]] / bg[..., c][usable[..., c]]
-        gains[:, c] = np.median(ratios, axis=1)
+        spread = np.linspace(0, len(usable) - 1, min(len(usable), GAIN_SAMPLES))
+        picked = usable[spread.astype(np.int64)]
+        gains[:, c] = np.median(pixels[:, picked, c] / bg[picked, c], axis=1)
     return np.clip(gains, 0.5, 2.0)
 
 
-def _shadow(rgb, bg_soft, bg_norm2, bg_bright, rgb_noise, config, cv2) -> np.ndarray:
-    """(H, W) bool: pixels explained as the background in a cast shadow.
-
-    Brightness distortion ``alpha`` (pixel ≈ alpha × background) within
-    ``shadow_ratio`` and chromaticity distortion ``|pixel − alpha × background|``
-    small relative to the background's brightness (Horprasert et al. 1999).
-    """
-    soft = cv2.GaussianBlur(rgb, (0, 0), SHADOW_SIGMA_PX)
-    alpha = (soft * bg_soft).sum(axis=2) / bg_norm2
-    chroma = np.sqrt(((soft - alpha[..., None] * bg_soft) ** 2).sum(axis=2))
-    return (
-        (alpha >= config.shadow_ratio[0])
-        & (alpha <= config.shadow_ratio[1])
-        & (chroma <= config.shadow_chroma * alpha * bg_bright + rgb_noise)
-    )
-
-
 def _noise(distances: np.ndarray) -> float:
-    """The clip's noise level: the median ΔE over (a grid of) all pixels and frames."""
-    return float(np.median(distances[:, ::2, ::2]))
+    """The clip's noise level: the median ΔE over a grid of all pixels and frames."""
+    step = _grid_step(*distances.shape[1:])
+    return float(np.median(distances[:, ::step, ::step]))
 
 
 def _thresholds(noise: float, config: SilhouetteConfig) -> tuple[float, float]:
@@ -599,58 +902,55 @@ def _refine_boundary(
     A blurred edge pixel mixes body and background colours; the low hysteresis
     threshold keeps pixels that are mostly background.  For each pixel on the mask's
     1-px rim, the local body colour F is the mean of the mask's core (2 px inside)
-    nearby; the pixel's matting alpha along F − B decides, where F and B differ by at
-    least ``min_contrast`` (RGB levels) so the decision is not noise.
+    within 3 px; the pixel's matting alpha along F − B decides, where F and B differ
+    by at least ``min_contrast`` (RGB levels) so the decision is not noise.
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+    rgb : (H, W, 3) uint8
+        The frame (exposure-corrected).
+    bg_rgb : (H, W, 3) float32
+        The background.
     """
-    m8 = mask.astype(np.uint8)
+    m8 = mask.view(np.uint8)
     cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
-    rim = mask & ~cv2.erode(m8, cross).astype(bool)
-    core = cv2.erode(m8, cross, iterations=2).astype(np.float32)
-    weight = cv2.blur(core, (7, 7))
-    near_core = rim & (weight > 0.0)
-    if not near_core.any():
-        return mask
-    body = cv2.blur(rgb * core[..., None], (7, 7))[near_core] / weight[near_core][:, None]
-    back = bg_rgb[near_core]
-    fb = body - back
-    contrast2 = (fb * fb).sum(axis=1)
-    alpha = ((rgb[near_core] - back) * fb).sum(axis=1) / np.maximum(contrast2, 1e-6)
-    drop = (contrast2 >= min_contrast * min_contrast) & (alpha < 0.5)
-    out = mask.copy()
-    rows, cols = np.nonzero(near_core)
-    out[rows[drop], cols[drop]] = False
-    return out
+    inside = cv2.erode(m8, cross)
+    core = cv2.erode(inside, cross)
+    out = m8.copy()
+    _kernels().refine_rim(m8, inside, core, rgb, bg_rgb, np.float32(min_contrast**2), out)
+    return out.view(bool)
 
 
-def _hysteresis(weak: np.ndarray, strong: np.ndarray, speck: int, cv2) -> np.ndarray:
-    """Weak pixels in 8-connected components that hold a strong pixel and are not specks."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(weak.astype(np.uint8), 8)
-    keep = np.zeros(count, bool)
-    keep[np.unique(labels[strong])] = True
-    keep[0] = False
-    keep &= stats[:, cv2.CC_STAT_AREA] >= speck
-    return keep[labels]
-
-
-def _person_blob(mask: np.ndarray, min_area: float, keep_frac: float, cv2) -> np.ndarray:
-    """The largest blob, plus big pieces touching its grown bounding box."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), 8)
-    if count <= 1:
-        return np.zeros_like(mask)
-    areas = stats[1:, cv2.CC_STAT_AREA]
-    best = int(np.argmax(areas)) + 1
-    if stats[best, cv2.CC_STAT_AREA] < min_area:
-        return np.zeros_like(mask)
-    x, y, bw, bh = (int(v) for v in stats[best, :4])
-    # A piece cut off by camouflaged clothing (head, legs) lies above or below.
-    gx, gy = 0.25 * bw, 0.5 * bh
-    left, right = stats[:, 0], stats[:, 0] + stats[:, 2]
-    top, bottom = stats[:, 1], stats[:, 1] + stats[:, 3]
-    near = (right >= x - gx) & (left <= x + bw + gx) & (bottom >= y - gy) & (top <= y + bh + gy)
-    keep = near & (stats[:, cv2.CC_STAT_AREA] >= keep_frac * stats[best, cv2.CC_STAT_AREA])
-    keep[0] = False
-    keep[best] = True
-    return keep[labels]
+def _refine_rim(mask, inside, core, rgb, bg, min_contrast2, out):  # pragma: no cover - JIT
+    """The loop of :func:`_refine_boundary`: clears ``out`` on rim pixels (``mask`` and
+    not ``inside``) whose matting alpha against the local ``core`` colour is < 0.5."""
+    h, w = mask.shape
+    for y in range(h):
+        for x in range(w):
+            if mask[y, x] == 0 or inside[y, x] != 0:
+                continue
+            total = 0
+            f0 = f1 = f2 = np.float32(0.0)
+            for yy in range(max(0, y - 3), min(h, y + 4)):
+                for xx in range(max(0, x - 3), min(w, x + 4)):
+                    if core[yy, xx] != 0:
+                        total += 1
+                        f0 += np.float32(rgb[yy, xx, 0])
+                        f1 += np.float32(rgb[yy, xx, 1])
+                        f2 += np.float32(rgb[yy, xx, 2])
+            if total == 0:
+                continue
+            b0, b1, b2 = bg[y, x, 0], bg[y, x, 1], bg[y, x, 2]
+            d0, d1, d2 = f0 / total - b0, f1 / total - b1, f2 / total - b2
+            contrast2 = d0 * d0 + d1 * d1 + d2 * d2
+            if contrast2 < min_contrast2:
+                continue
+            p0 = np.float32(rgb[y, x, 0]) - b0
+            p1 = np.float32(rgb[y, x, 1]) - b1
+            p2 = np.float32(rgb[y, x, 2]) - b2
+            if (p0 * d0 + p1 * d1 + p2 * d2) < 0.5 * contrast2:
+                out[y, x] = 0
 
 
 def _fill_holes(

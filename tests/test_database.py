@@ -114,6 +114,26 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
     assert result.segments[-1].end_frame == len(masks)
 
 
+def test_query_of_sampled_frames_equals_every_frame(db_path, library, other_body, tmp_path):
+    from eigmotion.media import write_video
+
+    item = next(m for m in library if m.name == MOTIONS[0])
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    video = write_video(np.repeat(np.where(masks, 40, 200).astype(np.uint8)[..., None], 3, -1),
+                        tmp_path / "clip.mp4", 30.0)  # fmt: skip
+    with MotionDatabase.open(db_path) as db:
+        sampled, clip = db.query_clip(video)
+        every, whole = db.query_clip(video, every_frame=True)
+    assert clip.fps == db.config.motion_image.sample_fps and whole.fps == 30.0
+    assert len(clip.masks) < len(whole.masks) == whole.n_frames == clip.n_frames == len(masks)
+    np.testing.assert_allclose(sampled.motion_image, every.motion_image, atol=1e-5)
+    assert sampled.best == every.best
+    assert sampled.segments[0].start_frame == 0
+    assert sampled.segments[-1].end_frame == len(masks)
+    for before, after in zip(sampled.segments, sampled.segments[1:], strict=False):
+        assert before.end_frame == after.start_frame
+
+
 def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, capsys):
     item = library[1]  # kick
     masks = _masks(item.motion, other_body, azimuth_deg=90.0, elevation_deg=5.0)

@@ -11,7 +11,9 @@ from eigmotion.media import (
     as_rgb_frames,
     image_files,
     mp4_fourcc,
+    read_frame_sample,
     read_frames,
+    sample_indices,
     write_video,
 )
 
@@ -26,6 +28,32 @@ def _smooth_clip(n_frames=8, height=48, width=64):
         b = 60 + 100 * np.sin(0.1 * xx + 0.3 * f) ** 2
         frames.append(np.stack([r, g, b], axis=-1))
     return np.clip(np.round(frames), 0, 255).astype(np.uint8)
+
+
+# -- sampled reading -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+@pytest.mark.parametrize("clip_fps, sample_fps", [(30.0, 15.0), (25.0, 15.0), (10.0, 15.0)])
+def test_frame_sample_holds_the_frames_sample_indices_picks(tmp_path, suffix, clip_fps, sample_fps):
+    path = write_video(_smooth_clip(n_frames=23), tmp_path / f"clip{suffix}", fps=clip_fps)
+    every, read_fps = read_frames(path)
+    sample = read_frame_sample(path, sample_fps)
+    expected = sample_indices(len(every), read_fps, sample_fps)
+    assert sample.n_frames == len(every) and sample.clip_fps == read_fps
+    np.testing.assert_array_equal(sample.frame_indices, expected)
+    np.testing.assert_array_equal(sample.frames, every[expected])
+    assert sample.fps == min(sample_fps, read_fps)
+    whole = read_frame_sample(path)
+    np.testing.assert_array_equal(whole.frames, every)
+    assert whole.fps == read_fps
+
+
+@pytest.mark.parametrize("sample_fps", [0.0, -5.0, float("nan")])
+def test_frame_sample_rejects_bad_rates(tmp_path, sample_fps):
+    path = write_video(_smooth_clip(), tmp_path / "clip.mp4", fps=30.0)
+    with pytest.raises(InvalidParameterError, match="sample_fps"):
+        read_frame_sample(path, sample_fps)
 
 
 # -- round trips ---------------------------------------------------------------------------

@@ -100,7 +100,8 @@ def test_written_and_read_back_gives_the_same_motion_image(avatar_scene, tmp_pat
     frames, background, truth = avatar_scene
     direct = motion_image(extract_silhouettes(frames), clip_fps=30.0)
     path = write_video(frames, tmp_path / f"clip{suffix}", 30.0)
-    masks, fps = load_clip_masks(path)
+    clip = load_clip_masks(path)
+    masks, fps = clip.masks, clip.fps
     assert masks.shape == truth.shape and fps == pytest.approx(30.0)
     assert cosine_distance(motion_image(masks, clip_fps=fps), direct) < 0.05
     assert cosine_distance(motion_image(truth, clip_fps=30.0), direct) < 0.05
@@ -111,7 +112,7 @@ def test_background_image_from_a_file(avatar_scene, tmp_path):
 
     frames, background, truth = avatar_scene
     path = write_video(frames, tmp_path / "clip.avi", 30.0)
-    masks, _ = load_clip_masks(path, write_png(tmp_path / "empty.png", background))
+    masks = load_clip_masks(path, write_png(tmp_path / "empty.png", background)).masks
     assert iou(masks, truth).mean() >= 0.8
 
 
@@ -239,7 +240,8 @@ def test_load_npz_masks(tmp_path, fps):
         np.savez(path, masks=masks.astype(np.uint8))
     else:
         np.savez(path, masks=masks, fps=fps)
-    loaded, loaded_fps = load_clip_masks(path)
+    clip = load_clip_masks(path)
+    loaded, loaded_fps = clip.masks, clip.fps
     np.testing.assert_array_equal(loaded, masks)
     assert loaded.dtype == bool
     assert loaded_fps == (DEFAULT_NPZ_FPS if fps is None else fps)
@@ -290,7 +292,8 @@ def test_folder_of_frames(stick_scene, tmp_path):
     masks, frames, background, _ = stick_scene
     for i, frame in enumerate(frames[:12]):
         write_png(tmp_path / f"f{i}.png", frame)
-    loaded, fps = load_clip_masks(tmp_path, write_png(tmp_path.parent / "bg.png", background))
+    clip = load_clip_masks(tmp_path, write_png(tmp_path.parent / "bg.png", background))
+    loaded, fps = clip.masks, clip.fps
     assert loaded.shape == masks[:12].shape and fps > 0
     assert iou(loaded, masks[:12]).mean() > 0.85
 

@@ -5,12 +5,13 @@ with, filmed by a still camera halfway between two cameras of the default rig, o
 textured background with a cast shadow and sensor noise — an unseen clip of a known
 motion.  Writes ``<name>.mp4`` and ``<name>_background.png`` next to this file.
 
-    python database/samples/make_samples.py
+    python database/samples/make_samples.py [NAME ...]     # all when none named
 """
 
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
@@ -25,21 +26,31 @@ from eigmotion.media import write_video  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 
-#: name → (library motion, azimuth°, elevation°, body height m, girth, seed)
+#: name → (library motion, azimuth°, elevation°, body height m, girth, seed, seconds)
+#: (``None``: the whole motion).  ``walk_3s`` is the 3 s, 320×240 clip the query-time
+#: benchmark (benchmarks/bench_query.py) is measured on.
 SAMPLES = {
-    "kick": ("kick_135_04", 45.0, 10.0, 1.62, 1.2, 1),
-    "walk": ("walk_16_22", 105.0, 10.0, 1.80, 0.9, 2),
+    "kick": ("kick_135_04", 45.0, 10.0, 1.62, 1.2, 1, None),
+    "walk": ("walk_16_22", 105.0, 10.0, 1.80, 0.9, 2, None),
+    "walk_3s": ("walk_16_15", 165.0, 5.0, 1.70, 1.05, 3, 3.0),
 }
 
 
-def main() -> None:
+def main(names: list[str]) -> None:
+    unknown = sorted(set(names) - set(SAMPLES))
+    if unknown:
+        sys.exit(f"unknown sample(s) {unknown}; expected some of {sorted(SAMPLES)}")
     base = load_default_avatar()
-    for name, (motion_name, az, el, height_m, girth, seed) in SAMPLES.items():
+    for name in names or SAMPLES:
+        motion_name, az, el, height_m, girth, seed, seconds = SAMPLES[name]
         body = base.with_shape(height_m=height_m, girth=girth)
-        clip = render_clip(find_motion(motion_name), body, az, el, np.random.default_rng(seed))
+        motion = find_motion(motion_name)
+        if seconds is not None:
+            motion = motion.trim(0, round(seconds / motion.frame_time_s) + 1)
+        clip = render_clip(motion, body, az, el, np.random.default_rng(seed))
         write_video(clip.frames, HERE / f"{name}.mp4", clip.fps)
         save_image(clip.background, HERE / f"{name}_background.png")
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

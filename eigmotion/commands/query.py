@@ -59,9 +59,10 @@ def run(args: argparse.Namespace) -> int:
         if out is not None and not out.parent.is_dir():
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
-        result, masks, fps = db.query_clip(args.clip, args.background, args.top)
-        if args.bvh_out or args.replay_out or args.pose_out:
-            _write_replay(db, result, masks, fps, args)
+        answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
+        result, clip = db.query_clip(args.clip, args.background, args.top, every_frame=answer_3d)
+        if answer_3d:
+            _write_replay(db, result, clip.masks, clip.fps, args)
     if args.json:
         print(json.dumps(result.to_json()))
     else:

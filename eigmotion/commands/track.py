@@ -156,7 +156,8 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
     backgrounds = args.background or [None] * len(args.videos)
     all_masks, rates = [], []
     for cam, video, background in zip(cameras, args.videos, backgrounds, strict=True):
-        masks, fps = load_clip_masks(video, background)
+        clip = load_clip_masks(video, background)
+        masks, fps = clip.masks, clip.fps
         if masks.shape[1:] != (cam.height, cam.width):
             raise InvalidParameterError(
                 f"{video}: frames are {masks.shape[2]}×{masks.shape[1]}, camera {cam.name!r} "
