@@ -45,7 +45,6 @@ Background estimation when none is given (``SilhouetteConfig.background``):
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass, fields
 from functools import lru_cache
 from pathlib import Path
@@ -62,11 +61,6 @@ SHADOW_SIGMA_PX = 1.0
 #: Ratio of the raw to the smoothed median ΔE of sensor noise (white noise blurred
 #: by the optics, smoothed with sigma 1 px; measured 2.7–2.8 on composed scenes).
 RAW_PER_SMOOTHED_NOISE = 2.5
-
-#: Threads the per-frame stages run on (at most one per CPU core), and the fewest
-#: frames worth a thread of their own.
-MAX_THREADS = 4
-MIN_FRAMES_PER_THREAD = 8
 
 #: Pixels per frame and channel whose median ratio to the background is the exposure gain.
 GAIN_SAMPLES = 512
@@ -528,10 +522,11 @@ def _load_npz_masks(path: Path) -> tuple[np.ndarray, float]:
 def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
     """Masks of the person in every frame against one background image.
 
-    Two passes over the frames: the per-pixel tests (L*a*b* difference, its smoothed
-    length, shadow test; compiled loops) and then, once the clip's noise level sets
-    the thresholds, hysteresis, closing and the person's blob on the whole image and
-    the stages after it (hole filling, rim, boundary) inside the person's box only.
+    Every stage runs once over the whole clip, the frames stacked one above the
+    other in a single image with empty separator rows between them (wider than any
+    filter reaches): compiled loops for the per-pixel tests, one OpenCV call for each
+    blur, connected-component labelling or morphology.  Per-frame work is only a few
+    array operations over the components, so a clip costs what its pixels cost.
     """
     import cv2
 
@@ -546,121 +541,261 @@ def _segment(frames: np.ndarray, background: np.ndarray, config: SilhouetteConfi
     bg_norm2 = np.maximum(np.einsum("ijk,ijk->ij", bg_soft, bg_soft), 1.0)
     bg_bright, inv_norm2 = np.sqrt(bg_norm2), 1.0 / bg_norm2
 
-    gains = _exposure_gains(frames, bg_rgb)
-    if np.all(np.abs(gains - 1.0) < 0.5 / 255.0):
-        corrected = frames  # no level would change
-    else:
-        corrected = np.empty_like(frames)
-        tables = _gain_tables(gains)
-        kernels.apply_gains(frames.reshape(n, -1), tables, corrected.reshape(n, -1))
-    grid = _grid_step(h, w)
-    sample = corrected[:, ::grid, ::grid].astype(np.float32) - bg_rgb[::grid, ::grid]
-    rgb_noise = np.float32(np.median(np.linalg.norm(sample.reshape(-1, 3), axis=1)))
-    shadow_args = (
-        bg_soft.ravel(), inv_norm2.ravel(), bg_bright.ravel(), *np.float32(config.shadow_ratio),
-        np.float32(config.shadow_chroma), rgb_noise,
-    )  # fmt: skip
-    shadow_size = _gaussian_size(SHADOW_SIGMA_PX)
+    scale = h / 240.0
+    close_d = max(1, int(round(config.close_px * scale))) | 1
+    # Pixels deeper inside than the smoothing reaches are body even where camouflaged.
+    reach = int(math.ceil(2.0 * config.smooth_sigma_px))
     smooth = config.smooth_sigma_px > 0.0
     smooth_size = _gaussian_size(config.smooth_sigma_px)
-    raw = np.empty((n, h, w), np.float32)
-    smoothed = np.empty((n, h, w), np.float32) if smooth else raw
-    shadow = np.empty((n, h, w), np.bool_)
+    shadow_size = _gaussian_size(SHADOW_SIGMA_PX)
+    # Separator rows: more than any blur, closing, erosion or the boundary
+    # refinement's 7×7 window reaches from one frame into the next.
+    tile = h + max(close_d, 2 * reach + 1, smooth_size[0], shadow_size[0], 7) + 1
 
-    def pixel_tests(start: int, stop: int) -> None:
-        lab = _lab(corrected[start:stop])
-        diff = np.empty((h, w, 3), np.float32)
-        soft = np.empty((h, w, 3), np.uint8)
-        for i in range(start, stop):
-            kernels.lab_differences(
-                lab[i - start].ravel(), bg_lab.ravel(), diff.ravel(), raw[i].ravel()
-            )
-            if smooth:
-                # Averaging the difference vector (not its length) cancels noise while
-                # a consistent small offset (camouflaged clothing) survives.
-                cv2.GaussianBlur(diff, smooth_size, config.smooth_sigma_px, dst=diff)
-                kernels.lengths(diff.ravel(), smoothed[i].ravel())
-            cv2.GaussianBlur(corrected[i], shadow_size, SHADOW_SIGMA_PX, dst=soft)
-            kernels.cast_shadows(soft.ravel(), *shadow_args, shadow[i].ravel())
+    gains = _exposure_gains(frames, bg_rgb)
+    corrected = np.zeros((n, tile, w, 3), np.uint8)  # the frames, stacked
+    if np.all(np.abs(gains - 1.0) < 0.5 / 255.0):
+        corrected[:, :h] = frames  # no level would change
+    else:
+        flat = np.ascontiguousarray(frames).reshape(n, -1)
+        kernels.apply_gains(flat, _gain_tables(gains), corrected.reshape(n, -1))
+    grid = _grid_step(h, w)
+    sample = corrected[:, :h:grid, ::grid].astype(np.float32) - bg_rgb[::grid, ::grid]
+    rgb_noise = np.float32(np.sqrt(np.median(np.einsum("...c,...c->...", sample, sample))))
 
-    _over_frames(pixel_tests, n)
+    diff = np.zeros((n, tile, w, 3), np.float32)
+    raw = np.zeros((n, tile, w), np.float32)
+    kernels.lab_differences(
+        _lab(corrected).reshape(n, -1), bg_lab.ravel(), diff.reshape(n, -1), raw.reshape(n, -1)
+    )
     if smooth:
-        smooth_noise = _noise(smoothed)
+        # Averaging the difference vector (not its length) cancels noise while a
+        # consistent small offset (camouflaged clothing) survives.
+        stacked = diff.reshape(n * tile, w, 3)
+        cv2.GaussianBlur(stacked, smooth_size, config.smooth_sigma_px, dst=stacked)
+        smoothed = np.empty((n, tile, w), np.float32)
+        kernels.lengths(diff.ravel(), smoothed.ravel())
+        smoothed[:, h:] = 0.0  # the blur spilled into the separators
+    else:
+        smoothed = raw
+    soft = cv2.GaussianBlur(corrected.reshape(n * tile, w, 3), shadow_size, SHADOW_SIGMA_PX)
+    shadow = np.zeros((n, tile, w), np.bool_)
+    kernels.cast_shadows(
+        soft.reshape(n, -1), bg_soft.ravel(), inv_norm2.ravel(), bg_bright.ravel(),
+        *np.float32(config.shadow_ratio), np.float32(config.shadow_chroma), rgb_noise,
+        shadow.reshape(n, -1),
+    )  # fmt: skip
+
+    valid = (slice(None), slice(0, h))
+    if smooth:
+        smooth_noise = _noise(smoothed[valid])
         # A lossy codec removes the fine grain (lowering the raw median) but leaves
         # blocky low-frequency errors (raising the smoothed one): the raw noise is
         # never taken below what the smoothed noise implies.
-        raw_noise = max(_noise(raw), RAW_PER_SMOOTHED_NOISE * smooth_noise)
+        raw_noise = max(_noise(raw[valid]), RAW_PER_SMOOTHED_NOISE * smooth_noise)
         low, high = _thresholds(smooth_noise, config)
         low_raw, _ = _thresholds(raw_noise, config)
     else:
-        low, high = low_raw, _ = _thresholds(_noise(raw), config)
+        low, high = low_raw, _ = _thresholds(_noise(raw[valid]), config)
 
-    scale = h / 240.0
-    close_d = max(1, int(round(config.close_px * scale))) | 1
-    closing = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_d, close_d))
-    # Pixels deeper inside than the smoothing reaches are body even where camouflaged.
-    reach = int(math.ceil(2.0 * config.smooth_sigma_px))
-    inner = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-    # The person-box stages look this far around the person: the rim test's erosion
-    # and the boundary refinement's 7×7 local colour mean.
-    margin = max(reach, 3) + 2
+    # Hysteresis: weak pixels connected to strong ones, specks dropped.
     min_area = config.min_person_frac * h * w
+    weak = np.empty((n * tile, w), np.uint8)
+    strong = np.empty((n * tile, w), np.bool_)
+    kernels.seeds(smoothed.ravel(), shadow.ravel(), low, high, weak.ravel(), strong.ravel())
+    count, labels = cv2.connectedComponentsWithAlgorithm(weak, 8, cv2.CV_32S, cv2.CCL_GRANA)
+    mask = np.empty((n * tile, w), np.uint8)
     speck = max(2, int(round(min_area * 0.05)))
-    out = np.zeros((n, h, w), bool)
-
-    def person(start: int, stop: int) -> None:
-        weak = np.empty((h, w), np.uint8)
-        strong = np.empty((h, w), np.bool_)
-        seeded = np.empty((h, w), np.uint8)
-        for i in range(start, stop):
-            if not kernels.seeds(
-                smoothed[i].ravel(), shadow[i].ravel(), low, high, weak.ravel(), strong.ravel()
-            ):
-                continue
-            count, labels = cv2.connectedComponents(weak, connectivity=8, ltype=cv2.CV_32S)
-            kernels.seeded_components(labels.ravel(), count, strong.ravel(), speck, seeded.ravel())
-            mask = seeded
-            if close_d > 1:
-                mask = cv2.morphologyEx(seeded, cv2.MORPH_CLOSE, closing)
-            count, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_32S)
-            boxes = np.zeros((count, 5), np.int64)
-            kernels.component_boxes(labels.ravel(), w, boxes)
-            keep = _person_components(boxes, min_area, config.keep_piece_frac)
-            if keep is None:
-                continue
-            x0, y0 = boxes[keep, 1].min(), boxes[keep, 2].min()
-            x1, y1 = boxes[keep, 3].max() + 1, boxes[keep, 4].max() + 1
-            box = (
-                slice(max(0, y0 - margin), min(h, y1 + margin)),
-                slice(max(0, x0 - margin), min(w, x1 + margin)),
-            )
-            mask = keep[labels[box]]
-            evidence = (smoothed[i][box], low, raw[i][box], low_raw)
-            mask = _fill_holes(mask, evidence, shadow[i][box], reach, config.small_hole_frac, cv2)
-            if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
-                interior = cv2.erode(mask.view(np.uint8), inner).astype(bool)
-                mask &= interior | ((raw[i][box] > low_raw) & ~shadow[i][box])
-            rim_noise = 4.0 * rgb_noise
-            out[i][box] = _refine_boundary(mask, corrected[i][box], bg_rgb[box], rim_noise, cv2)
-
-    _over_frames(person, n)
-    return out
+    kernels.seeded_components(labels.ravel(), count, strong.ravel(), speck, mask.ravel())
+    if close_d > 1:
+        closing = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_d, close_d))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing)
+    count, labels = cv2.connectedComponentsWithAlgorithm(mask, 8, cv2.CV_32S, cv2.CCL_GRANA)
+    boxes = np.zeros((count, 5), np.int64)
+    kernels.component_boxes(labels.ravel(), w, boxes)
+    keep = _person_components(boxes, tile, n, min_area, config.keep_piece_frac)
+    person = keep[labels]
+    person = _fill_holes(
+        person, boxes[keep], (smoothed, low, raw, low_raw), shadow, tile, reach,
+        config.small_hole_frac,
+    )  # fmt: skip
+    person8 = person.view(np.uint8)
+    if smooth:  # the smoothing widened the mask: its rim must differ pixel by pixel
+        inner = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+        interior = cv2.erode(person8, inner).view(bool)
+        differs = (raw.reshape(n * tile, w) > low_raw) & ~shadow.reshape(n * tile, w)
+        person &= interior | differs
+    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+    inside = cv2.erode(person8, cross)
+    core = cv2.erode(inside, cross)
+    out = person8.copy()
+    kernels.refine_rim(
+        person8, inside, core, corrected.reshape(n * tile, w, 3), bg_rgb, tile,
+        np.float32((4.0 * rgb_noise) ** 2), out,
+    )  # fmt: skip
+    return out.view(bool).reshape(n, tile, w)[:, :h].copy()
 
 
-def _over_frames(work, n_frames: int) -> None:
-    """Run ``work(start, stop)`` over consecutive chunks of ``range(n_frames)`` on
-    threads, one per CPU core (at most :data:`MAX_THREADS`): the compiled loops and
-    OpenCV release the interpreter lock, so the chunks run side by side."""
-    from concurrent.futures import ThreadPoolExecutor
+def _person_components(
+    boxes: np.ndarray, tile: int, n_frames: int, min_area: float, keep_frac: float
+) -> np.ndarray:
+    """Which components of the stacked frames are the person.
 
-    threads = max(1, min(os.cpu_count() or 1, MAX_THREADS, n_frames // MIN_FRAMES_PER_THREAD))
-    bounds = np.linspace(0, n_frames, threads + 1).round().astype(int)
-    if threads == 1:
-        work(0, n_frames)
-        return
-    with ThreadPoolExecutor(threads) as pool:
-        for future in [pool.submit(work, a, b) for a, b in zip(bounds, bounds[1:], strict=False)]:
-            future.result()
+    In each frame: the largest component, when it covers at least ``min_area``
+    pixels, plus pieces of at least ``keep_frac`` of its area touching its bounding
+    box grown by 25 % sideways and 50 % up and down (a head or legs cut off by
+    camouflaged clothing).
+
+    Parameters
+    ----------
+    boxes : (C, 5) int64
+        Per component (0 is the background): area, x0, y0, x1, y1 (inclusive) in the
+        stack, frame ``f`` occupying rows ``[f·tile, f·tile + H)``.
+
+    Returns
+    -------
+    (C,) bool
+    """
+    keep = np.zeros(len(boxes), bool)
+    if len(boxes) <= 1:
+        return keep
+    area, x0, y0, x1, y1 = boxes[1:].T
+    frame = y0 // tile
+    order = np.lexsort((-area, frame))
+    first = order[np.r_[True, frame[order][1:] != frame[order][:-1]]]
+    best = np.full(n_frames, -1)
+    best[frame[first]] = first
+    mine = best[frame]  # each component's frame's largest component
+    big = area[mine] >= min_area
+    bw, bh = x1[mine] - x0[mine] + 1, y1[mine] - y0[mine] + 1
+    gx, gy = 0.25 * bw, 0.5 * bh
+    near = (
+        (x1 + 1 >= x0[mine] - gx)
+        & (x0 <= x0[mine] + bw + gx)
+        & (y1 + 1 >= y0[mine] - gy)
+        & (y0 <= y0[mine] + bh + gy)
+    )
+    keep[1:] = big & near & (area >= keep_frac * area[mine])
+    keep[1:][first] = big[first]
+    return keep
+
+
+def _fill_holes(
+    person: np.ndarray,
+    person_boxes: np.ndarray,
+    evidence: tuple[np.ndarray, float, np.ndarray, float],
+    shadow: np.ndarray,
+    tile: int,
+    reach: int,
+    small_frac: float,
+) -> np.ndarray:
+    """Fill the holes inside the person that are clothing, not background.
+
+    A hole is filled when it is small (under ``small_frac`` of its frame's person),
+    or when its pixels differ from the background — judged on the smoothed distance
+    over the part of the hole more than ``reach`` pixels from its edge (the smoothing
+    bleeds the body into narrow gaps), else on the raw distance — unless it touches
+    the floor line of the body (its lowest 15 %) and is partly a cast shadow: the gap
+    between the legs and the shadow they enclose.
+
+    Holes lie inside the person's bounding box, so they are looked for only there:
+    each frame's box, ringed with empty pixels, stacked into one small image.
+
+    Parameters
+    ----------
+    person : (F·tile, W) bool
+        The stacked masks, frame ``f`` from row ``f·tile``; filled in place.
+    person_boxes : (K, 5) int64
+        Area, x0, y0, x1, y1 of the person's components, in the stack.
+    evidence : ((F, tile, W), float, (F, tile, W), float)
+        Smoothed ΔE and its low threshold, raw ΔE and its low threshold.
+    shadow : (F, tile, W) bool
+    """
+    import cv2
+
+    if len(person_boxes) == 0:
+        return person
+    smoothed, low_smoothed, raw, low_raw = (
+        a.reshape(person.shape) if isinstance(a, np.ndarray) else a for a in evidence
+    )
+    shadow = shadow.reshape(person.shape)
+    n = person.shape[0] // tile
+    area, x0, y0, x1, y1 = _per_frame_boxes(person_boxes, tile, n)
+    frames = np.flatnonzero(area > 0)
+    heights, widths = (y1 - y0 + 1)[frames], (x1 - x0 + 1)[frames]
+    pad = reach + 1  # a hole's box grown by ``reach`` stays inside its crop
+    crop_h, crop_w = heights.max() + 2 * pad, widths.max() + 2 * pad
+    crops = np.zeros((len(frames), crop_h, crop_w), bool)
+    for k, f in enumerate(frames):
+        crops[k, pad : pad + heights[k], pad : pad + widths[k]] = person[
+            y0[f] : y1[f] + 1, x0[f] : x1[f] + 1
+        ]
+    # The empty rings of all crops touch one another: one component, the outside.
+    count, labels = cv2.connectedComponentsWithAlgorithm(
+        (~crops).reshape(-1, crop_w).view(np.uint8), 4, cv2.CV_32S, cv2.CCL_GRANA
+    )
+    boxes = np.zeros((count, 5), np.int64)
+    _kernels().component_boxes(labels.ravel(), crop_w, boxes)
+    crop_of = boxes[:, 2] // crop_h
+    hole = np.ones(count, bool)
+    hole[[0, labels[0, 0]]] = False  # the person, the outside
+    fill = hole & (boxes[:, 0] <= small_frac * area[frames[crop_of]])
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+    for label in np.flatnonzero(hole & ~fill):
+        k = crop_of[label]
+        f = frames[k]
+        _, hx0, hy0, hx1, hy1 = boxes[label]
+        in_crop = (slice(hy0 - reach, hy1 + reach + 1), slice(hx0 - reach, hx1 + reach + 1))
+        # Crop rows/columns → stack rows/columns, kept inside the frame.
+        dy, dx = y0[f] - pad - k * crop_h, x0[f] - pad
+        rows = slice(max(in_crop[0].start + dy, f * tile), in_crop[0].stop + dy)
+        cols = slice(max(in_crop[1].start + dx, 0), in_crop[1].stop + dx)
+        this = labels[rows.start - dy : rows.stop - dy, cols.start - dx : cols.stop - dx] == label
+        core = cv2.erode(this.view(np.uint8), kernel).view(bool) if reach else this
+        if core.any():
+            differs = float(np.median(smoothed[rows, cols][core])) > low_smoothed
+        else:
+            differs = float(np.median(raw[rows, cols][this])) > low_raw
+        height = y1[f] - y0[f] + 1
+        floor_line = k * crop_h + pad + height - 1 - 0.15 * height
+        floor_shadow = hy1 >= floor_line and float(shadow[rows, cols][this].mean()) > 0.3
+        fill[label] = differs and not floor_shadow
+    filled = fill[labels].reshape(crops.shape)
+    for k, f in enumerate(frames):
+        person[y0[f] : y1[f] + 1, x0[f] : x1[f] + 1] |= filled[
+            k, pad : pad + heights[k], pad : pad + widths[k]
+        ]
+    return person
+
+
+def _per_frame_boxes(boxes: np.ndarray, tile: int, n_frames: int) -> tuple[np.ndarray, ...]:
+    """Per frame of a stack, the union of its components' boxes.
+
+    Parameters
+    ----------
+    boxes : (K, 5) int64
+        Area, x0, y0, x1, y1 (inclusive) of components in the stack, frame ``f`` from
+        row ``f·tile``.
+
+    Returns
+    -------
+    area, x0, y0, x1, y1 : (F,) int64
+        Total area (0: no component; the box is then meaningless) and the union box.
+    """
+    frame = boxes[:, 2] // tile
+    area = np.bincount(frame, boxes[:, 0], minlength=n_frames).astype(np.int64)
+    x0 = np.zeros(n_frames, np.int64)
+    y0 = np.zeros(n_frames, np.int64)
+    x1 = np.full(n_frames, -1, np.int64)
+    y1 = np.full(n_frames, -1, np.int64)
+    big = np.iinfo(np.int64).max
+    x0[np.unique(frame)] = big
+    y0[np.unique(frame)] = big
+    np.minimum.at(x0, frame, boxes[:, 1])
+    np.minimum.at(y0, frame, boxes[:, 2])
+    np.maximum.at(x1, frame, boxes[:, 3])
+    np.maximum.at(y1, frame, boxes[:, 4])
+    return area, x0, y0, x1, y1
 
 
 def _lab(frames: np.ndarray) -> np.ndarray:
@@ -694,40 +829,6 @@ def _gain_tables(gains: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(tables), 0, 255).astype(np.uint8)
 
 
-def _person_components(boxes: np.ndarray, min_area: float, keep_frac: float) -> np.ndarray | None:
-    """Which components are the person: the largest, plus big pieces near its box.
-
-    Parameters
-    ----------
-    boxes : (C, 5) int64
-        Per component (0 is the background): area, x0, y0, x1, y1 (inclusive).
-
-    Returns
-    -------
-    (C,) bool, or None when the largest component is smaller than ``min_area``.
-    """
-    if len(boxes) <= 1:
-        return None
-    area = boxes[:, 0]
-    best = int(np.argmax(area[1:])) + 1
-    if area[best] < min_area:
-        return None
-    _, x, y, right, bottom = boxes[best]
-    bw, bh = right - x + 1, bottom - y + 1
-    # A piece cut off by camouflaged clothing (head, legs) lies above or below.
-    gx, gy = 0.25 * bw, 0.5 * bh
-    near = (
-        (boxes[:, 3] + 1 >= x - gx)
-        & (boxes[:, 1] <= x + bw + gx)
-        & (boxes[:, 4] + 1 >= y - gy)
-        & (boxes[:, 2] <= y + bh + gy)
-    )
-    keep = near & (area >= keep_frac * area[best])
-    keep[0] = False
-    keep[best] = True
-    return keep
-
-
 @lru_cache(maxsize=1)
 def _kernels():
     """The compiled per-pixel loops (numba is imported and they are compiled here)."""
@@ -753,8 +854,9 @@ def _kernels():
 
 
 def _apply_gains(frames, tables, out):  # pragma: no cover - JIT
-    """``out[f, p, c] = tables[f, c, frames[f, p, c]]``; ``frames``/``out`` are (F, P·3)
-    uint8 (each frame's pixels raveled), ``tables`` (F, 3, 256) uint8."""
+    """``out[f, p, c] = tables[f, c, frames[f, p, c]]`` for the ``P·3`` values of each
+    frame (``frames`` (F, P·3) uint8); ``out`` (F, M) uint8, ``M >= P·3``: a stacked
+    frame, whose separator rows after the frame's are left as they are."""
     n, m = frames.shape
     for f in range(n):
         src, dst = frames[f], out[f]
@@ -766,42 +868,53 @@ def _apply_gains(frames, tables, out):  # pragma: no cover - JIT
 
 
 def _lab_differences(lab, bg_lab, diff, raw):  # pragma: no cover - JIT
-    """``diff`` (P·3,): ``lab`` − ``bg_lab`` (both (P·3,) 8-bit L*a*b*) in CIE units;
-    ``raw`` (P,): its length (ΔE)."""
+    """``diff``: ``lab`` − ``bg_lab`` in CIE units, ``raw``: its length (ΔE).
+
+    ``lab`` (F, M·3) and ``bg_lab`` (P·3,) are 8-bit L*a*b*; ``lab``, ``diff``
+    (F, M·3) and ``raw`` (F, M), ``M >= P``, are stacked frames, whose first ``P``
+    pixels are the frame's: only those are read and written.
+    """
+    n, p = lab.shape[0], bg_lab.shape[0] // 3
     l_scale = np.float32(100.0 / 255.0)
-    for i in range(raw.shape[0]):
-        k = 3 * i
-        dl = (np.float32(lab[k]) - np.float32(bg_lab[k])) * l_scale
-        da = np.float32(lab[k + 1]) - np.float32(bg_lab[k + 1])
-        db = np.float32(lab[k + 2]) - np.float32(bg_lab[k + 2])
-        diff[k] = dl
-        diff[k + 1] = da
-        diff[k + 2] = db
-        raw[i] = np.sqrt(dl * dl + da * da + db * db)
+    for f in range(n):
+        src, d, r = lab[f], diff[f], raw[f]
+        for i in range(p):
+            k = 3 * i
+            dl = (np.float32(src[k]) - np.float32(bg_lab[k])) * l_scale
+            da = np.float32(src[k + 1]) - np.float32(bg_lab[k + 1])
+            db = np.float32(src[k + 2]) - np.float32(bg_lab[k + 2])
+            d[k] = dl
+            d[k + 1] = da
+            d[k + 2] = db
+            r[i] = np.sqrt(dl * dl + da * da + db * db)
 
 
 def _cast_shadows(
     soft, bg_soft, inv_norm2, bg_bright, lo_ratio, hi_ratio, chroma_frac, rgb_noise, shadow
 ):  # pragma: no cover - JIT
-    """``shadow`` (P,): pixels explained as the background in a cast shadow.
+    """``shadow`` (F, M): pixels explained as the background in a cast shadow.
 
-    Brightness distortion ``alpha`` (``soft ≈ alpha × bg_soft``, both (P·3,);
-    ``inv_norm2`` is ``1 / |bg_soft|²``) within ``[lo_ratio, hi_ratio]`` and
-    chromaticity distortion ``|soft − alpha × bg_soft|`` at most ``chroma_frac × alpha
-    × bg_bright + rgb_noise`` (Horprasert et al. 1999).
+    Brightness distortion ``alpha`` (``soft ≈ alpha × bg_soft``; ``soft`` (F, M·3)
+    stacked frames, ``bg_soft`` (P·3,), ``inv_norm2 = 1 / |bg_soft|²`` (P,)) within
+    ``[lo_ratio, hi_ratio]`` and chromaticity distortion ``|soft − alpha × bg_soft|``
+    at most ``chroma_frac × alpha × bg_bright + rgb_noise`` (Horprasert et al. 1999).
+    Only the first ``P`` pixels of each stacked frame are written.
     """
-    for i in range(shadow.shape[0]):
-        k = 3 * i
-        r, g, b = np.float32(soft[k]), np.float32(soft[k + 1]), np.float32(soft[k + 2])
-        br, bg, bb = bg_soft[k], bg_soft[k + 1], bg_soft[k + 2]
-        alpha = (r * br + g * bg + b * bb) * inv_norm2[i]
-        cr, cg, cb = r - alpha * br, g - alpha * bg, b - alpha * bb
-        limit = chroma_frac * alpha * bg_bright[i] + rgb_noise
-        shadow[i] = (
-            (alpha >= lo_ratio)
-            & (alpha <= hi_ratio)
-            & (cr * cr + cg * cg + cb * cb <= limit * limit)
-        )
+    n, p = soft.shape[0], inv_norm2.shape[0]
+    for f in range(n):
+        src, out = soft[f], shadow[f]
+        for i in range(p):
+            k = 3 * i
+            r, g, b = np.float32(src[k]), np.float32(src[k + 1]), np.float32(src[k + 2])
+            br, bg, bb = bg_soft[k], bg_soft[k + 1], bg_soft[k + 2]
+            alpha = (r * br + g * bg + b * bb) * inv_norm2[i]
+            cr, cg, cb = r - alpha * br, g - alpha * bg, b - alpha * bb
+            limit = chroma_frac * alpha * bg_bright[i] + rgb_noise
+            out[i] = (
+                (alpha >= lo_ratio)
+                & (alpha <= hi_ratio)
+                & (cr * cr + cg * cg + cb * cb <= limit * limit)
+            )
 
 
 def _lengths(vectors, out):  # pragma: no cover - JIT
@@ -833,8 +946,9 @@ def _seeded_components(labels, count, strong, min_area, out):  # pragma: no cove
     seeded = np.zeros(count, np.bool_)
     for i in range(labels.shape[0]):
         label = labels[i]
-        area[label] += 1
-        seeded[label] |= strong[i]
+        if label:
+            area[label] += 1
+            seeded[label] |= strong[i]
     keep = seeded & (area >= min_area)
     keep[0] = False
     for i in range(labels.shape[0]):
@@ -842,22 +956,21 @@ def _seeded_components(labels, count, strong, min_area, out):  # pragma: no cove
 
 
 def _component_boxes(labels, width, boxes):  # pragma: no cover - JIT
-    """``boxes`` (C, 5) int64 zeros on entry → per label of ``labels`` (P,) (rows of
-    ``width`` pixels): area, x0, y0, x1, y1 (inclusive)."""
-    boxes[:, 1] = width
-    boxes[:, 2] = labels.shape[0]
-    x = y = 0
-    for i in range(labels.shape[0]):
-        label = labels[i]
-        boxes[label, 0] += 1
-        boxes[label, 1] = min(boxes[label, 1], x)
-        boxes[label, 2] = min(boxes[label, 2], y)
-        boxes[label, 3] = max(boxes[label, 3], x)
-        boxes[label, 4] = max(boxes[label, 4], y)
-        x += 1
-        if x == width:
-            x = 0
-            y += 1
+    """Per label > 0 of ``labels`` (P,) (rows of ``width`` pixels): ``boxes`` (C, 5)
+    int64, zeros on entry, gets area, x0, y0, x1, y1 (inclusive); row 0 stays zero."""
+    boxes[1:, 1] = width
+    boxes[1:, 2] = labels.shape[0]
+    for y in range(labels.shape[0] // width):
+        row = y * width
+        for x in range(width):
+            label = labels[row + x]
+            if label == 0:
+                continue
+            boxes[label, 0] += 1
+            boxes[label, 1] = min(boxes[label, 1], x)
+            boxes[label, 2] = min(boxes[label, 2], y)
+            boxes[label, 3] = max(boxes[label, 3], x)
+            boxes[label, 4] = max(boxes[label, 4], y)
 
 
 def _exposure_gains(frames: np.ndarray, bg_rgb: np.ndarray) -> np.ndarray:
@@ -894,39 +1007,21 @@ def _thresholds(noise: float, config: SilhouetteConfig) -> tuple[float, float]:
     return low, max(2.0 * config.min_delta_e, config.high_factor * noise, low)
 
 
-def _refine_boundary(
-    mask: np.ndarray, rgb: np.ndarray, bg_rgb: np.ndarray, min_contrast: float, cv2
-) -> np.ndarray:
+def _refine_rim(mask, inside, core, rgb, bg, tile, min_contrast2, out):  # pragma: no cover
     """Drop boundary pixels whose colour is nearer the background than the body.
 
     A blurred edge pixel mixes body and background colours; the low hysteresis
     threshold keeps pixels that are mostly background.  For each pixel on the mask's
-    1-px rim, the local body colour F is the mean of the mask's core (2 px inside)
-    within 3 px; the pixel's matting alpha along F − B decides, where F and B differ
-    by at least ``min_contrast`` (RGB levels) so the decision is not noise.
-
-    Parameters
-    ----------
-    mask : (H, W) bool
-    rgb : (H, W, 3) uint8
-        The frame (exposure-corrected).
-    bg_rgb : (H, W, 3) float32
-        The background.
+    rim (``mask`` and not ``inside``, all (S, W) uint8 stacked frames), the local
+    body colour F is the mean of ``rgb`` (S, W, 3) over the ``core`` pixels within
+    3 px; ``out`` is cleared where the pixel's matting alpha along F − B is < 0.5 and
+    F and B differ by at least ``sqrt(min_contrast2)`` RGB levels (so the decision is
+    not noise).  ``bg`` (H, W, 3) is every frame's background; frames are ``tile``
+    rows apart.
     """
-    m8 = mask.view(np.uint8)
-    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
-    inside = cv2.erode(m8, cross)
-    core = cv2.erode(inside, cross)
-    out = m8.copy()
-    _kernels().refine_rim(m8, inside, core, rgb, bg_rgb, np.float32(min_contrast**2), out)
-    return out.view(bool)
-
-
-def _refine_rim(mask, inside, core, rgb, bg, min_contrast2, out):  # pragma: no cover - JIT
-    """The loop of :func:`_refine_boundary`: clears ``out`` on rim pixels (``mask`` and
-    not ``inside``) whose matting alpha against the local ``core`` colour is < 0.5."""
     h, w = mask.shape
     for y in range(h):
+        by = y % tile
         for x in range(w):
             if mask[y, x] == 0 or inside[y, x] != 0:
                 continue
@@ -941,7 +1036,7 @@ def _refine_rim(mask, inside, core, rgb, bg, min_contrast2, out):  # pragma: no 
                         f2 += np.float32(rgb[yy, xx, 2])
             if total == 0:
                 continue
-            b0, b1, b2 = bg[y, x, 0], bg[y, x, 1], bg[y, x, 2]
+            b0, b1, b2 = bg[by, x, 0], bg[by, x, 1], bg[by, x, 2]
             d0, d1, d2 = f0 / total - b0, f1 / total - b1, f2 / total - b2
             contrast2 = d0 * d0 + d1 * d1 + d2 * d2
             if contrast2 < min_contrast2:
@@ -951,53 +1046,3 @@ def _refine_rim(mask, inside, core, rgb, bg, min_contrast2, out):  # pragma: no 
             p2 = np.float32(rgb[y, x, 2]) - b2
             if (p0 * d0 + p1 * d1 + p2 * d2) < 0.5 * contrast2:
                 out[y, x] = 0
-
-
-def _fill_holes(
-    mask: np.ndarray,
-    evidence: tuple[np.ndarray, float, np.ndarray, float],
-    shadow: np.ndarray,
-    reach: int,
-    small_frac: float,
-    cv2,
-) -> np.ndarray:
-    """Fill the holes inside the person that are clothing, not background.
-
-    A hole is filled when it is small, or when its pixels differ from the
-    background — judged on the smoothed distance over the part of the hole more than
-    ``reach`` pixels from its edge (the smoothing bleeds the body into narrow gaps),
-    else on the raw distance — unless it touches the floor line of the body (its
-    lowest 15 %) and is partly a cast shadow: the gap between the legs and the shadow
-    they enclose.
-
-    ``evidence`` is ``(smoothed, low_smoothed, raw, low_raw)``: (H, W) ΔE distances
-    and their low thresholds.
-    """
-    smoothed, low_smoothed, raw, low_raw = evidence
-    inverse = (~mask).astype(np.uint8)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(inverse, 4)
-    if count <= 2:
-        return mask
-    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
-    area = float(mask.sum())
-    rows = np.flatnonzero(mask.any(axis=1))
-    floor_line = rows[-1] - 0.15 * (rows[-1] - rows[0] + 1)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-    out = mask.copy()
-    for label in range(1, count):
-        if label in border:
-            continue
-        hole = labels == label
-        if stats[label, cv2.CC_STAT_AREA] <= small_frac * area:
-            out |= hole
-            continue
-        core = cv2.erode(hole.astype(np.uint8), kernel).astype(bool) if reach else hole
-        if core.any():
-            differs = float(np.median(smoothed[core])) > low_smoothed
-        else:
-            differs = float(np.median(raw[hole])) > low_raw
-        bottom = stats[label, cv2.CC_STAT_TOP] + stats[label, cv2.CC_STAT_HEIGHT] - 1
-        floor_shadow = bottom >= floor_line and float(shadow[hole].mean()) > 0.3
-        if differs and not floor_shadow:
-            out |= hole
-    return out
