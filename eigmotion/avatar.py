@@ -21,6 +21,7 @@ by one sparse matrix product (see :meth:`Avatar.skin`).
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from pathlib import Path
@@ -33,6 +34,7 @@ from .errors import InvalidParameterError
 from .motion import Skeleton, standard_channels
 
 if TYPE_CHECKING:
+    from .garments import Garment
     from .motion import Motion
     from .retarget import AvatarAnimation
 
@@ -460,6 +462,24 @@ class Avatar:
         adj.data[:] = 1.0  # duplicate edges were summed
         degree = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)
         return sparse.diags(1.0 / degree) @ adj
+
+    def dressed(self, garments: Sequence[str | Garment]) -> Avatar:
+        """This body wearing garments (see :mod:`eigmotion.garments`).
+
+        Parameters
+        ----------
+        garments : sequence of str or Garment
+            Names from :data:`eigmotion.garments.GARMENTS` (or patterns), each once.
+
+        Returns
+        -------
+        Avatar
+            A :class:`eigmotion.garments.DressedAvatar` whose mesh is the body and the
+            garments merged; this avatar itself for no garments.
+        """
+        from .garments import dress
+
+        return dress(self, garments)
 
     def decimated(self, n_faces: int = DEFAULT_LOW_POLY_FACES) -> Avatar:
         """A low-poly copy for fast silhouettes (quadric edge-collapse decimation).

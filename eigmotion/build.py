@@ -31,6 +31,9 @@ from .motion_image import MotionImageConfig, motion_image
 #: Body shapes of the default build: (height in metres or None for the avatar's own,
 #: girth factor).  Several shapes stand in for several people.
 DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
+#: Outfits of the default build: tuples of garment names (see
+#: :mod:`eigmotion.garments`); ``()`` is the plain body.
+DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = ((),)
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,11 @@ class BuildConfig:
         Triangles of the avatar copy used for silhouettes.
     body_shapes : tuple of (float or None, float)
         Body (height_m, girth) variations rendered for every motion and view.
+    garments : tuple of tuple of str
+        Outfits, each a tuple of garment names from
+        :data:`eigmotion.garments.GARMENTS` (``()``: none); every body shape is
+        rendered in every outfit (:attr:`bodies`).  Databases stored before garments
+        existed read back with the default, the plain body.
     """
 
     motion_image: MotionImageConfig = field(default_factory=MotionImageConfig)
@@ -75,6 +83,7 @@ class BuildConfig:
     key_method: str = "quantile"
     low_poly_faces: int = 4000
     body_shapes: tuple[tuple[float | None, float], ...] = DEFAULT_BODY_SHAPES
+    garments: tuple[tuple[str, ...], ...] = DEFAULT_GARMENTS
 
     def __post_init__(self):
         for name in ("render_fps", "window_s", "window_step_s"):
@@ -93,12 +102,19 @@ class BuildConfig:
             raise InvalidParameterError("body_shapes must hold at least one (height_m, girth)")
         shapes = tuple((None if h is None else float(h), float(g)) for h, g in self.body_shapes)
         object.__setattr__(self, "body_shapes", shapes)
+        object.__setattr__(self, "garments", _outfits(self.garments))
+
+    @property
+    def bodies(self) -> tuple[tuple[tuple[float | None, float], tuple[str, ...]], ...]:
+        """Every (body shape, outfit) rendered, shape by shape."""
+        return tuple((shape, outfit) for shape in self.body_shapes for outfit in self.garments)
 
     def to_dict(self) -> dict:
         """Plain values only, for the store."""
         out = asdict(self)
         out["motion_image"] = self.motion_image.to_dict()
         out["body_shapes"] = [[-1.0 if h is None else h, g] for h, g in self.body_shapes]
+        out["garments"] = [list(outfit) for outfit in self.garments]
         if self.n_components is None:
             out["n_components"] = 0
         return out
@@ -130,7 +146,7 @@ class ViewImages:
     view_index : int
         Camera index in the rig.
     shape_index : int
-        Index into ``BuildConfig.body_shapes``.
+        Index into ``BuildConfig.bodies`` (body shape and outfit).
     windows : (W, 2) int64
         ``[start, stop)`` frames of each image in the motion's own frames; the first
         row is the whole motion.
@@ -174,15 +190,38 @@ def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> 
     return np.asarray(rows, dtype=np.int64)
 
 
-@lru_cache(maxsize=4)
-def _body(shape: tuple[float | None, float], low_poly_faces: int):
+def _outfits(garments) -> tuple[tuple[str, ...], ...]:
+    """``BuildConfig.garments`` as a tuple of tuples of known garment names."""
+    from .garments import garment
+
+    if isinstance(garments, str) or not garments:
+        raise InvalidParameterError(
+            f"garments must hold at least one outfit (a tuple of garment names, () for "
+            f"none), got {garments!r}"
+        )
+    outfits = []
+    for outfit in garments:
+        if isinstance(outfit, str):
+            raise InvalidParameterError(
+                f"each outfit in garments is a tuple of garment names, got {outfit!r}; "
+                f"write ({outfit!r},)"
+            )
+        names = tuple(garment(name).name for name in outfit)
+        if len(set(names)) < len(names):
+            raise InvalidParameterError(f"outfit {names} names a garment twice")
+        outfits.append(names)
+    return tuple(outfits)
+
+
+@lru_cache(maxsize=32)
+def _body(shape: tuple[float | None, float], garments: tuple[str, ...], low_poly_faces: int):
     from .avatar import load_default_avatar
 
     avatar = load_default_avatar()
     height, girth = shape
     if height is not None or girth != 1.0:
         avatar = avatar.with_shape(height_m=height, girth=girth)
-    return avatar.decimated(low_poly_faces)
+    return avatar.dressed(garments).decimated(low_poly_faces)
 
 
 def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
@@ -207,9 +246,12 @@ def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
     return vertices, rig.fitted(hull_points(vertices))
 
 
-def build_body(shape: tuple[float | None, float], low_poly_faces: int):
-    """The (cached) low-poly avatar of one body shape ``(height_m or None, girth)``."""
-    return _body(shape, low_poly_faces)
+def build_body(
+    shape: tuple[float | None, float], low_poly_faces: int, garments: tuple[str, ...] = ()
+):
+    """The (cached) low-poly avatar of one body shape ``(height_m or None, girth)``,
+    wearing ``garments`` (names from :data:`eigmotion.garments.GARMENTS`)."""
+    return _body(shape, tuple(garments), low_poly_faces)
 
 
 @lru_cache(maxsize=2)
@@ -220,7 +262,8 @@ def _posed(motion_index: int, shape_index: int):
         _WORKER_STATE["rig"],
         _WORKER_STATE["config"],
     )
-    body = _body(config.body_shapes[shape_index], config.low_poly_faces)
+    shape, garments = config.bodies[shape_index]
+    body = _body(shape, garments, config.low_poly_faces)
     vertices, fitted = pose_for_views(library[motion_index].motion, body, rig, config.render_fps)
     return vertices, body.faces, fitted
 
@@ -337,7 +380,7 @@ def render_views(
     tasks = [
         (m, s, v)
         for m in range(len(library))
-        for s in range(len(config.body_shapes))
+        for s in range(len(config.bodies))
         for v in range(len(rig))
     ]
     bar = tqdm(total=len(tasks), desc="rendering views", unit="view", disable=not progress)

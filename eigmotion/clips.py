@@ -1,14 +1,15 @@
 """Synthetic query clips: a motion on a body, filmed by one still camera, in a scene.
 
 Used for the bundled sample clips, the accuracy benchmarks and integration tests: the
-avatar (any body shape) performs a motion, a fixed camera at a given azimuth and
-elevation films it (shaded with pyrender, true silhouettes with the CPU
+avatar (any body shape, in any garments) performs a motion, a fixed camera at a given
+azimuth and elevation films it (shaded with pyrender, true silhouettes with the CPU
 rasteriser), and :func:`eigmotion.scene.compose_scene` puts it over a textured
 background with a cast shadow, camouflaged clothing and sensor noise.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +56,7 @@ def render_clip(
     shadow: bool = True,
     noise_sigma: float = 3.0,
     camouflage: float = 0.25,
+    garments: Sequence[str] = (),
 ) -> SyntheticClip:
     """Film ``motion`` on ``avatar`` with one still camera and compose the scene.
 
@@ -73,21 +75,27 @@ def render_clip(
         The clip's frame rate; the motion is resampled to it.
     margin : float
         Fraction of the frame kept free around the whole motion.
+    garments : sequence of str
+        Garments the body wears (names from :data:`eigmotion.garments.GARMENTS`),
+        each shaded in its own colour; the true masks include them.
 
     Returns
     -------
     SyntheticClip
     """
-    from .render import render_shaded
+    from .garments import DressedAvatar
+    from .render import BODY_RGB, render_shaded
     from .scene import compose_scene
     from .silhouettes import render_masks
 
-    _, vertices = avatar.animate(motion.resample(fps))
+    body = avatar.dressed(garments)
+    _, vertices = body.animate(motion.resample(fps))
     camera = virtual_rig([azimuth_deg], [elevation_deg], width, height).fitted(
         hull_points(vertices), margin=margin
     )[0]
-    shaded = render_shaded(vertices, avatar.faces, camera, floor=False)
-    masks = render_masks(vertices, avatar.faces, camera)
+    colours = body.vertex_rgb(BODY_RGB) if isinstance(body, DressedAvatar) else None
+    shaded = render_shaded(vertices, body.faces, camera, floor=False, vertex_rgb=colours)
+    masks = render_masks(vertices, body.faces, camera)
     frames, background = compose_scene(
         shaded, masks, rng, shadow=shadow, noise_sigma=noise_sigma, camouflage=camouflage
     )

@@ -276,12 +276,13 @@ class _DynamicMesh:
     is always correct but re-uploads the triangle indices too.
     """
 
-    def __init__(self, pyrender, scene, faces: np.ndarray, material, smooth: bool):
+    def __init__(self, pyrender, scene, faces: np.ndarray, material, smooth: bool, colors=None):
         self._pyrender = pyrender
         self._scene = scene
         self._faces = faces
         self._material = material
         self._smooth = smooth
+        self._colors = colors  # (V, 4) float32 per-vertex RGBA, or None
         self._node = None
         self._primitive = None
         self.rebuilds = 0
@@ -291,7 +292,11 @@ class _DynamicMesh:
         if self._node is not None:
             self._scene.remove_node(self._node)
         self._primitive = self._pyrender.Primitive(
-            positions=positions, normals=normals, indices=self._faces, material=self._material
+            positions=positions,
+            normals=normals,
+            color_0=self._colors,
+            indices=self._faces,
+            material=self._material,
         )
         self._node = self._scene.add(self._pyrender.Mesh([self._primitive]))
         self.rebuilds += 1
@@ -307,14 +312,15 @@ class _DynamicMesh:
             return
         prim.positions = positions
         prim.normals = normals
-        data = positions if normals is None else np.hstack([positions, normals])
-        data = np.ascontiguousarray(data, dtype=np.float32)
+        # pyrender's layout: positions, normals, then colours, interleaved per vertex.
+        columns = [a for a in (positions, normals, self._colors) if a is not None]
+        data = np.ascontiguousarray(np.hstack(columns), dtype=np.float32)
         from OpenGL import GL
 
         platform.make_current()
         GL.glBindBuffer(GL.GL_ARRAY_BUFFER, buffers[0])
         size = GL.glGetBufferParameteriv(GL.GL_ARRAY_BUFFER, GL.GL_BUFFER_SIZE)
-        if int(size) != data.nbytes:  # another layout than positions (+ normals): rebuild
+        if int(size) != data.nbytes:  # another layout: rebuild
             GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
             self._build(positions, normals)
             return
@@ -426,6 +432,7 @@ class Renderer:
         checker: bool = True,
         shadows: bool = False,
         progress: bool = False,
+        vertex_rgb: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render a posed mesh, lit, on a floor, frame by frame.
 
@@ -447,6 +454,10 @@ class Renderer:
             software GL).
         progress : bool
             Show a progress bar on stderr.
+        vertex_rgb : (V, 3) float, optional
+            A colour per vertex in [0, 1] (e.g. a body and its garments, see
+            :meth:`eigmotion.garments.DressedAvatar.vertex_rgb`) instead of the
+            renderer's ``body_rgb``.
 
         Returns
         -------
@@ -501,14 +512,23 @@ class Renderer:
             pyrender.DirectionalLight(color=np.ones(3), intensity=self.fill_intensity),
             pose=_light_pose(first, FILL_LIGHT_DIRECTION_CAM),
         )
+        colors = None
+        if vertex_rgb is not None:
+            rgb = np.asarray(vertex_rgb, dtype=np.float32)
+            if rgb.shape != (vertices.shape[1], 3) or not np.all((rgb >= 0) & (rgb <= 1)):
+                raise InvalidParameterError(
+                    f"vertex_rgb must be ({vertices.shape[1]}, 3) colours in [0, 1], got "
+                    f"shape {rgb.shape}"
+                )
+            colors = np.concatenate([rgb, np.ones((len(rgb), 1), np.float32)], axis=1)
         body_material = pyrender.MetallicRoughnessMaterial(
-            baseColorFactor=[*self.body_rgb, 1.0],
+            baseColorFactor=[*(self.body_rgb if colors is None else (1.0, 1.0, 1.0)), 1.0],
             metallicFactor=0.0,
             roughnessFactor=0.65,
             doubleSided=True,
         )
         offscreen = self._renderer(first.width, first.height)
-        body = _DynamicMesh(pyrender, scene, faces, body_material, smooth=True)
+        body = _DynamicMesh(pyrender, scene, faces, body_material, smooth=True, colors=colors)
         out = np.empty((len(vertices), first.height, first.width, 3), dtype=np.uint8)
         flags = pyrender.RenderFlags.SHADOWS_DIRECTIONAL if shadows else pyrender.RenderFlags.NONE
         previous = first
@@ -663,6 +683,7 @@ def render_shaded(
     checker: bool = True,
     shadows: bool = False,
     progress: bool = False,
+    vertex_rgb: np.ndarray | None = None,
 ) -> np.ndarray:
     """:meth:`Renderer.render_shaded` on the :func:`default_renderer`.
 
@@ -671,7 +692,7 @@ def render_shaded(
     (F, H, W, 3) uint8
     """
     return default_renderer().render_shaded(
-        vertices, faces, camera, floor, checker, shadows, progress
+        vertices, faces, camera, floor, checker, shadows, progress, vertex_rgb
     )
 
 
