@@ -6,7 +6,7 @@ textured background with a cast shadow, camouflaged clothing and sensor noise
 (:func:`eigmotion.clips.render_clip`, 320 × 240, 30 fps), written to ``.mp4`` with an
 image of the empty scene, and answered through ``eigmotion query CLIP --db DB --json
 --top 10 [--background EMPTY.png]`` (in-process, stdout captured), exactly as a user
-would run it.  Three suites:
+would run it.  Four suites:
 
 ``seen``
     The acceptance test: every library motion, from views halfway between the rig's
@@ -20,6 +20,13 @@ would run it.  Three suites:
     (azimuth 0–360°, elevation −5…30°, person 50–200 px tall).  A label that only the
     held-out performer shows is out of the library for that fold and should come back
     ``accepted: false``.
+``holdout``
+    People the database has never seen: the subject folds of ``loso`` plus folds that
+    each hold out one authored variation of every label (with its mirror image), the
+    query bodies dressed in the benchmark garments (none, skirt, long coat, loose
+    trousers: :data:`eigmotion.garments.BENCHMARK_GARMENTS`, never in a database),
+    random views and sizes as ``loso``.  Labels a fold leaves without any motion are
+    out of the library there and should be rejected.
 ``unknown``
     Rejection: the distractor motions (duck, block) against the default database, and
     the motions of ``--holdout-labels`` against a database built without those labels,
@@ -36,6 +43,7 @@ Run from the repository root::
 
     python benchmarks/bench_accuracy.py seen
     python benchmarks/bench_accuracy.py loso --rig virtual_cameras/ring6.toml
+    python benchmarks/bench_accuracy.py holdout --rig virtual_cameras/ring6.toml
     python benchmarks/bench_accuracy.py unknown --json-out unknown.json
     python benchmarks/bench_accuracy.py all --clips-dir /tmp/clips    # reuse clips
     python benchmarks/bench_accuracy.py seen --quick                  # smoke run
@@ -99,7 +107,7 @@ TOP_K = 3
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
 #: Label given to a query the engine could not answer (e.g. no person found).
 NO_ANSWER = "(no answer)"
-SUITES = ("seen", "loso", "unknown")
+SUITES = ("seen", "loso", "holdout", "unknown")
 
 
 # -- clips ----------------------------------------------------------------------------
@@ -121,6 +129,8 @@ class ClipSpec:
         Fraction of the frame kept free around the whole motion.
     seed : int
         Seed of the scene (background, shadow, clothing, noise).
+    outfit : tuple of str
+        Garments the body wears (:data:`eigmotion.garments.GARMENTS`).
     """
 
     motion: str
@@ -131,11 +141,13 @@ class ClipSpec:
     elevation_deg: float
     margin: float
     seed: int
+    outfit: tuple[str, ...] = ()
 
     @property
     def stem(self) -> str:
+        dressed = "".join(f"_{name}" for name in self.outfit)
         return (
-            f"{self.motion}__h{self.height_m:.2f}_g{self.girth:.2f}"
+            f"{self.motion}__h{self.height_m:.2f}_g{self.girth:.2f}{dressed}"
             f"__az{self.azimuth_deg:05.1f}_el{self.elevation_deg:+05.1f}"
             f"__m{self.margin:.3f}__s{self.seed}"
         )
@@ -220,12 +232,13 @@ class ClipMaker:
         self.clips_dir.mkdir(parents=True, exist_ok=True)
         self._bodies: dict = {}
 
-    def body(self, height_m: float, girth: float):
+    def body(self, height_m: float, girth: float, outfit: tuple[str, ...] = ()):
         from eigmotion.avatar import load_default_avatar
 
-        key = (height_m, girth)
+        key = (height_m, girth, outfit)
         if key not in self._bodies:
-            self._bodies[key] = load_default_avatar().with_shape(height_m=height_m, girth=girth)
+            shaped = load_default_avatar().with_shape(height_m=height_m, girth=girth)
+            self._bodies[key] = shaped.dressed(outfit)
         return self._bodies[key]
 
     def margin_for_person_px(
@@ -235,6 +248,7 @@ class ClipMaker:
         azimuth_deg: float,
         elevation_deg: float,
         person_px: float,
+        outfit: tuple[str, ...] = (),
     ) -> float:
         """The frame margin that makes the person about ``person_px`` tall.
 
@@ -243,7 +257,7 @@ class ClipMaker:
         ``1 - 2 margin``.  Clipped to ``[SEEN_MARGIN, 0.45]``: a motion that travels far
         cannot show its person bigger.
         """
-        _, vertices = self.body(*shape).animate(item.motion.resample(CLIP_FPS))
+        _, vertices = self.body(*shape, outfit).animate(item.motion.resample(CLIP_FPS))
         camera = virtual_rig([azimuth_deg], [elevation_deg], WIDTH_PX, HEIGHT_PX).fitted(
             hull_points(vertices), margin=SEEN_MARGIN
         )[0]
@@ -273,6 +287,7 @@ class ClipMaker:
             height=HEIGHT_PX,
             fps=CLIP_FPS,
             margin=spec.margin,
+            garments=spec.outfit,
         )
         write_video(clip.frames, video, clip.fps)
         save_image(clip.background, background)
@@ -333,6 +348,8 @@ def build(library: Sequence[LibraryMotion], uri: Path, args: argparse.Namespace)
     config = BuildConfig()
     if args.components is not None:
         config = replace(config, n_components=args.components)
+    if args.plain_bodies:
+        config = replace(config, body_shapes=((None, 1.0),), garments=((),))
     rig_path = args.build_rig
     report = build_database(library, load_rig(rig_path), uri, config, workers=args.workers)
     return {
@@ -481,7 +498,7 @@ def report(title: str, header: str, judged: Sequence[Judged]) -> dict:
     if wrong:
         print("\nin-library clips answered wrong (top-1):")
         for r, a in wrong:
-            fold = f"{r['fold']:<8} " if "fold" in r else ""
+            fold = f"{r['fold']:<10} " if "fold" in r else ""
             print(
                 f"  {fold}{r['motion']:<30} az {r['azimuth_deg']:5.1f} "
                 f"el {r['elevation_deg']:+5.1f} body {r['height_m']:.2f} m/{r['girth']:.1f} "
@@ -516,23 +533,52 @@ def suite_seen(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
     return {"built": built, "scores": {"default": scored}, "queries": records}
 
 
-def random_specs(item: LibraryMotion, args, maker: ClipMaker) -> list[ClipSpec]:
-    """``--clips-per-motion`` clips from random views, the person 50–200 px tall."""
+def random_specs(
+    item: LibraryMotion, args, maker: ClipMaker, outfits: Sequence[tuple[str, ...]] = ((),)
+) -> list[ClipSpec]:
+    """``--clips-per-motion`` clips from random views, the person 50–200 px tall.
+
+    Clip ``j`` has body shape ``j mod 2`` and outfit ``(j + o) mod len(outfits)``, where
+    the offset ``o`` is drawn per motion, so that every outfit shows up across motions.
+    """
     rng = np.random.default_rng(clip_seed(args.seed, "random-views", item.name))
+    offset = int(rng.integers(len(outfits))) if len(outfits) > 1 else 0
     specs = []
     for j in range(args.clips_per_motion):
         shape = BODY_SHAPES[j % len(BODY_SHAPES)]
+        outfit = tuple(outfits[(j + offset) % len(outfits)])
         az = float(np.round(rng.uniform(0.0, 360.0), 1))
         el = float(np.round(rng.uniform(*LOSO_ELEVATION_DEG), 1))
         px = float(rng.uniform(*LOSO_PERSON_PX))
-        margin = round(maker.margin_for_person_px(item, shape, az, el, px), 3)
+        margin = round(maker.margin_for_person_px(item, shape, az, el, px, outfit), 3)
         seed = clip_seed(args.seed, "random-scene", item.name, j)
-        specs.append(ClipSpec(item.name, item.label, *shape, az, el, margin, seed))
+        specs.append(ClipSpec(item.name, item.label, *shape, az, el, margin, seed, outfit))
     return specs
 
 
 def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) -> dict:
     """Each CMU performer's motions against a database built without them."""
+    folds = subject_folds(basic, args)
+    return run_folds("loso", folds, basic, maker, args, ((),))
+
+
+def suite_holdout(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) -> dict:
+    """People the database has never seen: new performers, held-out variations, clothes.
+
+    The CMU subject folds of ``loso`` and, for the authored motions, folds that each
+    hold out one variation of every label (the ``k``-th authored motion of each label
+    in library order, with its mirror image); query bodies wear the benchmark garments
+    (none, skirt, long coat, loose trousers), never used by a database.
+    """
+    from eigmotion.garments import BENCHMARK_GARMENTS
+
+    folds = subject_folds(basic, args) + variation_folds(basic, args)
+    outfits = ((), *((name,) for name in BENCHMARK_GARMENTS))
+    return run_folds("holdout", folds, basic, maker, args, outfits)
+
+
+def subject_folds(basic: Sequence[LibraryMotion], args) -> list[tuple[str, list]]:
+    """``(fold name, held-out motions)``: one fold per CMU performer (``--subjects``)."""
     subjects = sorted({m.performer for m in basic if m.performer.startswith("cmu_")})
     if args.subjects:
         unknown = sorted(set(args.subjects) - set(subjects))
@@ -543,32 +589,62 @@ def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
         subjects = list(args.subjects)
     elif args.quick:
         subjects = sorted(subjects, key=lambda s: sum(m.performer == s for m in basic))[:2]
-    if not subjects:
-        raise InvalidParameterError("loso: the selected library has no CMU performer")
+    return [(s, [m for m in basic if m.performer == s]) for s in subjects]
+
+
+def variation_folds(basic: Sequence[LibraryMotion], args) -> list[tuple[str, list]]:
+    """``(fold name, held-out motions)``: fold ``k`` holds out the ``k``-th authored
+    motion of every label (library order) and its mirror image."""
+    by_label: dict[str, list[str]] = {}
+    for m in basic:
+        if m.performer == "authored" and m.mirror_of is None:
+            by_label.setdefault(m.label, []).append(m.name)
+    n_folds = max((len(names) for names in by_label.values()), default=0)
+    if args.quick:
+        n_folds = min(n_folds, 1)
+    folds = []
+    for k in range(n_folds):
+        held_names = {names[k] for names in by_label.values() if k < len(names)}
+        held = [m for m in basic if m.name in held_names or m.mirror_of in held_names]
+        folds.append((f"authored_{k}", held))
+    return folds
+
+
+def run_folds(
+    suite: str,
+    folds: Sequence[tuple[str, list]],
+    basic: list[LibraryMotion],
+    maker: ClipMaker,
+    args: argparse.Namespace,
+    outfits: Sequence[tuple[str, ...]],
+) -> dict:
+    """For each fold, a database without its motions, queried with clips of them."""
+    if not folds:
+        raise InvalidParameterError(f"{suite}: the selected library gives no fold")
     items = {m.name: m for m in basic}
     judged: list[Judged] = []
-    folds = []
+    fold_rows = []
     records: list[dict] = []
-    with tempfile.TemporaryDirectory(prefix="eigmotion-loso-") as tmp:
-        for subject in subjects:
-            held = [m for m in basic if m.performer == subject]
-            train = [m for m in basic if m.performer != subject]
-            uri = Path(tmp) / f"without_{subject}.fs"
-            print(f"fold {subject}: building without its {len(held)} motions", file=sys.stderr)
+    with tempfile.TemporaryDirectory(prefix=f"eigmotion-{suite}-") as tmp:
+        for name, held in folds:
+            held_names = {m.name for m in held}
+            train = [m for m in basic if m.name not in held_names]
+            uri = Path(tmp) / f"without_{name}.fs"
+            print(f"fold {name}: building without its {len(held)} motions", file=sys.stderr)
             built = build(train, uri, args)
-            target = open_target(f"without_{subject}", uri)
-            specs = [s for m in held for s in random_specs(m, args, maker)]
-            fold_records = run_clips(specs, items, [target], maker, args, subject)
+            target = open_target(f"without_{name}", uri)
+            specs = [s for m in held for s in random_specs(m, args, maker, outfits)]
+            fold_records = run_clips(specs, items, [target], maker, args, name)
             for r in fold_records:
-                r["fold"] = subject
+                r["fold"] = name
             fold = judge(fold_records, target)
             records += fold_records
             judged += fold
             inside = [o for _, _, o in fold if o.in_library]
             outside = [o for _, _, o in fold if not o.in_library]
-            folds.append(
+            fold_rows.append(
                 {
-                    "subject": subject,
+                    "fold": name,
                     "held_out": [m.name for m in held],
                     "out_of_library_labels": sorted({m.label for m in held} - target.labels),
                     "build": built,
@@ -584,17 +660,18 @@ def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
             for suffix in ("", ".index", ".lock", ".tmp"):
                 Path(f"{uri}{suffix}").unlink(missing_ok=True)
     px = np.array([r["person_px"] for r in records])
+    dressed = ", ".join("+".join(o) or "none" for o in outfits)
     print(
-        f"\n## loso: {len(subjects)} subjects, {args.clips_per_motion} clip(s) per held-out "
+        f"\n## {suite}: {len(folds)} folds, {args.clips_per_motion} clip(s) per held-out "
         f"motion, random views (azimuth 0–360°, elevation {LOSO_ELEVATION_DEG[0]:.0f}…"
-        f"{LOSO_ELEVATION_DEG[1]:.0f}°), body shapes {BODY_SHAPES}, person "
-        f"{px.min():.0f}–{px.max():.0f} px tall (median {np.median(px):.0f}) in "
+        f"{LOSO_ELEVATION_DEG[1]:.0f}°), body shapes {BODY_SHAPES}, garments {dressed}, "
+        f"person {px.min():.0f}–{px.max():.0f} px tall (median {np.median(px):.0f}) in "
         f"{WIDTH_PX}×{HEIGHT_PX}; fold databases built with {args.build_rig.name}, "
         f"{_background_note(args)}\n"
     )
     rows = [
         [
-            f["subject"],
+            f["fold"],
             str(len(f["held_out"])),
             ", ".join(f["out_of_library_labels"]) or "—",
             f"{f['top1']}/{f['n_in_library']}",
@@ -603,10 +680,10 @@ def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
             f"{f['out_of_library_rejected']}/{f['n_out_of_library']}",
             f"{f['threshold']:.3f}",
         ]
-        for f in folds
+        for f in fold_rows
     ]
     header = [
-        "subject",
+        "fold",
         "motions held out",
         "out-of-library labels",
         "top-1",
@@ -617,11 +694,11 @@ def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
     ]
     print("\n".join(markdown_table(header, rows)))
     scored = report(
-        "loso: all folds (each clip against its own fold's database)",
-        f"{len(subjects)} fold databases built with {args.build_rig}",
+        f"{suite}: all folds (each clip against its own fold's database)",
+        f"{len(folds)} fold databases built with {args.build_rig}",
         judged,
     )
-    return {"folds": folds, "scores": {"all_folds": scored}, "queries": records}
+    return {"folds": fold_rows, "scores": {"all_folds": scored}, "queries": records}
 
 
 def suite_unknown(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) -> dict:
@@ -727,6 +804,11 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         help="eigen-dimensions k of the databases this script builds (default from config)",
     )
     p.add_argument(
+        "--plain-bodies",
+        action="store_true",
+        help="build databases with the plain avatar only (no body shapes or garments)",
+    )
+    p.add_argument(
         "--clips-per-motion",
         type=int,
         default=None,
@@ -738,7 +820,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         metavar="NAME",
         help="use only these library motions (names; distractors included)",
     )
-    p.add_argument("--subjects", nargs="+", help="loso: performers to hold out (cmu_02 …)")
+    p.add_argument("--subjects", nargs="+", help="loso, holdout: performers to hold out (cmu_02 …)")
     p.add_argument(
         "--holdout-labels",
         nargs="+",
@@ -782,11 +864,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not basic:
         raise InvalidParameterError("no basic motion selected: nothing to build or query")
     suites = SUITES if args.suite == "all" else (args.suite,)
-    runners = {"seen": suite_seen, "loso": suite_loso, "unknown": suite_unknown}
+    runners = {
+        "seen": suite_seen,
+        "loso": suite_loso,
+        "holdout": suite_holdout,
+        "unknown": suite_unknown,
+    }
     out = {
         "command": ["python", "benchmarks/bench_accuracy.py", *(argv or sys.argv[1:])],
         "settings": {
             "db": str(args.db),
+            "plain_bodies": args.plain_bodies,
             "build_rig": str(args.build_rig),
             "seed": args.seed,
             "clips_per_motion": args.clips_per_motion,

@@ -27,7 +27,8 @@ The pipeline of :func:`animate`, one stage after the other:
    floor, hands on a box or on the body);
 4. each frame is lifted or lowered so that its lowest point (a joint, an end site or a
    given skin point, see :func:`body_surface_points`) touches the floor, so nothing
-   sinks and something always bears the weight.
+   sinks and something always bears the weight;
+5. in the flight phases of jumps and hops, the root follows a ballistic arc instead.
 """
 
 from __future__ import annotations
@@ -51,6 +52,9 @@ KEY_EULER_ORDER = "ZXY"
 
 #: Frames per second of authored motions.
 DEFAULT_FPS = 30.0
+
+#: Gravity, m/s²: the root of a body in flight falls with this acceleration.
+GRAVITY_M_S2 = 9.81
 
 
 @dataclass(frozen=True)
@@ -180,6 +184,59 @@ def rest_positions_m(skeleton: Skeleton) -> dict[str, np.ndarray]:
     return {name: pts[j] for j, name in enumerate(skeleton.names)}
 
 
+def foot_target(
+    joint: str,
+    ankle_xz_m: Sequence[float],
+    yaw_deg: float = 0.0,
+    heel_raise_deg: float = 0.0,
+    lift_m: float = 0.0,
+    skeleton: Skeleton | None = None,
+    order: str = KEY_EULER_ORDER,
+) -> Target:
+    """Target of one foot standing on the floor anywhere, turned, heel raised or lifted.
+
+    Parameters
+    ----------
+    joint : str
+        The ankle joint (``"LeftFoot"``); its first child is the ball of the foot.
+    ankle_xz_m : (2,) float
+        Where the ankle is, horizontally, when the foot stands flat, metres (world x, z).
+    yaw_deg : float
+        The foot's turn about the vertical through the ankle, degrees; positive turns
+        the toes (+Z at rest) towards +X.
+    heel_raise_deg : float
+        The foot pitches heel-up by this angle about the ball of the foot, which stays
+        where it is, degrees; key the toe joint by ``(-heel_raise_deg, 0, 0)`` to keep
+        the toes flat.
+    lift_m : float
+        The whole foot is this far above the floor, metres.
+    skeleton : Skeleton, optional
+        Default :func:`~eigmotion.canonical.canonical_skeleton`.
+    order : str
+        Euler order in which the target's ``rotation_deg`` is written (the key order).
+
+    Returns
+    -------
+    Target
+        World target of the ankle with ``rotation_deg`` set.
+    """
+    skeleton = skeleton or canonical_skeleton()
+    order = check_euler_order(order)
+    children = skeleton.children(skeleton.index(joint))
+    if not children:
+        raise InvalidParameterError(f"foot joint {joint!r} has no child (the ball of the foot)")
+    rest = rest_positions_m(skeleton)
+    ankle = np.array([ankle_xz_m[0], rest[joint][1] + lift_m, ankle_xz_m[1]], dtype=np.float64)
+    to_ball = rest[skeleton.names[children[0]]] - rest[joint]
+    yaw = euler_to_matrix([0.0, yaw_deg, 0.0], "XYZ")
+    pitch = euler_to_matrix([heel_raise_deg, 0.0, 0.0], "XYZ")
+    rot = yaw @ pitch
+    pos = ankle + yaw @ to_ball - rot @ to_ball
+    angles = matrix_to_euler(rot, order)
+    xyz = tuple(float(angles[order.index(a)]) for a in "XYZ")
+    return Target(tuple(pos), rotation_deg=xyz)
+
+
 def foot_targets(
     skeleton: Skeleton | None = None,
     extra_width_m: float = 0.0,
@@ -189,7 +246,7 @@ def foot_targets(
     feet: tuple[str, str] = ("LeftFoot", "RightFoot"),
     order: str = KEY_EULER_ORDER,
 ) -> dict[str, Target]:
-    """Targets that plant both feet on the floor.
+    """Targets that plant both feet on the floor about their rest places.
 
     Parameters
     ----------
@@ -213,28 +270,18 @@ def foot_targets(
     Returns
     -------
     dict of str to Target
-        Ankle joint → world target with ``rotation_deg`` set.
+        Ankle joint → world target with ``rotation_deg`` set (see :func:`foot_target`).
     """
     skeleton = skeleton or canonical_skeleton()
-    order = check_euler_order(order)
     rest = rest_positions_m(skeleton)
     shift = np.asarray(shift_m, dtype=np.float64)
     out = {}
     for side, joint in zip((1.0, -1.0), feet, strict=True):
-        children = skeleton.children(skeleton.index(joint))
-        if not children:
-            raise InvalidParameterError(f"foot joint {joint!r} has no child (the ball of the foot)")
-        ankle = rest[joint]
-        ball = rest[skeleton.names[children[0]]]
-        # Positive Y turns the toes (+Z) towards +X: outwards for the left foot.
-        yaw = euler_to_matrix([0.0, side * toe_out_deg, 0.0], "XYZ")
-        pitch = euler_to_matrix([heel_raise_deg, 0.0, 0.0], "XYZ")
-        rot = yaw @ pitch
-        ball_world = ankle + yaw @ (ball - ankle)
-        pos = ball_world + rot @ (ankle - ball) + [side * extra_width_m, 0.0, 0.0] + shift
-        angles = matrix_to_euler(rot, order)
-        xyz = tuple(float(angles[order.index(a)]) for a in "XYZ")
-        out[joint] = Target(tuple(pos), rotation_deg=xyz)
+        # skeleton.index names a joint the skeleton lacks.
+        x, _, z = rest[skeleton.names[skeleton.index(joint)]] + [side * extra_width_m, 0, 0] + shift
+        out[joint] = foot_target(
+            joint, (x, z), side * toe_out_deg, heel_raise_deg, shift[1], skeleton, order
+        )
     return out
 
 
@@ -291,6 +338,7 @@ def animate(
     ground: bool = True,
     contact_points_m: Mapping[str, np.ndarray] | None = None,
     name: str = "",
+    flights_s: Sequence[tuple[float, float]] = (),
 ) -> Motion:
     """Turn key poses into a motion.
 
@@ -315,6 +363,12 @@ def animate(
         a body lying on the floor rests on its skin rather than on its bones.
     name : str
         The motion's name.
+    flights_s : sequence of (float, float)
+        ``(take_off, landing)`` times, seconds, of the phases in which nothing touches
+        the floor (jumps, hops): in between, the root's height is not set by the floor
+        but follows a ballistic arc (gravity :data:`GRAVITY_M_S2`) from its height at
+        take-off to its height at landing; its horizontal path and the pose still come
+        from the keys.  Within the keys' time span, in order, not overlapping.
 
     Returns
     -------
@@ -327,7 +381,8 @@ def animate(
     ------
     InvalidParameterError
         Fewer than two keys, times not increasing, an unknown joint, a target on a
-        joint without two ancestors, overlapping limbs, or a bad ``fps``.
+        joint without two ancestors, overlapping limbs, a bad ``fps``, or flights out
+        of order or outside the keys.
     """
     skeleton = skeleton or canonical_skeleton()
     order = check_euler_order(order)
@@ -341,6 +396,7 @@ def animate(
         raise InvalidParameterError(
             f"key times must increase strictly, got {key_times.tolist()} seconds"
         )
+    flights = _check_flights(flights_s, key_times[0], key_times[-1])
     rot_k, root_k, targets = _complete_keys(keys, skeleton, order)
     chains = _check_chains(skeleton, targets)
 
@@ -364,9 +420,40 @@ def animate(
             )
     if ground:
         root[:, 1] -= lowest_point_m(skeleton, local, root, contact_points_m)
+    for take_off, landing in flights:
+        airborne = (times > take_off) & (times < landing)
+        t = times[airborne]
+        start, stop = np.interp([take_off, landing], times, root[:, 1])
+        root[airborne, 1] = (
+            start
+            + (stop - start) * (t - take_off) / (landing - take_off)
+            + 0.5 * GRAVITY_M_S2 * (t - take_off) * (landing - t)
+        )
     return Motion.from_local_transforms(
         skeleton, local, root, 1.0 / fps, order="ZXY", length_unit_m=1.0, name=name
     )
+
+
+def _check_flights(
+    flights_s: Sequence[tuple[float, float]], start_s: float, stop_s: float
+) -> np.ndarray:
+    """(N, 2) take-off and landing times, checked: in order, apart, within the keys."""
+    try:
+        flights = np.array(flights_s, dtype=np.float64).reshape(-1, 2)
+    except (TypeError, ValueError):
+        flights = np.full((1, 2), np.nan)
+    bounds = flights.ravel()
+    ok = (
+        np.all(np.isfinite(bounds))
+        and np.all(np.diff(bounds) > 0)
+        and (len(bounds) == 0 or (bounds[0] >= start_s and bounds[-1] <= stop_s))
+    )
+    if not ok:
+        raise InvalidParameterError(
+            f"flights_s must be (take_off, landing) pairs in order, not overlapping, within "
+            f"the keys' {start_s}-{stop_s} s, got {flights_s!r}"
+        )
+    return flights
 
 
 def lowest_point_m(
@@ -490,7 +577,7 @@ def _complete_keys(keys: Sequence[Key], skeleton: Skeleton, order: str):
         rot_k[i] = current
         root_k[i] = offset
         targets.append(dict(held))
-    return _unwrap_rotvecs(rot_k), root_k, targets
+    return unwrap_rotvecs(rot_k), root_k, targets
 
 
 def _joint(skeleton: Skeleton, joint: str, key: Key) -> int:
@@ -634,16 +721,27 @@ def _solve_chain(
     local[:, a] = np.swapaxes(g_pa, -1, -2) @ g_a
     local[:, b] = np.swapaxes(g_a, -1, -2) @ g_b
     if use_rotation:
-        rv = _pchip(key_times, _unwrap_rotvecs(rot_k), times)
+        rv = _pchip(key_times, unwrap_rotvecs(rot_k), times)
         g_c = Rotation.from_rotvec(rv).as_matrix()
         if f is not None:
             g_c = glob_r[:, f] @ g_c
         local[:, c] = np.swapaxes(g_b, -1, -2) @ g_c
 
 
-def _unwrap_rotvecs(rv: np.ndarray) -> np.ndarray:
-    """Rotation vectors (K, ..., 3) along K, each replaced by its equivalent nearest the
-    previous one, so that interpolating them takes the short way round."""
+def unwrap_rotvecs(rv: np.ndarray) -> np.ndarray:
+    """Rotation vectors made continuous along the first axis, for interpolation.
+
+    Parameters
+    ----------
+    rv : (K, ..., 3) float
+        Rotation vectors, radians, in key order.
+
+    Returns
+    -------
+    (K, ..., 3) float64
+        Each vector replaced by its equivalent (the same rotation, 2π longer or shorter)
+        nearest the previous one, so that interpolating them takes the short way round.
+    """
     rv = np.array(rv, dtype=np.float64)
     for i in range(1, len(rv)):
         cur = rv[i]

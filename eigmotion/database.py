@@ -41,6 +41,16 @@ DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.
 #: time (measured in docs/retrieval.md).
 QUERY_SILHOUETTE_SIDE_PX = 160
 
+#: Labels that carry a person to or from an action rather than being one: when a
+#: window of the clip shows another label, the clip is that action (walking into a
+#: turn is a turn, running into a jump a jump); ``segments`` still list the walking.
+FILLER_LABELS = frozenset({"walk", "run"})
+#: A window overrides a filler answer only when its nearest specific entry is nearer
+#: than this fraction of its nearest filler entry (specific motions such as a walking
+#: turn hold walking steps of their own), among :data:`WINDOW_CANDIDATES` nearest.
+SPECIFIC_MARGIN = 0.7
+WINDOW_CANDIDATES = 8
+
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
 
@@ -144,43 +154,41 @@ class _Collected:
 
 
 def leave_one_motion_out_threshold(
-    points: np.ndarray, motion_of: np.ndarray, labels: Sequence[str], whole: np.ndarray
+    points: np.ndarray, performance_of: np.ndarray, whole: np.ndarray
 ) -> float:
     """The "unknown" threshold from the database itself.
 
-    For each whole-motion entry, the distance to the nearest entry of ANOTHER motion
-    of the same label (as if that performance were a new one) is what a known motion
-    done by someone else looks like; the threshold is the
-    :data:`THRESHOLD_QUANTILE` of those distances.  Labels with a single motion use
-    the nearest entry of any other motion.
+    Each whole-motion entry is queried as a query would be, against every entry of
+    the OTHER performances (as if that performance were new): its nearest distance
+    is what a known motion done by someone else looks like, and the threshold is the
+    :data:`THRESHOLD_QUANTILE` of those distances — about that share of new
+    performances of library motions is accepted.
 
     Parameters
     ----------
     points : (N, k) float
-    motion_of : (N,) int
-        Motion index of each entry.
-    labels : sequence of str
-        Label of each motion index.
+    performance_of : (N,) int
+        Performance index of each entry: a motion and its mirror image are one
+        performance (the mirror of a walk seen from the left is the walk seen from
+        the right).
     whole : (N,) bool
         Entries that cover a whole motion.
 
     Returns
     -------
     float
+        For a database of one performance, twice its largest distance from the
+        centre of its entries.
     """
-    labels = np.asarray(labels)
-    entry_label = labels[motion_of]
+    if len(np.unique(performance_of)) == 1:
+        # One performance (a motion, perhaps with its mirror image): nothing to compare
+        # with but itself; the threshold then accepts anything as near as the database
+        # is wide.
+        return float(2.0 * np.linalg.norm(points - points.mean(axis=0), axis=1).max())
     found = []
     for i in np.flatnonzero(whole):
-        others = motion_of != motion_of[i]
-        same = others & (entry_label == entry_label[i])
-        pool = same if same.any() else others
-        if not pool.any():
-            continue
-        d = np.linalg.norm(points[pool] - points[i], axis=1)
-        found.append(d.min())
-    if not found:
-        return float("inf")
+        others = performance_of != performance_of[i]
+        found.append(np.linalg.norm(points[others] - points[i], axis=1).min())
     return float(np.quantile(found, THRESHOLD_QUANTILE))
 
 
@@ -233,7 +241,9 @@ def build_database(
     quantizer = Quantizer(n_axes, config.key_sections, config.key_method).fit(points)
     keys = quantizer.keys(points)
     whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
-    threshold = leave_one_motion_out_threshold(points, motion_of, [m.label for m in library], whole)
+    originals = [m.mirror_of or m.name for m in library]
+    performance = np.unique(originals, return_inverse=True)[1]
+    threshold = leave_one_motion_out_threshold(points, performance[motion_of], whole)
     recon = space.reconstruction_error(X)
     stored_config = {
         "build": config.to_dict(),
@@ -275,6 +285,7 @@ def _add_motion(store: Store, item: LibraryMotion) -> int:
             "performer": item.performer,
             "variation": item.variation,
             "role": item.role,
+            "mirror_of": item.mirror_of or "",
             "n_frames": motion.n_frames,
             "frame_time_s": motion.frame_time_s,
             "length_unit_m": -1.0 if motion.length_unit_m is None else motion.length_unit_m,
@@ -383,10 +394,13 @@ class QueryResult:
     Attributes
     ----------
     best : Match
+        The clip's answer: the nearest entry to the whole clip's motion image, unless
+        that is filler (:data:`FILLER_LABELS`: walking into a turn) and a window of the
+        clip shows a specific action — then that window's nearest entry.
     accepted : bool
         ``best.distance <= threshold``; otherwise the motion is unknown.
     top : list of Match
-        Nearest entries of distinct motions, nearest first.
+        Nearest entries of distinct motions, ``best`` first.
     segments : list of Segment
     examined : int
         Entries whose distance was computed by the whole-clip search.
@@ -537,7 +551,11 @@ class MotionDatabase:
         points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
         n_candidates = min(self.n_entries, max(top_k * 8, 16))
         whole = self.index.search(points[:1], top_k=n_candidates)
-        windowed = self.index.search(points[1:], top_k=1) if len(points) > 1 else None
+        windowed = (
+            self.index.search(points[1:], top_k=min(WINDOW_CANDIDATES, self.n_entries))
+            if len(points) > 1
+            else None
+        )
         t2 = time.perf_counter()
         timing["search"] = (t2 - t1) * 1e3
         top: list[Match] = []
@@ -551,11 +569,14 @@ class MotionDatabase:
             if len(top) == top_k:
                 break
         segments = self._segments(kept, windowed, len(masks), top[0])
+        best = self._most_specific(top[0], windowed)
+        if best is not top[0]:
+            top = [best] + [m for m in top if m.motion_id != best.motion_id][: top_k - 1]
         examined_windows = 0 if windowed is None else int(windowed.examined.sum())
         timing["total"] = (time.perf_counter() - t0) * 1e3
         return QueryResult(
-            top[0],
-            bool(top[0].distance <= self.threshold),
+            best,
+            bool(best.distance <= self.threshold),
             top,
             segments,
             int(whole.examined[0]),
@@ -564,6 +585,35 @@ class MotionDatabase:
             timing,
             np.asarray(vectors[0]),
         )
+
+    def _most_specific(self, whole: Match, windowed) -> Match:
+        """The clip's answer from the whole clip's nearest entry and its windows'.
+
+        A window *shows a specific action* when its nearest entry's label is not
+        filler (:data:`FILLER_LABELS`), lies within the threshold, and is nearer than
+        :data:`SPECIFIC_MARGIN` times the window's nearest filler entry.  The answer
+        is the whole clip's nearest entry when it agrees with the windows: its label
+        is one a window shows, or it is filler and no window shows an action.  Else
+        the nearest entry of the windows showing an action, or, when none does, of
+        all windows: a clip of walking into a turn is a turn, and the motion image of
+        a clip joining two motions matches neither.
+        """
+        if windowed is None:
+            return whole
+        specific, nearest = [], []
+        for ids, dists in zip(windowed.ids, windowed.distances, strict=True):
+            labels = [self._label_of(int(i)) for i in ids]
+            nearest.append((float(dists[0]), int(ids[0]), labels[0]))
+            if labels[0] in FILLER_LABELS or dists[0] > self.threshold:
+                continue
+            filler = [d for d, label in zip(dists, labels, strict=True) if label in FILLER_LABELS]
+            if not filler or dists[0] < SPECIFIC_MARGIN * filler[0]:
+                specific.append(nearest[-1])
+        shown = {label for _, _, label in (specific or nearest)}
+        if whole.label in shown:
+            return whole
+        dist, entry_id, _ = min(specific or nearest)
+        return self._match(entry_id, dist)
 
     def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
         """Consecutive windows with the same nearest label, merged."""
@@ -690,6 +740,7 @@ class MotionDatabase:
                     variation=meta.get("variation", ""),
                     licence="",
                     role=meta.get("role", "basic"),
+                    mirror_of=meta.get("mirror_of") or None,
                 )
             )
         return out

@@ -13,6 +13,7 @@ names one basic motion::
     licence = "CMU mocap: free for research and commercial use"
     attribution = "mocap.cs.cmu.edu, NSF EIA-0196217"
     role = "basic"                     # optional: "basic" (default) or "distractor"
+    mirror = true                      # optional: also its mirror image (default false)
 
 Paths are relative to the manifest's folder.  ``frame_range`` counts the frames of
 the file as read (frame 0 is the first frame of an AMC file, whatever number the file
@@ -20,10 +21,18 @@ gives it) and is half-open, as :meth:`eigmotion.motion.Motion.trim`; without it 
 whole file is used.  Motions with ``role = "distractor"`` are real motions that are
 *not* basic motions: they are left out of the default library and serve to test that
 unknown motions are rejected.
+
+``mirror = true`` adds the entry's mirror image (:meth:`eigmotion.motion.Motion.mirrored`:
+left and right swapped, a left-handed wave from a right-handed one) to the library as a
+motion of its own, named ``<name>_mirror``, with the same label, performer, role and
+source.  :func:`load_library` makes it, right after the original, so everything that
+takes the library (the build, the benchmarks, ``eigmotion show``) sees it as any other
+motion.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import tomllib
 from dataclasses import dataclass
@@ -54,12 +63,15 @@ DISTRACTOR_LABELS = ("duck", "block")
 #: Roles a manifest entry may have.
 ROLES = ("basic", "distractor")
 
+#: Appended to a motion's name to name its mirror image.
+MIRROR_SUFFIX = "_mirror"
+
 #: The bundled manifest (in the source tree, next to the motion files it lists).
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "database" / "motions" / "library.toml"
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
 _TEXT_FIELDS = ("performer", "variation", "licence", "attribution")
-_KNOWN_FIELDS = {"name", "label", "source", "frame_range", "role", *_TEXT_FIELDS}
+_KNOWN_FIELDS = {"name", "label", "source", "frame_range", "role", "mirror", *_TEXT_FIELDS}
 
 
 @dataclass(frozen=True)
@@ -76,6 +88,8 @@ class ManifestEntry:
     performer, variation, licence, attribution : str
     role : str
         ``"basic"`` or ``"distractor"``.
+    mirror : bool
+        The library also holds the motion's mirror image, named ``name + MIRROR_SUFFIX``.
     """
 
     name: str
@@ -87,6 +101,7 @@ class ManifestEntry:
     licence: str
     attribution: str
     role: str
+    mirror: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +123,8 @@ class LibraryMotion:
         ``"basic"`` or ``"distractor"``.
     frame_range : (int, int) or None
         The frames of the source that were kept.
+    mirror_of : str or None
+        For a mirror image, the name of the motion it mirrors; ``None`` otherwise.
     """
 
     name: str
@@ -120,6 +137,7 @@ class LibraryMotion:
     role: str
     attribution: str = ""
     frame_range: tuple[int, int] | None = None
+    mirror_of: str | None = None
 
 
 def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
@@ -139,8 +157,9 @@ def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
     ------
     InvalidParameterError
         The manifest is missing or not valid TOML, or an entry lacks a field, has a
-        field of the wrong type, an unknown label or role, a duplicate name, or a
-        source that is neither one ``.bvh`` nor an ``.amc`` with its ``.asf``.
+        field of the wrong type, an unknown label or role, a duplicate name (mirror
+        names included), or a source that is neither one ``.bvh`` nor an ``.amc``
+        with its ``.asf``.
     """
     path = Path(DEFAULT_MANIFEST if manifest is None else manifest)
     if not path.is_file():
@@ -156,11 +175,17 @@ def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
     seen: set[str] = set()
     for i, table in enumerate(tables, start=1):
         entry = _entry(table, path, i)
-        if entry.name in seen:
-            raise InvalidParameterError(f"{path}: motion #{i}: duplicate name {entry.name!r}")
-        seen.add(entry.name)
+        for name in _names(entry):
+            if name in seen:
+                raise InvalidParameterError(f"{path}: motion #{i}: duplicate name {name!r}")
+            seen.add(name)
         entries.append(entry)
     return entries
+
+
+def _names(entry: ManifestEntry) -> list[str]:
+    """The entry's name, then its mirror image's when it has one."""
+    return [entry.name, entry.name + MIRROR_SUFFIX] if entry.mirror else [entry.name]
 
 
 def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
@@ -184,6 +209,9 @@ def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
         raise InvalidParameterError(
             f"{where}: name {fields['name']!r} may hold only letters, digits, '_' and '-'"
         )
+    mirror = table.get("mirror", False)
+    if not isinstance(mirror, bool):
+        raise InvalidParameterError(f"{where}: mirror must be true or false, got {mirror!r}")
     role = table.get("role", "basic")
     if role not in ROLES:
         raise InvalidParameterError(f"{where}: role must be one of {list(ROLES)}, got {role!r}")
@@ -203,6 +231,7 @@ def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
         licence=fields["licence"],
         attribution=fields["attribution"],
         role=role,
+        mirror=mirror,
     )
 
 
@@ -248,6 +277,7 @@ def load_entry(entry: ManifestEntry) -> LibraryMotion:
     Returns
     -------
     LibraryMotion
+        The motion itself (its mirror image, if any: :func:`mirror_image`).
 
     Raises
     ------
@@ -293,6 +323,31 @@ def _load_entry(entry: ManifestEntry, cache: dict | None) -> LibraryMotion:
     )
 
 
+def mirror_image(item: LibraryMotion) -> LibraryMotion:
+    """A library motion's mirror image, as the library holds it.
+
+    Parameters
+    ----------
+    item : LibraryMotion
+
+    Returns
+    -------
+    LibraryMotion
+        Named ``item.name + MIRROR_SUFFIX``, its motion :meth:`Motion.mirrored
+        <eigmotion.motion.Motion.mirrored>`, the variation marked as mirrored,
+        ``mirror_of = item.name``; label, performer, role, source and the rest as
+        ``item``'s.
+    """
+    name = item.name + MIRROR_SUFFIX
+    return dataclasses.replace(
+        item,
+        name=name,
+        motion=item.motion.mirrored().replace(name=name),
+        variation=f"{item.variation} (mirror image: left and right swapped)",
+        mirror_of=item.name,
+    )
+
+
 def load_library(
     manifest: str | Path | None = None, include_distractors: bool = False
 ) -> list[LibraryMotion]:
@@ -308,20 +363,25 @@ def load_library(
     Returns
     -------
     list of LibraryMotion
-        In manifest order.
+        In manifest order, each entry with ``mirror = true`` followed by its mirror
+        image (:func:`mirror_image`).
     """
     cache: dict = {}
-    return [
-        _load_entry(e, cache)
-        for e in read_manifest(manifest)
-        if include_distractors or e.role != "distractor"
-    ]
+    out = []
+    for entry in read_manifest(manifest):
+        if include_distractors or entry.role != "distractor":
+            item = _load_entry(entry, cache)
+            out += [item, mirror_image(item)] if entry.mirror else [item]
+    return out
 
 
 def motion_names(manifest: str | Path | None = None, include_distractors: bool = True) -> list[str]:
-    """Names of the motions in a manifest, in file order."""
+    """Names of the motions in a manifest, mirror images included, in library order."""
     return [
-        e.name for e in read_manifest(manifest) if include_distractors or e.role != "distractor"
+        name
+        for e in read_manifest(manifest)
+        if include_distractors or e.role != "distractor"
+        for name in _names(e)
     ]
 
 
@@ -335,8 +395,8 @@ def find_motion(
     Parameters
     ----------
     name_or_path : str or Path
-        A name from the manifest (distractors included), or a path to a ``.bvh`` file
-        or an ``.amc`` file.
+        A name from the manifest (distractors and mirror images included), or a path
+        to a ``.bvh`` file or an ``.amc`` file.
     asf : str or Path, optional
         The ``.asf`` skeleton of an ``.amc`` file (required for one).
     manifest : str or Path, optional
@@ -373,12 +433,13 @@ def find_motion(
             f"{text}: unsupported motion file type {suffix!r}; expected .bvh or .amc "
             "(with --asf), or a library motion name"
         )
-    entries = {e.name: e for e in read_manifest(manifest)}
+    entries = {name: e for e in read_manifest(manifest) for name in _names(e)}
     if text not in entries:
         raise InvalidParameterError(
             f"no motion named {text!r} in the library; known motions: {', '.join(entries)}"
         )
-    return load_entry(entries[text]).motion
+    item = load_entry(entries[text])
+    return (item if text == item.name else mirror_image(item)).motion
 
 
 def _read_motion_file(path: Path, asf: Path | None = None) -> Motion:

@@ -30,6 +30,9 @@ Matching ignores case and a namespace prefix (``mixamorig:Hips``, ``Armature|Hip
 ``mixamorig_Hips``).  A user mapping overrides or extends any family, from Python
 (``mapping={"pelvis": "Hips", "jaw": None}``) or from a TOML file with a
 ``[joints]`` table (:func:`load_joint_map`, the CLI's ``--joint-map``).
+
+:func:`mirror_partners` pairs each joint with its namesake on the other side of the
+body, for mirror images.
 """
 
 from __future__ import annotations
@@ -392,6 +395,85 @@ def _source_targets(
         )
         raise SkeletonMappingError(f"{found}: {', '.join(unmapped)}; {_HOW_TO_MAP}")
     return targets
+
+
+#: Ways a joint name says its side: (pattern, left, right), the pattern holding ``{}``
+#: where the side is: ``LeftArm``, ``left_arm``; ``LHipJoint``, ``L_arm``; CMU ASF
+#: ``lfemur``; ``Hand_L``, ``upperarm_l``, ``arm.L``.  Matched on the bare name (no
+#: namespace); the first rule whose swapped name is in the skeleton decides.
+_SIDE_RULES = (
+    ("{}", "Left", "Right"),
+    ("{}", "left", "right"),
+    ("{}", "LEFT", "RIGHT"),
+    ("^{}(?=[A-Z_.])", "L", "R"),
+    ("^{}(?=[a-z])", "l", "r"),
+    ("(?<=[_.]){}$", "L", "R"),
+    ("(?<=[_.]){}$", "l", "r"),
+)
+
+
+def _swapped_sides(bare: str) -> list[str]:
+    """Names ``bare`` could have on the other side, most likely first."""
+    out = []
+    for pattern, left, right in _SIDE_RULES:
+        for this, other in ((left, right), (right, left)):
+            swapped = re.sub(pattern.format(this), other, bare)
+            if swapped != bare:
+                out.append(swapped)
+    return out
+
+
+def mirror_partners(skeleton: Skeleton) -> tuple[int, ...]:
+    """The joint on the other side of the body for every joint, by name.
+
+    ``LeftArm`` ↔ ``RightArm``, ``LHipJoint`` ↔ ``RHipJoint``, CMU ASF ``lfemur`` ↔
+    ``rfemur``, ``Hand_L`` ↔ ``Hand_R`` (a namespace prefix is kept); a joint whose
+    name says no side, or whose other side the skeleton lacks, is its own partner.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+
+    Returns
+    -------
+    tuple of int
+        Partner index per joint; applying it twice gives every joint back.
+
+    Raises
+    ------
+    InvalidParameterError
+        No joint has a partner, two joints claim one partner, or partners hang from
+        parents that are not partners (the two sides are built differently).
+    """
+    names = skeleton.names
+    index = {name: i for i, name in enumerate(names)}
+    partners = list(range(len(names)))
+    for i, name in enumerate(names):
+        bare = _NAMESPACE.sub("", name)
+        prefix = name[: len(name) - len(bare)]
+        for other in _swapped_sides(bare):
+            if prefix + other in index:
+                partners[i] = index[prefix + other]
+                break
+    if all(p == i for i, p in enumerate(partners)):
+        raise InvalidParameterError(
+            f"cannot mirror: no joint name says its side (Left/Right, L/R, l/r) among "
+            f"{', '.join(names[:12])} …"
+        )
+    for i, p in enumerate(partners):
+        if partners[p] != i:
+            raise InvalidParameterError(
+                f"cannot mirror: {names[i]!r} pairs with {names[p]!r}, which pairs with "
+                f"{names[partners[p]]!r}"
+            )
+        parent = int(skeleton.parents[i])
+        other_parent = int(skeleton.parents[p])
+        if (parent < 0) != (other_parent < 0) or (parent >= 0 and partners[parent] != other_parent):
+            raise InvalidParameterError(
+                f"cannot mirror: {names[i]!r} and its partner {names[p]!r} hang from "
+                "parents that are not partners"
+            )
+    return tuple(partners)
 
 
 def load_joint_map(path: str | Path) -> dict[str, str | None]:

@@ -10,11 +10,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from eigmotion.authoring import (
+    GRAVITY_M_S2,
     Key,
     Target,
     aim_deg,
     animate,
     body_surface_points,
+    foot_target,
     foot_targets,
     lowest_point_m,
     rest_positions_m,
@@ -31,7 +33,13 @@ REPO = Path(__file__).resolve().parents[1]
 AUTHORED = REPO / "database" / "motions" / "authored"
 
 #: Motions in which both feet stay planted from start to end.
-PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_")
+PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_", "pick_up_", "wave_")
+
+#: Labels with authored motions.
+AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down", "jump", "turn", "wave", "pick_up")
+
+#: A foot point this close to the floor touches it, metres.
+TOUCHING_M = 0.02
 
 
 def _load_generator():
@@ -105,10 +113,10 @@ def test_authored_durations_and_rate(authored_poses):
         assert motion.skeleton.names == CANONICAL_JOINTS
 
 
-@pytest.mark.parametrize("label", ["lift", "sit_down", "cover_head", "fall_down"])
-def test_two_or_three_variations_per_label(generator, label):
+@pytest.mark.parametrize("label", AUTHORED_LABELS)
+def test_several_variations_per_label(generator, label):
     names = [n for n in generator.MOTIONS if n.startswith(label + "_")]
-    assert 2 <= len(names) <= 3
+    assert 2 <= len(names) <= 4
 
 
 def test_nothing_sinks_below_the_floor(authored_poses):
@@ -123,13 +131,70 @@ def _feet_points(pose):
     return np.concatenate([pose.positions[:, joints], pose.end_sites[:, ends]], axis=1)
 
 
+def _airborne(pose):
+    """(F,) bool: no joint or end site within TOUCHING_M of the floor."""
+    return pose.all_points()[..., 1].min(axis=1) > TOUCHING_M
+
+
 def test_feet_on_the_floor_while_standing(authored_poses):
-    """Standing phase: the hips above 0.5 m, i.e. the legs bear the weight."""
+    """Standing phase: the hips above 0.5 m, i.e. the legs bear the weight; only the
+    flight of a jump leaves the floor."""
     for name, (_, pose) in authored_poses.items():
         standing = _joint(pose, "Hips")[:, 1] > 0.5
         assert standing[0], name
-        lowest_foot = _feet_points(pose)[standing, :, 1].min(axis=1)
-        assert lowest_foot.max() <= 0.02, name
+        flying = _airborne(pose) & standing
+        assert not flying.any() or name.startswith("jump_"), name
+        lowest_foot = _feet_points(pose)[standing & ~flying, :, 1].min(axis=1)
+        assert lowest_foot.max() <= TOUCHING_M, name
+
+
+def _runs(mask):
+    """[start, stop) of each run of True in a (F,) bool array."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    return list(zip(edges[::2], edges[1::2], strict=True))
+
+
+def test_jumps_fly_under_gravity(authored_poses):
+    """In flight the hips fall with g: second differences of their height -g dt²."""
+    checked = 0
+    for name, (motion, pose) in authored_poses.items():
+        if not name.startswith("jump_"):
+            continue
+        flights = [(a, b) for a, b in _runs(_airborne(pose)) if b - a >= 3]
+        assert flights, name
+        for a, b in flights:
+            accel = np.diff(_joint(pose, "Hips")[a:b, 1], 2) / motion.frame_time_s**2
+            np.testing.assert_allclose(accel, -GRAVITY_M_S2, atol=0.05, err_msg=name)
+        checked += 1
+    assert checked >= 3
+
+
+def test_feet_on_the_floor_do_not_slide(authored_poses):
+    """While the legs bear the weight, the ball of a foot on the floor stays put (it
+    may roll up onto it, swing and land elsewhere)."""
+    for name, (_, pose) in authored_poses.items():
+        standing = _joint(pose, "Hips")[:, 1] > 0.5
+        for foot in ("LeftToeBase", "RightToeBase"):
+            ball = _joint(pose, foot)
+            for a, b in _runs((ball[:, 1] < 0.003) & standing):
+                drift = np.linalg.norm(ball[a:b, [0, 2]] - ball[a, [0, 2]], axis=1).max()
+                assert drift < 0.012, (name, foot, int(a), int(b), drift)
+
+
+def test_knees_bend_forwards_within_their_range(authored_poses):
+    """The knee stays in front of the hip-ankle line and bends at most 140 degrees."""
+    for name, (_, pose) in authored_poses.items():
+        for side in ("Left", "Right"):
+            hip, knee, ankle = (_joint(pose, side + n) for n in ("UpLeg", "Leg", "Foot"))
+            axis = (ankle - hip) / np.linalg.norm(ankle - hip, axis=1, keepdims=True)
+            off = (knee - hip) - np.sum((knee - hip) * axis, axis=1, keepdims=True) * axis
+            thigh_forward = pose.rotations[:, pose.names.index(side + "UpLeg"), :, 2]
+            assert np.sum(off * thigh_forward, axis=1).min() > -0.005, (name, side)
+            thigh, shin = knee - hip, ankle - knee
+            cos = np.sum(thigh * shin, axis=1) / (
+                np.linalg.norm(thigh, axis=1) * np.linalg.norm(shin, axis=1)
+            )
+            assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() <= 140.0, (name, side)
 
 
 @pytest.mark.parametrize("prefix", PLANTED_PREFIXES)
@@ -138,7 +203,8 @@ def test_planted_feet_do_not_slide(authored_poses, prefix):
     for name, (_, pose) in authored_poses.items():
         if not name.startswith(prefix):
             continue
-        for foot in ("LeftFoot", "RightFoot"):
+        # The ball of the foot: a heel may come up about it (squatting deep).
+        for foot in ("LeftToeBase", "RightToeBase"):
             xz = _joint(pose, foot)[:, [0, 2]]
             assert np.linalg.norm(xz - xz[0], axis=1).max() < 0.01, (name, foot)
         checked += 1
@@ -162,6 +228,30 @@ def test_hands_stay_outside_the_torso(authored_poses):
                 for a, b in zip(spine[:-1], spine[1:], strict=True)
             )
             assert d >= 0.09, (name, hand, d)
+
+
+def _segment_to_segment(a0, a1, b0, b1, samples=21):
+    """(F,) distance between segments a0-a1 and b0-b1 (sampled along the first)."""
+    return np.min(
+        [_segment_distance(a0 + s * (a1 - a0), b0, b1) for s in np.linspace(0.0, 1.0, samples)],
+        axis=0,
+    )
+
+
+def test_arms_do_not_pass_through_the_legs(authored_poses):
+    """Forearm and hand bones keep >= 6 cm from the thigh and shin bones."""
+    for name, (_, pose) in authored_poses.items():
+        for arm in ("Left", "Right"):
+            for a, b in (("ForeArm", "Hand"), ("Hand", "FingerBase")):
+                for leg in ("Left", "Right"):
+                    for c, d in (("UpLeg", "Leg"), ("Leg", "Foot")):
+                        d_min = _segment_to_segment(
+                            _joint(pose, arm + a),
+                            _joint(pose, arm + b),
+                            _joint(pose, leg + c),
+                            _joint(pose, leg + d),
+                        ).min()
+                        assert d_min >= 0.06, (name, arm + a, leg + c, d_min)
 
 
 def test_hands_stay_outside_the_head(authored_poses):
@@ -308,6 +398,77 @@ def test_heel_raise_pivots_about_the_ball_of_the_foot(skeleton):
         rot = euler_to_matrix(np.asarray(target.rotation_deg)[[2, 0, 1]], "ZXY")
         ball = np.asarray(target.position_m) + rot @ (rest["LeftToeBase"] - rest["LeftFoot"])
         np.testing.assert_allclose(ball, rest["LeftToeBase"], atol=1e-9)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 35.0, -120.0, 180.0])
+def test_foot_target_turns_about_the_ankle_and_pivots_about_the_ball(skeleton, yaw_deg):
+    rest = rest_positions_m(skeleton)
+    to_ball = rest["LeftToeBase"] - rest["LeftFoot"]
+    flat = foot_target("LeftFoot", (0.3, -0.4), yaw_deg, skeleton=skeleton)
+    np.testing.assert_allclose(flat.position_m, [0.3, rest["LeftFoot"][1], -0.4], atol=1e-12)
+    balls = []
+    for heel_deg, lift_m in ((0.0, 0.0), (30.0, 0.0), (60.0, 0.0), (30.0, 0.1)):
+        target = foot_target("LeftFoot", (0.3, -0.4), yaw_deg, heel_deg, lift_m, skeleton)
+        rot = euler_to_matrix(np.asarray(target.rotation_deg)[[2, 0, 1]], "ZXY")
+        balls.append(np.asarray(target.position_m) + rot @ to_ball - [0.0, lift_m, 0.0])
+        # The toes point along the turned heading, pitched down by the heel raise.
+        toes = rot @ [0.0, 0.0, 1.0]
+        heading = np.degrees(np.arctan2(toes[0], toes[2]))
+        assert (heading - yaw_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-9)
+        assert np.degrees(np.arcsin(-toes[1])) == pytest.approx(heel_deg, abs=1e-9)
+    np.testing.assert_allclose(balls, np.broadcast_to(balls[0], (4, 3)), atol=1e-12)
+
+
+def test_foot_targets_are_foot_target_either_side(skeleton):
+    rest = rest_positions_m(skeleton)
+    feet = foot_targets(skeleton, extra_width_m=0.05, toe_out_deg=10.0, shift_m=(0, 0, 0.2))
+    for side, joint in ((1.0, "LeftFoot"), (-1.0, "RightFoot")):
+        x = rest[joint][0] + side * 0.05
+        one = foot_target(joint, (x, rest[joint][2] + 0.2), side * 10.0, skeleton=skeleton)
+        np.testing.assert_allclose(feet[joint].position_m, one.position_m, atol=1e-12)
+        np.testing.assert_allclose(feet[joint].rotation_deg, one.rotation_deg, atol=1e-9)
+
+
+def test_flights_follow_a_ballistic_arc(skeleton):
+    take_off, landing = 0.3, 0.7
+    motion = animate([Key(0.0), Key(1.0)], skeleton, flights_s=[(take_off, landing)])
+    t = np.arange(motion.n_frames) * motion.frame_time_s
+    height = np.where(
+        (t > take_off) & (t < landing),
+        0.5 * GRAVITY_M_S2 * (t - take_off) * (landing - t),
+        0.0,
+    )
+    root = motion.local_translations()[:, 0, 1]
+    np.testing.assert_allclose(root, standing_root_height_m(skeleton) + height, atol=1e-9)
+
+
+def test_flights_join_take_off_and_landing_heights(skeleton):
+    keys = [Key(0.0), Key(0.5, {}, (0.0, -0.2, 0.0)), Key(1.0, {}, (0.0, 0.0, 0.0))]
+    grounded = animate(keys, skeleton, ground=False).local_translations()[:, 0, 1]
+    flying = animate(keys, skeleton, ground=False, flights_s=[(0.2, 0.8)])
+    root = flying.local_translations()[:, 0, 1]
+    t = np.arange(len(root)) / 30.0
+    outside = (t <= 0.2) | (t >= 0.8)
+    np.testing.assert_allclose(root[outside], grounded[outside], atol=1e-12)
+    accel = np.diff(root[(t > 0.2) & (t < 0.8)], 2) * 30.0**2
+    np.testing.assert_allclose(accel, -GRAVITY_M_S2, atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "flights",
+    [
+        [(0.5, 0.4)],
+        [(0.2, 0.6), (0.5, 0.8)],
+        [(-0.1, 0.5)],
+        [(0.5, 1.5)],
+        [(0.1,)],
+        [(0.1, float("nan"))],
+        "soon",
+    ],
+)
+def test_bad_flights_raise(skeleton, flights):
+    with pytest.raises(InvalidParameterError, match="flights_s"):
+        animate([Key(0.0), Key(1.0)], skeleton, flights_s=flights)
 
 
 def test_ground_puts_the_lowest_point_on_the_floor(skeleton):

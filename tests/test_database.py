@@ -87,6 +87,24 @@ def test_database_holds_what_was_built(db_path, library):
             np.testing.assert_allclose(back.values, item.motion.values, atol=1e-5)
 
 
+def test_stored_library_keeps_what_the_build_needs(tmp_path):
+    from dataclasses import replace as with_fields
+
+    by_name = {m.name: m for m in load_library()}
+    kick, mirror = by_name["kick_135_04"], by_name["kick_135_04_mirror"]
+    short = [with_fields(m, motion=m.motion.trim(0, 60)) for m in (kick, mirror)]
+    path = tmp_path / "two.fs"
+    rig = virtual_rig([0.0, 90.0], [0.0], 64, 64)
+    config = replace(CONFIG, n_components=2, key_axes=2)
+    build_database(short, rig, path, config, workers=1, progress=False)
+    with MotionDatabase.open(path) as db:
+        stored = db.stored_library()
+    assert [(m.name, m.label, m.performer, m.mirror_of) for m in stored] == [
+        (m.name, m.label, m.performer, m.mirror_of) for m in short
+    ]
+    assert stored[1].mirror_of == "kick_135_04"
+
+
 def test_tree_search_is_exact_on_the_real_database(db_path):
     rng = np.random.default_rng(3)
     with MotionDatabase.open(db_path) as db:
@@ -112,6 +130,20 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
     assert len({m.motion for m in result.top}) == len(result.top)
     assert result.segments[0].start_frame == 0
     assert result.segments[-1].end_frame == len(masks)
+
+
+def test_walking_into_an_action_is_that_action(db_path, library, other_body):
+    by_name = {m.name: m for m in library}
+    walk = by_name["walk_02_01"].motion
+    walk = walk.trim(0, int(round(2.0 / walk.frame_time_s)))
+    walking = _masks(walk, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    waving = _masks(by_name["wave_14_24"].motion, other_body, 30.0, 8.0)
+    with MotionDatabase.open(db_path) as db:
+        alone = db.query_masks(walking, 30.0)
+        clip = db.query_masks(np.concatenate([walking, waving, walking]), 30.0)
+    assert alone.best.label == "walk"
+    assert clip.best.label == "wave" and clip.top[0] == clip.best
+    assert [s.label for s in clip.segments] == ["walk", "wave", "walk"]
 
 
 def test_query_of_sampled_frames_equals_every_frame(db_path, library, other_body, tmp_path):

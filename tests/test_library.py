@@ -15,9 +15,11 @@ from eigmotion.library import (
     DEFAULT_MANIFEST,
     DISTRACTOR_LABELS,
     LABELS,
+    MIRROR_SUFFIX,
     LibraryMotion,
     find_motion,
     load_library,
+    mirror_image,
     motion_names,
     read_manifest,
 )
@@ -26,7 +28,7 @@ from eigmotion.naming import canonical_joint_map
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"
 PATIENT_LABELS = ("lift", "pick_up", "sit_down", "cover_head", "walk", "fall_down")
-AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down")
+AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down", "jump", "turn", "wave", "pick_up")
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +57,7 @@ def test_default_manifest_is_the_bundled_one():
 
 def test_every_entry_loads_with_a_known_label(library):
     entries = read_manifest()
-    assert [lm.name for lm in library] == [e.name for e in entries]
+    assert [lm.name for lm in library if lm.mirror_of is None] == [e.name for e in entries]
     for lm in library:
         allowed = DISTRACTOR_LABELS if lm.role == "distractor" else LABELS
         assert lm.label in allowed, lm.name
@@ -90,9 +92,9 @@ def test_authored_entries_cover_their_whole_file(library):
 def test_every_label_has_a_motion(library, label):
     motions = [lm for lm in library if lm.label == label and lm.role == "basic"]
     assert motions
-    authored = [lm for lm in motions if lm.performer == "authored"]
+    authored = [lm for lm in motions if lm.performer == "authored" and lm.mirror_of is None]
     if label in AUTHORED_LABELS:
-        assert 2 <= len(authored) <= 3
+        assert 2 <= len(authored) <= 4
 
 
 def test_the_patents_six_labels_are_there():
@@ -107,6 +109,20 @@ def test_distractors_are_left_out_by_default(library):
     assert {lm.label for lm in distractors} == set(DISTRACTOR_LABELS)
     assert len(default) + len(distractors) == len(library)
     assert set(motion_names(include_distractors=False)) == {lm.name for lm in default}
+
+
+def test_authored_motions_stand_on_the_floor(library, poses):
+    """Every authored motion (mirror images too) starts on both feet, ends on its feet
+    unless it ends lying down, and never sinks below the floor."""
+    for lm in library:
+        if lm.performer != "authored":
+            continue
+        p = poses[lm.name]
+        # The ankle joints stand 4.7 cm above the floor on a flat foot.
+        ankles = np.stack([p[n][:, 1] for n in ("LeftFoot", "RightFoot")], axis=1)
+        assert ankles[0].max() <= 0.07, lm.name
+        assert p["Hips"][-1, 1] < 0.5 or ankles[-1].min() <= 0.07, lm.name
+        assert min(v[:, 1].min() for v in p.values()) >= -0.01, lm.name
 
 
 def test_sources_md_lists_every_motion():
@@ -180,6 +196,12 @@ def test_a_good_manifest_elsewhere_loads(tmp_path):
     assert lm.name == "x" and lm.motion.n_frames == 100 and lm.role == "basic"
 
 
+def test_a_manifest_entry_with_mirror_loads_both(tmp_path):
+    lm, mirror = load_library(_manifest(tmp_path, GOOD_ENTRY + "mirror = true\n"))
+    assert (lm.name, mirror.name, mirror.mirror_of) == ("x", "x_mirror", "x")
+    assert motion_names(tmp_path / "library.toml") == ["x", "x_mirror"]
+
+
 @pytest.mark.parametrize(
     ("text", "match"),
     [
@@ -201,6 +223,11 @@ def test_a_good_manifest_elsewhere_loads(tmp_path):
         (GOOD_ENTRY + 'role = "extra"\n', "role must be one of"),
         (GOOD_ENTRY + 'colour = "red"\n', "unknown field"),
         (GOOD_ENTRY.replace('performer = "cmu_16"', "performer = 16"), "'performer'"),
+        (GOOD_ENTRY + 'mirror = "yes"\n', "mirror must be true or false"),
+        (
+            GOOD_ENTRY + "mirror = true\n" + GOOD_ENTRY.replace('"x"', '"x_mirror"'),
+            "duplicate name 'x_mirror'",
+        ),
     ],
 )
 def test_broken_manifests_raise(tmp_path, text, match):
@@ -262,9 +289,12 @@ def _check_label(label: str, p, frame_time_s: float) -> None:
     elif label == "run":
         assert _travel(p) >= 2.5 and _both_feet_height(p).max() >= 0.18
     elif label == "jump":
-        assert _travel(p) < 0.5 and _both_feet_height(p).max() >= 0.25
+        # Off the floor, both feet (one foot held up in a hop), the hips well above
+        # where they start (a run's flight is flat).
+        assert _both_feet_height(p).max() >= 0.2 and hips_y.max() - hips_y[0] >= 0.15
     elif label == "pick_up":
-        assert hips_y[0] - hips_y.min() >= 0.3 and hands[..., 1].min() <= 0.3
+        # Squatting or bending with straight legs: the head goes down, a hand to the floor.
+        assert head_y[0] - head_y.min() >= 0.5 and hands[..., 1].min() <= 0.3
     elif label == "lift":
         # The hands end higher than their lowest point, loaded from below.
         assert hands[-1, :, 1].min() - hands[..., 1].min() >= 0.3 or (
@@ -290,7 +320,7 @@ def _check_label(label: str, p, frame_time_s: float) -> None:
         speed = np.linalg.norm(np.diff(hands, axis=0), axis=-1) / frame_time_s
         assert speed.max() >= 2.5
     elif label == "turn":
-        assert _yaw_change_deg(p) >= 60 and _travel(p) >= 0.8
+        assert _yaw_change_deg(p) >= 60
     elif label == "duck":
         assert _travel(p) >= 3.0 and hips_y.max() - hips_y.min() >= 0.15
     elif label == "block":
@@ -308,8 +338,76 @@ def test_each_clip_shows_its_label(library, poses):
             raise AssertionError(f"{lm.name} does not look like {lm.label!r}") from exc
 
 
-@pytest.mark.parametrize(("label", "other"), [("walk", "run"), ("jump", "walk"), ("wave", "punch")])
+@pytest.mark.parametrize(
+    ("label", "other"),
+    [("walk", "run"), ("jump", "walk"), ("jump", "run"), ("wave", "punch"), ("turn", "walk")],
+)
 def test_label_checks_can_fail(library, poses, label, other):
     lm = next(lm for lm in library if lm.label == other)
     with pytest.raises(AssertionError):
         _check_label(label, poses[lm.name], lm.motion.frame_time_s)
+
+
+# -- mirror images --------------------------------------------------------------------------
+
+
+def test_mirror_images_follow_their_originals(library):
+    by_name = {lm.name: lm for lm in library}
+    mirrored = [e.name for e in read_manifest() if e.mirror]
+    assert mirrored
+    for name in mirrored:
+        mirror = by_name[name + MIRROR_SUFFIX]
+        original = by_name[name]
+        assert library.index(mirror) == library.index(original) + 1
+        assert mirror.mirror_of == name and original.mirror_of is None
+        assert (mirror.label, mirror.performer, mirror.role, mirror.source) == (
+            original.label,
+            original.performer,
+            original.role,
+            original.source,
+        )
+        assert "mirror" in mirror.variation and mirror.motion.name == mirror.name
+        assert mirror.motion.n_frames == original.motion.n_frames
+    assert set(motion_names()) == set(by_name)
+
+
+def _hand_over_head(p, side):
+    return p[f"{side}Hand"][:, 1] > p["Head"][:, 1]
+
+
+@pytest.mark.parametrize("name", ["wave_14_24", "wave_right_hand"])
+def test_a_mirrored_right_hand_wave_raises_the_left_hand(library, poses, name):
+    original, mirror = poses[name], poses[name + MIRROR_SUFFIX]
+    assert _hand_over_head(original, "Right").mean() >= 0.5
+    assert not _hand_over_head(original, "Left").any()
+    assert _hand_over_head(mirror, "Left").mean() >= 0.5
+    assert not _hand_over_head(mirror, "Right").any()
+
+
+def test_a_mirrored_walk_swaps_the_foot_heights(library):
+    walk = next(lm for lm in library if lm.name == "walk_02_01")
+    mirror = mirror_image(walk)
+    assert mirror.name == "walk_02_01" + MIRROR_SUFFIX
+    before = forward_kinematics(walk.motion)
+    after = forward_kinematics(mirror.motion)
+    for side, other in (("lfoot", "rfoot"), ("rfoot", "lfoot"), ("ltoes", "rtoes")):
+        np.testing.assert_allclose(
+            after.positions[:, after.names.index(side), 1],
+            before.positions[:, before.names.index(other), 1],
+            atol=1e-9,
+        )
+    # On the CMU skeleton too, mirroring twice gives the walk back.
+    twice = forward_kinematics(mirror.motion.mirrored())
+    np.testing.assert_allclose(twice.positions, before.positions, atol=1e-9)
+    # The left foot is not simply the right one: the walk is not symmetric.
+    left = before.positions[:, before.names.index("lfoot"), 1]
+    right = before.positions[:, before.names.index("rfoot"), 1]
+    assert np.abs(left - right).max() > 0.05
+
+
+@pytest.mark.parametrize("name", ["wave_14_24_mirror", "turn_in_place_90_mirror"])
+def test_find_motion_finds_mirror_images(library, name):
+    expected = next(lm.motion for lm in library if lm.name == name)
+    motion = find_motion(name)
+    assert motion.name == name
+    np.testing.assert_array_equal(motion.values, expected.values)

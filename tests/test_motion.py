@@ -9,6 +9,7 @@ from eigmotion.canonical import canonical_skeleton
 from eigmotion.errors import InvalidParameterError
 from eigmotion.kinematics import detect_length_unit, forward_kinematics
 from eigmotion.motion import Motion, Skeleton
+from eigmotion.naming import mirror_partners
 from eigmotion.rotations import align_vectors, euler_to_matrix, rotation_between
 
 
@@ -80,3 +81,72 @@ def test_bad_skeleton_and_values_are_named():
     bad[1, 4] = np.nan
     with pytest.raises(InvalidParameterError, match="frame 1"):
         Motion(sk, bad, 1 / 30)
+
+
+# -- mirror images ----------------------------------------------------------------------
+
+
+def test_mirrored_twice_is_the_original(rng):
+    m = _random_motion(rng, n_frames=20)
+    twice = m.mirrored().mirrored()
+    np.testing.assert_allclose(
+        forward_kinematics(twice, ground=False).positions,
+        forward_kinematics(m, ground=False).positions,
+        atol=1e-9,
+    )
+    np.testing.assert_allclose(twice.skeleton.offsets, m.skeleton.offsets, atol=1e-15)
+
+
+def test_mirrored_is_a_reflection_with_the_sides_swapped(rng):
+    m = _random_motion(rng, n_frames=20)
+    before = forward_kinematics(m, ground=False)
+    after = forward_kinematics(m.mirrored(), ground=False)
+    partner = list(mirror_partners(m.skeleton))
+    swapped = after.positions[:, partner]
+    # Distances between joints and heights are kept, the first root position too ...
+    d_before = np.linalg.norm(before.positions[:, :, None] - before.positions[:, None], axis=-1)
+    d_after = np.linalg.norm(swapped[:, :, None] - swapped[:, None], axis=-1)
+    np.testing.assert_allclose(d_after, d_before, atol=1e-9)
+    np.testing.assert_allclose(swapped[..., 1], before.positions[..., 1], atol=1e-9)
+    np.testing.assert_allclose(after.positions[0, 0], before.positions[0, 0], atol=1e-12)
+
+    # ... and handedness flips: a reflection, not a turn.
+    def handedness(pose, joints):
+        hips, a, b, c = (pose.positions[:, pose.names.index(j)] for j in ("Hips", *joints))
+        return np.sign(np.einsum("fi,fi->f", np.cross(a - hips, b - hips), c - hips))
+
+    joints = ("LeftUpLeg", "Head", "LeftHand")
+    mirrored_joints = ("RightUpLeg", "Head", "RightHand")
+    np.testing.assert_array_equal(handedness(after, mirrored_joints), -handedness(before, joints))
+
+
+def test_mirrored_keeps_the_channels_and_timing(rng):
+    m = _random_motion(rng)
+    mirror = m.mirrored()
+    assert mirror.skeleton.names == m.skeleton.names
+    assert mirror.skeleton.channels == m.skeleton.channels
+    assert (mirror.n_frames, mirror.frame_time_s, mirror.length_unit_m, mirror.name) == (
+        m.n_frames,
+        m.frame_time_s,
+        m.length_unit_m,
+        m.name,
+    )
+
+
+def test_mirroring_needs_sides_along_x(rng):
+    m = _random_motion(rng)
+    sk = m.skeleton
+    plain = Skeleton(
+        tuple(f"j{i}" for i in range(sk.n_joints)),
+        sk.parents,
+        sk.offsets,
+        sk.channels,
+        sk.end_sites,
+    )
+    with pytest.raises(InvalidParameterError, match="no joint name says its side"):
+        m.replace(skeleton=plain).mirrored()
+    # Facing +X at rest: left and right lie apart along z.
+    quarter = euler_to_matrix(np.array([0.0, 90.0, 0.0]), "XYZ")
+    turned = Skeleton(sk.names, sk.parents, sk.offsets @ quarter.T, sk.channels, sk.end_sites)
+    with pytest.raises(InvalidParameterError, match="along x"):
+        m.replace(skeleton=turned).mirrored()

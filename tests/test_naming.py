@@ -15,6 +15,7 @@ from eigmotion.naming import (
     canonical_names,
     detect_family,
     load_joint_map,
+    mirror_partners,
 )
 
 
@@ -283,3 +284,61 @@ def test_load_joint_map_errors_name_the_file(tmp_path, text, message):
     with pytest.raises(InvalidParameterError, match=message) as info:
         load_joint_map(path)
     assert str(path) in str(info.value)
+
+
+# -- left and right ------------------------------------------------------------------------
+
+
+def _pairs(skeleton: Skeleton) -> set[tuple[str, str]]:
+    partners = mirror_partners(skeleton)
+    return {(skeleton.names[i], skeleton.names[p]) for i, p in enumerate(partners) if i < p}
+
+
+def test_mirror_partners_of_the_canonical_skeleton():
+    sk = canonical_skeleton()
+    pairs = _pairs(sk)
+    assert ("LeftArm", "RightArm") in pairs and ("LHipJoint", "RHipJoint") in pairs
+    assert ("LThumb", "RThumb") in pairs and len(pairs) == 12
+    partners = mirror_partners(sk)
+    assert all(partners[p] == i for i, p in enumerate(partners))
+    for centre in ("Hips", "LowerBack", "Spine", "Neck", "Head"):
+        assert partners[sk.index(centre)] == sk.index(centre)
+
+
+def test_mirror_partners_of_a_cmu_asf_skeleton(cmu_dir):
+    sk = asf_to_skeleton(read_asf(cmu_dir / "asf" / "02.asf"))
+    pairs = _pairs(sk)
+    assert {("lfemur", "rfemur"), ("lhumerus", "rhumerus"), ("lhipjoint", "rhipjoint")} <= pairs
+    # "root" and "lowerback" start with r and l but name no side.
+    partners = mirror_partners(sk)
+    assert partners[sk.index("root")] == sk.index("root")
+    assert partners[sk.index("lowerback")] == sk.index("lowerback")
+
+
+@pytest.mark.parametrize(
+    ("left", "right"),
+    [
+        ("mixamorig:LeftUpLeg", "mixamorig:RightUpLeg"),
+        ("UpperLeg_L", "UpperLeg_R"),
+        ("thigh.l", "thigh.r"),
+        ("left_thigh", "right_thigh"),
+    ],
+)
+def test_mirror_partners_of_other_namings(left, right):
+    names = ["Hips", left, right]
+    sk = Skeleton(tuple(names), np.array([-1, 0, 0]), np.zeros((3, 3)), ((),) * 3)
+    assert _pairs(sk) == {(left, right)}
+
+
+def test_mirror_partners_errors():
+    with pytest.raises(InvalidParameterError, match="no joint name says its side"):
+        mirror_partners(_chain(["Hips", "Spine", "Head"]))
+    # LeftArm hangs from Spine but RightArm from Head: the sides differ.
+    sk = Skeleton(
+        ("Hips", "Spine", "Head", "LeftArm", "RightArm"),
+        np.array([-1, 0, 1, 1, 2]),
+        np.zeros((5, 3)),
+        ((),) * 5,
+    )
+    with pytest.raises(InvalidParameterError, match="parents that are not partners"):
+        mirror_partners(sk)

@@ -1,9 +1,14 @@
 """Author the keyframed basic motions and write them as BVH files next to this script.
 
-No free motion capture shows these motions, so they are authored on the default
-avatar's skeleton (:func:`eigmotion.canonical.canonical_skeleton`) with
-:mod:`eigmotion.authoring`: a few key poses each, interpolated at 30 fps, feet planted
-by two-bone IK, every frame resting on the floor.
+No free motion capture shows some basic motions (covering the head, falling, lifting a
+heavy load, sitting down holding the stomach), and the CMU clips show the others done
+one way; these motions and the other ways of doing them (jumps, turns, waves, pick-ups)
+are authored on the default avatar's skeleton
+(:func:`eigmotion.canonical.canonical_skeleton`) with :mod:`eigmotion.authoring`: a few
+key poses each, interpolated at 30 fps, feet planted by two-bone IK, every frame
+resting on the floor except in the flight of a jump.  Motions made of steps key each
+foot, the hips and the joints on their own times (tracks) and are sampled into a key
+per frame.
 
 Run from anywhere (the output is the same every time)::
 
@@ -23,16 +28,24 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+from scipy.spatial.transform import Rotation
+
 from eigmotion.authoring import (
+    DEFAULT_FPS,
     Key,
     Target,
     aim_deg,
     animate,
     body_surface_points,
+    foot_target,
     foot_targets,
+    unwrap_rotvecs,
 )
 from eigmotion.bvh import write_bvh
 from eigmotion.motion import Motion
+from eigmotion.rotations import euler_to_matrix, matrix_to_euler
 
 HERE = Path(__file__).resolve().parent
 
@@ -226,6 +239,37 @@ def lift_floor_to_waist_stoop() -> Motion:
             Key(3.6, {"LowerBack": (-6, 0, 0)}, (0.0, -0.02, 0.0), _box(0.89, 0.24)),
         ],
         "lift_floor_to_waist_stoop",
+    )
+
+
+def lift_suitcase_one_hand() -> Motion:
+    """Squat beside a heavy suitcase, grip its handle with the right hand, stand up with it
+    leaning away from the load, the free arm out for balance."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.06)),
+            Key(
+                0.8,
+                {"LowerBack": (28, 0, 10), "Spine": (8, 0, 4), "Head": (10, 0, 0)},
+                (-0.07, -0.36, -0.08),
+                {"RightHand": Target((-0.34, 0.34, 0.10))},
+            ),
+            Key(1.2, {"LowerBack": (30, 0, 10)}, (-0.07, -0.37, -0.08)),
+            Key(
+                2.2,
+                {
+                    "LowerBack": (2, 0, -8),
+                    "Spine": (0, 0, -4),
+                    "Head": (0, 0, 4),
+                    "LeftArm": (0, 0, 25),
+                    "LeftForeArm": (20, 0, 0),
+                },
+                (0.03, -0.02, 0.0),
+                {"RightHand": Target((-0.27, 0.84, 0.03))},
+            ),
+            Key(2.7, {"LowerBack": (0, 0, -6)}, (0.03, -0.01, 0.0)),
+        ],
+        "lift_suitcase_one_hand",
     )
 
 
@@ -550,10 +594,744 @@ def fall_down_sideways() -> Motion:
     )
 
 
+# -- motions made of steps: every channel keyed on its own times ----------------------------
+
+#: One channel's keys, ``(time_s, values)`` in time order.  A foot's values are
+#: ``(x, z, yaw_deg, heel_raise_deg, lift_m)`` (see :func:`eigmotion.authoring.foot_target`),
+#: the root's ``(dx, dy, dz)`` offsets, a joint's ``(x, y, z)`` degrees.
+Track = list[tuple[float, tuple[float, ...]]]
+
+#: Half the distance between the ankles standing naturally, metres (the rest pose
+#: stands wider, 0.18 m).
+STANCE_HALF_WIDTH_M = 0.12
+
+#: Above this lift, metres, a raised heel no longer keeps the toes flat on the floor.
+TOES_OFF_FLOOR_M = 0.04
+
+
+def _interpolator(track: Track, rotation: bool = False) -> Callable[[float], tuple]:
+    """A track's value at any time: PCHIP through its keys, held before and after them.
+
+    Joint rotations are interpolated as the engine does, on rotation vectors taking the
+    short way round, and given back as ``(x, y, z)`` Euler degrees (order ZXY).
+    """
+    times = np.array([t for t, _ in track])
+    values = np.array([v for _, v in track], dtype=np.float64)
+    if rotation:
+        matrices = euler_to_matrix(values[:, [2, 0, 1]], "ZXY")
+        values = unwrap_rotvecs(Rotation.from_matrix(matrices).as_rotvec())
+    curve = PchipInterpolator(times, values, axis=0) if len(track) > 1 else None
+
+    def at(time_s: float) -> tuple:
+        value = values[0] if curve is None else curve(np.clip(time_s, times[0], times[-1]))
+        if not rotation:
+            return tuple(float(v) for v in value)
+        z, x, y = matrix_to_euler(Rotation.from_rotvec(value).as_matrix(), "ZXY")
+        return (float(x), float(y), float(z))
+
+    return at
+
+
+def _tracked(
+    name: str,
+    rotations: dict[str, Track],
+    root: Track,
+    feet: dict[str, Track],
+    flights_s: tuple[tuple[float, float], ...] = (),
+) -> Motion:
+    """A motion from tracks, sampled into a complete key at every frame.
+
+    Each channel is keyed where it changes, independently of the others (a foot holds
+    its place on the floor while the root and the other foot move on).  Keys at every
+    frame keep what the tracks say between their keys too: a foot rolling onto its
+    ball pivots about it rather than cutting the arc.  The toes stay flat on the floor
+    while a heel is raised and the ball of the foot is down.
+    """
+    end = max(t for track in (*rotations.values(), root, *feet.values()) for t, _ in track)
+    times = np.arange(int(np.floor(end * DEFAULT_FPS + 1e-9)) + 1) / DEFAULT_FPS
+    joint_at = {joint: _interpolator(track, rotation=True) for joint, track in rotations.items()}
+    root_at = _interpolator(root)
+    foot_at = {joint: _interpolator(track) for joint, track in feet.items()}
+    keys = []
+    for t in times:
+        rot = {joint: at(t) for joint, at in joint_at.items()}
+        targets = {}
+        for joint, at in foot_at.items():
+            x, z, yaw, heel, lift = at(t)
+            targets[joint] = foot_target(joint, (x, z), yaw, heel, lift)
+            flat = max(0.0, 1.0 - lift / TOES_OFF_FLOOR_M)
+            rot[joint.replace("Foot", "ToeBase")] = (-heel * flat, 0.0, 0.0)
+        keys.append(Key(t, rot, root_at(t), targets))
+    return animate(keys, contact_points_m=body_surface_points(), name=name, flights_s=flights_s)
+
+
+def _turned(x: float, z: float, yaw_deg: float) -> tuple[float, float]:
+    """A body-frame offset (x left, z forward) of a body turned by ``yaw_deg``, world x, z."""
+    c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
+    return (float(x * c + z * s), float(-x * s + z * c))
+
+
+def _footprint(
+    side: float, centre_xz: tuple[float, float], yaw_deg: float, half_width_m: float
+) -> tuple[float, float, float]:
+    """(x, z, yaw) of the left (side +1) or right (-1) foot of a body at ``centre_xz``."""
+    dx, dz = _turned(side * half_width_m, 0.0, yaw_deg)
+    return (centre_xz[0] + dx, centre_xz[1] + dz, yaw_deg)
+
+
+def _stand(footprint: tuple[float, float, float]) -> Track:
+    """A foot track starting flat on the floor at time 0."""
+    return [(0.0, (*footprint, 0.0, 0.0))]
+
+
+def _step(
+    track: Track,
+    take_off_s: float,
+    land_s: float,
+    to: tuple[float, float, float],
+    lift_m: float = 0.08,
+    heel_deg: float = 30.0,
+    roll_s: float = 0.12,
+) -> None:
+    """Append one step to a foot track: heel up about the ball, swing, put down flat.
+
+    The foot stays where it is until ``take_off_s - roll_s``, rolls onto its ball until
+    ``take_off_s``, lifts off mostly upwards, swings ``lift_m`` high and lands flat at
+    ``to`` (x, z, yaw) at ``land_s``.
+    """
+    t0, (x0, z0, yaw0, _, _) = track[-1]
+    if take_off_s - roll_s > t0:
+        track.append((take_off_s - roll_s, (x0, z0, yaw0, 0.0, 0.0)))
+    x1, z1, yaw1 = to
+
+    def swing(fraction: float, heel: float, lift: float) -> tuple[float, ...]:
+        x, z, yaw = (a + fraction * (b - a) for a, b in zip((x0, z0, yaw0), to, strict=True))
+        return (x, z, yaw, heel, lift)
+
+    swing_s = land_s - take_off_s
+    track += [
+        (take_off_s, (x0, z0, yaw0, heel_deg, 0.0)),
+        (take_off_s + 0.25 * swing_s, swing(0.15, 0.6 * heel_deg, 0.6 * lift_m)),
+        (take_off_s + 0.5 * swing_s, swing(0.5, 0.2 * heel_deg, lift_m)),
+        (land_s, (x1, z1, yaw1, 0.0, 0.0)),
+    ]
+
+
+#: A planned step: the foot (+1 left, -1 right), take-off and landing times (s), where
+#: it lands (x, z, yaw_deg) and how high it swings (m).
+Step = tuple[float, float, float, tuple[float, float, float], float]
+
+
+def _walking(
+    name: str,
+    steps: list[Step],
+    end_s: float,
+    half_width_m: float,
+    dip_m: tuple[float, float],
+    arm_swing_deg: float,
+) -> Motion:
+    """Steps from standing at the origin facing +Z; hips, heading and arms follow the feet.
+
+    While both feet are down the hips are ``dip_m[0]`` below standing height, between
+    the feet (a long step needs the legs to reach apart); over the supporting foot they
+    are ``dip_m[1]`` down and a few centimetres to its side.  The pelvis faces the mean
+    heading of the feet and the head looks ahead into a turn; the arms swing
+    ``arm_swing_deg`` against the legs.  The body ends standing, hips at full height.
+    """
+    feet = {side: _stand(_footprint(side, (0.0, 0.0), 0.0, half_width_m)) for side in (1.0, -1.0)}
+    root: Track = [(0.0, (0.0, 0.0, 0.0))]
+    heading: Track = [(0.0, (0.0, 0.0, 0.0))]
+    arms = {side: [(0.0, (0.0, 0.0, -side * 30.0))] for side in (1.0, -1.0)}
+    for side, take_off, land, to, lift in steps:
+        stance = feet[-side][-1][1]
+        sx, sz = _turned(-side * 0.3 * half_width_m, 0.0, stance[2])
+        root.append((0.5 * (take_off + land), (stance[0] + sx, -dip_m[1], stance[1] + sz)))
+        _step(feet[side], take_off, land, to, lift_m=lift)
+        between = (0.5 * (stance[0] + to[0]), -dip_m[0], 0.5 * (stance[1] + to[1]))
+        root.append((land, between))
+        heading.append((land, (0.0, 0.5 * (stance[2] + to[2]), 0.0)))
+        for arm in (1.0, -1.0):
+            arms[arm].append((land, (arm * side * arm_swing_deg, 0.0, -arm * 30.0)))
+    root.append((end_s, (root[-1][1][0], 0.0, root[-1][1][2])))
+    # The head turns ahead of the pelvis, by half the turn still to come over a step.
+    look = [
+        (t, (0.0, 0.5 * (heading[min(i + 1, len(heading) - 1)][1][1] - h[1]), 0.0))
+        for i, (t, h) in enumerate(heading)
+    ]
+    look.append((end_s, (0.0, 0.0, 0.0)))
+    rotations = {
+        "Hips": heading,
+        "Neck": look,
+        "LeftArm": arms[1.0],
+        "RightArm": arms[-1.0],
+        "LeftForeArm": [(0.0, (30.0, 0.0, 0.0))],
+        "RightForeArm": [(0.0, (30.0, 0.0, 0.0))],
+    }
+    return _tracked(name, rotations, root, {"LeftFoot": feet[1.0], "RightFoot": feet[-1.0]})
+
+
+# -- turn -------------------------------------------------------------------------------------
+
+#: Half the distance between the ankles in a walk, metres.
+WALK_HALF_WIDTH_M = 0.09
+
+
+def _turn_step(side: float, take_off: float, land: float, yaw_deg: float, lift: float) -> Step:
+    """A step of a turn on the spot: the foot lands beside the body turned by ``yaw_deg``."""
+    return (side, take_off, land, _footprint(side, (0.0, 0.0), yaw_deg, STANCE_HALF_WIDTH_M), lift)
+
+
+def turn_in_place_90() -> Motion:
+    """Turn 90 degrees to the left on the spot in three steps, the head leading."""
+    steps = [
+        _turn_step(1.0, 0.45, 0.85, 45.0, 0.06),
+        _turn_step(-1.0, 0.95, 1.4, 90.0, 0.07),
+        _turn_step(1.0, 1.5, 1.85, 90.0, 0.04),
+    ]
+    return _walking("turn_in_place_90", steps, 2.4, STANCE_HALF_WIDTH_M, (0.015, 0.01), 0.0)
+
+
+def turn_in_place_180() -> Motion:
+    """Turn round to the right on the spot in four steps, the head leading."""
+    steps = [
+        _turn_step(-1.0, 0.4, 0.8, -55.0, 0.06),
+        _turn_step(1.0, 0.9, 1.35, -115.0, 0.07),
+        _turn_step(-1.0, 1.45, 1.9, -175.0, 0.07),
+        _turn_step(1.0, 2.0, 2.35, -180.0, 0.04),
+    ]
+    return _walking("turn_in_place_180", steps, 2.9, STANCE_HALF_WIDTH_M, (0.015, 0.01), 0.0)
+
+
+def turn_walking_180() -> Motion:
+    """Walk two steps, turn round to the left in two, walk two steps back and stop."""
+    w = WALK_HALF_WIDTH_M
+    turn_centre = (0.12, 1.2)
+    steps = [
+        (-1.0, 0.10, 0.50, _footprint(-1.0, (0.0, 0.45), 0.0, w), 0.08),
+        (1.0, 0.58, 0.98, _footprint(1.0, (0.0, 1.0), 0.0, w), 0.08),
+        (-1.0, 1.06, 1.46, _footprint(-1.0, (0.1, 1.3), 90.0, w), 0.08),
+        (1.0, 1.54, 1.94, _footprint(1.0, turn_centre, 180.0, w), 0.06),
+        (-1.0, 2.02, 2.42, _footprint(-1.0, (0.12, 0.7), 180.0, w), 0.08),
+        (1.0, 2.50, 2.90, _footprint(1.0, (0.12, 0.2), 180.0, w), 0.08),
+        (-1.0, 2.98, 3.33, _footprint(-1.0, (0.12, 0.2), 180.0, w), 0.05),
+    ]
+    return _walking("turn_walking_180", steps, 3.75, w, (0.045, 0.012), 14.0)
+
+
+# -- jump -------------------------------------------------------------------------------------
+
+
+#: How far the upper arms hang out from vertical at rest, degrees (the rest pose's A).
+REST_ARM_SPREAD_DEG = 41.7
+
+
+def _arm(side: float, swing_deg: float, spread_deg: float = 12.0) -> tuple[float, float, float]:
+    """Upper-arm rotation (side +1 left, -1 right): first in to ``spread_deg`` from
+    vertical, then swung about the shoulders' axis, forwards for negative ``swing_deg``
+    (-90 points the arm ahead, -180 straight up), backwards for positive."""
+    inwards = euler_to_matrix([0.0, 0.0, -side * (REST_ARM_SPREAD_DEG - spread_deg)], "XYZ")
+    swing = euler_to_matrix([swing_deg, 0.0, 0.0], "XYZ")
+    z, x, y = matrix_to_euler(swing @ inwards, "ZXY")
+    return (float(x), float(y), float(z))
+
+
+def _arms(left_deg: float, right_deg: float, spread_deg: float = 12.0) -> dict[str, tuple]:
+    """Both upper arms swung (see :func:`_arm`)."""
+    return {
+        "LeftArm": _arm(1.0, left_deg, spread_deg),
+        "RightArm": _arm(-1.0, right_deg, spread_deg),
+    }
+
+
+def _keyed(joints: list[str], keys: list[tuple[float, dict[str, tuple]]]) -> dict[str, Track]:
+    """Joint tracks from whole-body keys (time, joint → rotation): each joint is keyed
+    where a key names it and interpolated between those keys alone."""
+    tracks: dict[str, Track] = {joint: [] for joint in joints}
+    for t, rotations in keys:
+        for joint, angles in rotations.items():
+            tracks[joint].append((t, angles))
+    return {joint: track for joint, track in tracks.items() if track}
+
+
+def jump_forward_standing() -> Motion:
+    """Standing broad jump: swing the arms back and crouch, spring forwards off both feet,
+    tuck, land on both feet 0.95 m ahead, absorb the landing and stand up."""
+    take_off, land = 1.0, 1.45
+    w = STANCE_HALF_WIDTH_M
+    feet = {}
+    for side, joint in ((1.0, "LeftFoot"), (-1.0, "RightFoot")):
+        x = side * w
+        feet[joint] = [
+            (0.0, (x, 0.0, 0.0, 0.0, 0.0)),
+            (0.8, (x, 0.0, 0.0, 0.0, 0.0)),
+            (take_off, (x, 0.0, 0.0, 45.0, 0.0)),
+            (1.22, (x, 0.55, 0.0, 15.0, 0.22)),
+            (land, (x, 0.95, 0.0, 0.0, 0.0)),
+        ]
+    root = [
+        (0.0, (0.0, 0.0, 0.0)),
+        (0.4, (0.0, -0.06, 0.0)),
+        (0.78, (0.0, -0.30, -0.10)),
+        (take_off, (0.0, 0.03, 0.20)),
+        (1.22, (0.0, -0.02, 0.50)),
+        (land, (0.0, -0.14, 0.80)),
+        (1.7, (0.0, -0.36, 0.88)),
+        (2.4, (0.0, -0.01, 0.95)),
+        (2.7, (0.0, 0.0, 0.95)),
+    ]
+    body = [
+        (
+            0.0,
+            {
+                **_arms(0, 0),
+                "LowerBack": (0, 0, 0),
+                "Spine": (0, 0, 0),
+                "Head": (0, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (0.4, {**_arms(-70, -70, 15), "LowerBack": (5, 0, 0)}),
+        (
+            0.78,
+            {
+                **_arms(50, 50, 15),
+                "LowerBack": (35, 0, 0),
+                "Spine": (10, 0, 0),
+                "Head": (-20, 0, 0),
+                "LeftForeArm": (15, 0, 0),
+                "RightForeArm": (15, 0, 0),
+            },
+        ),
+        # The arms swing forwards past the thighs (keys < 180 degrees apart).
+        (0.9, {**_arms(-30, -30, 15)}),
+        (
+            take_off,
+            {
+                **_arms(-140, -140, 15),
+                "LowerBack": (15, 0, 0),
+                "Spine": (0, 0, 0),
+                "Head": (-10, 0, 0),
+            },
+        ),
+        (1.22, {**_arms(-110, -110, 18), "LowerBack": (25, 0, 0)}),
+        (
+            land,
+            {
+                **_arms(-70, -70, 20),
+                "LowerBack": (30, 0, 0),
+                "Spine": (8, 0, 0),
+                "Head": (-15, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (1.7, {**_arms(-45, -45, 25), "LowerBack": (40, 0, 0), "Spine": (12, 0, 0)}),
+        (2.4, {**_arms(0, 0), "LowerBack": (2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0)}),
+        (2.7, {"LowerBack": (0, 0, 0)}),
+    ]
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Spine", "Head"]
+    return _tracked("jump_forward_standing", _keyed(joints, body), root, feet, ((take_off, land),))
+
+
+def jump_hop_one_leg() -> Motion:
+    """Lift the right foot behind, hop four times forwards on the left foot, put it down."""
+    w = STANCE_HALF_WIDTH_M
+    period, flight, advance = 0.6, 0.36, 0.12
+    take_offs = [0.85 + period * i for i in range(4)]
+    left: Track = [(0.0, (w, 0.0, 0.0, 0.0, 0.0))]
+    right: Track = [(0.0, (-w, 0.0, 0.0, 0.0, 0.0)), (0.3, (-w, 0.0, 0.0, 0.0, 0.0))]
+    root: Track = [(0.0, (0.0, 0.0, 0.0)), (0.35, (0.07, -0.02, 0.0))]
+    arms: list[tuple[float, dict]] = [
+        (0.0, {**_arms(0, 0), "LeftForeArm": (30, 0, 0), "RightForeArm": (30, 0, 0)}),
+        (0.45, {**_arms(-10, 10, 30), "LeftForeArm": (60, 0, 0), "RightForeArm": (60, 0, 0)}),
+    ]
+    z = 0.0
+    for t in take_offs:
+        land = t + flight
+        left += [
+            (t - 0.12, (w, z, 0.0, 0.0, 0.0)),
+            (t, (w, z, 0.0, 35.0, 0.0)),
+            (t + 0.5 * flight, (w, z + 0.5 * advance, 0.0, 30.0, 0.0)),
+            (land, (w, z + advance, 0.0, 15.0, 0.0)),
+            (land + 0.1, (w, z + advance, 0.0, 0.0, 0.0)),
+        ]
+        right.append((t, (-0.08, z - 0.1, 0.0, 45.0, 0.27)))
+        root += [
+            (t - 0.12, (0.08, -0.08, z + 0.02)),
+            (t, (0.08, 0.03, z + 0.05)),
+            (land, (0.08, -0.01, z + advance + 0.01)),
+        ]
+        arms += [
+            (t - 0.12, _arms(5, 20, 30)),
+            (t + 0.5 * flight, _arms(-25, -5, 35)),
+        ]
+        z += advance
+    last = take_offs[-1] + flight
+    _step(right, last + 0.2, last + 0.5, (-w, z, 0.0), lift_m=0.05, heel_deg=0.0)
+    root += [
+        (last + 0.15, (0.08, -0.07, z + 0.01)),
+        (last + 0.5, (0.02, -0.02, z)),
+        (last + 0.75, (0.0, 0.0, z)),
+    ]
+    arms += [(last + 0.6, {**_arms(0, 0), "LeftForeArm": (30, 0, 0), "RightForeArm": (30, 0, 0)})]
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm"]
+    flights = tuple((t, t + flight) for t in take_offs)
+    return _tracked(
+        "jump_hop_one_leg",
+        _keyed(joints, arms),
+        root,
+        {"LeftFoot": left, "RightFoot": right},
+        flights,
+    )
+
+
+def jump_running() -> Motion:
+    """Three running steps, take off from the right foot driving the left knee up, fly
+    0.5 s, land on both feet, absorb the landing and stand up."""
+    w = WALK_HALF_WIDTH_M
+    take_off, land = 1.16, 1.68
+    left = _stand((w, 0.0, 0.0))
+    right = _stand((-w, 0.0, 0.0))
+    _step(right, 0.10, 0.42, (-w, 0.50, 0.0), lift_m=0.10)
+    _step(left, 0.42, 0.68, (w, 1.22, 0.0), lift_m=0.14)
+    _step(right, 0.62, 0.90, (-w, 1.95, 0.0), lift_m=0.16)
+    right += [(1.02, (-w, 1.95, 0.0, 0.0, 0.0)), (take_off, (-w, 1.95, 0.0, 55.0, 0.0))]
+    left += [
+        (0.84, (w, 1.22, 0.0, 0.0, 0.0)),
+        (0.92, (w, 1.22, 0.0, 35.0, 0.0)),
+        (take_off, (w, 2.30, 0.0, 20.0, 0.40)),
+        (1.42, (w, 2.85, 0.0, 10.0, 0.32)),
+        (land, (0.11, 3.35, 0.0, 0.0, 0.0)),
+    ]
+    right += [(1.42, (-w, 2.65, 0.0, 30.0, 0.36)), (land, (-0.11, 3.35, 0.0, 0.0, 0.0))]
+    root = [
+        (0.0, (0.0, 0.0, 0.0)),
+        (0.42, (0.0, -0.04, 0.30)),
+        (0.62, (0.0, -0.01, 0.80)),
+        (0.68, (0.0, -0.03, 0.98)),
+        (0.90, (0.0, -0.06, 1.62)),
+        (1.02, (0.0, -0.11, 1.95)),
+        (take_off, (0.0, 0.0, 2.22)),
+        (1.42, (0.0, -0.02, 2.75)),
+        (land, (0.0, -0.12, 3.22)),
+        (1.92, (0.0, -0.40, 3.32)),
+        (2.6, (0.0, -0.01, 3.35)),
+        (2.8, (0.0, 0.0, 3.35)),
+    ]
+    body = [
+        (
+            0.0,
+            {
+                **_arms(0, 0),
+                "LowerBack": (0, 0, 0),
+                "Head": (0, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (
+            0.42,
+            {
+                **_arms(25, -30),
+                "LowerBack": (8, 0, 0),
+                "LeftForeArm": (80, 0, 0),
+                "RightForeArm": (80, 0, 0),
+            },
+        ),
+        (0.68, _arms(-35, 30)),
+        (0.90, _arms(35, -40)),
+        (1.02, {**_arms(30, 10), "LowerBack": (12, 0, 0)}),
+        (
+            take_off,
+            {
+                **_arms(-120, -100, 15),
+                "LowerBack": (0, 0, 0),
+                "Head": (-10, 0, 0),
+                "LeftForeArm": (40, 0, 0),
+                "RightForeArm": (40, 0, 0),
+            },
+        ),
+        (1.42, {**_arms(-100, -100, 15), "LowerBack": (15, 0, 0)}),
+        (
+            land,
+            {
+                **_arms(-70, -70, 20),
+                "LowerBack": (30, 0, 0),
+                "Head": (-15, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (1.92, {**_arms(-45, -45, 25), "LowerBack": (40, 0, 0)}),
+        (2.6, {**_arms(0, 0), "LowerBack": (2, 0, 0), "Head": (0, 0, 0)}),
+        (2.8, {"LowerBack": (0, 0, 0)}),
+    ]
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Head"]
+    flights = ((0.62, 0.68), (take_off, land))
+    return _tracked(
+        "jump_running", _keyed(joints, body), root, {"LeftFoot": left, "RightFoot": right}, flights
+    )
+
+
+# -- wave -------------------------------------------------------------------------------------
+
+
+def _waving(
+    name: str,
+    raise_s: float,
+    lower_s: float,
+    end_s: float,
+    period_s: float,
+    up: dict[str, tuple],
+    sway: tuple[dict[str, tuple], dict[str, tuple]],
+    body: dict[str, tuple],
+) -> Motion:
+    """Stand, raise the arm(s) to ``up`` by ``raise_s``, alternate between the two
+    ``sway`` poses every half ``period_s`` until ``lower_s``, lower them by ``end_s``."""
+    rest = {**ARMS_DOWN, **SPINE_STRAIGHT}
+    keys = [Key(0.0, rest, (0, 0, 0), _planted(extra_width_m=-0.04)), Key(raise_s, {**up, **body})]
+    t, i = raise_s + 0.5 * period_s, 0
+    while t < lower_s - 0.25 * period_s:
+        keys.append(Key(t, sway[i % 2]))
+        t, i = t + 0.5 * period_s, i + 1
+    keys += [Key(lower_s, up), Key(end_s, rest)]
+    return _animate(keys, name)
+
+
+def wave_right_hand() -> Motion:
+    """Greeting: raise the right hand beside the head, elbow bent, wave it side to side."""
+    up = {"RightArm": (-15, 0, -80), "RightForeArm": (0, 0, -90), "RightHand": (0, -60, 0)}
+    return _waving(
+        "wave_right_hand",
+        0.6,
+        2.45,
+        3.0,
+        0.42,
+        up,
+        ({"RightForeArm": (0, 0, -62)}, {"RightForeArm": (0, 0, -100)}),
+        {"LowerBack": (0, 0, 3), "Head": (0, -8, 0)},
+    )
+
+
+def wave_left_hand() -> Motion:
+    """Hailing someone far off: the left arm straight up, swept wide from side to side."""
+    up = {"LeftArm": (-10, 0, 110), "LeftForeArm": (0, 0, 10)}
+    return _waving(
+        "wave_left_hand",
+        0.55,
+        2.9,
+        3.4,
+        0.8,
+        up,
+        ({"LeftArm": (-10, 0, 128)}, {"LeftArm": (-10, 0, 92)}),
+        {"LowerBack": (0, 0, -4), "Neck": (-10, 0, 0), "Head": (-10, 0, 0)},
+    )
+
+
+def wave_both_hands() -> Motion:
+    """Both arms straight up above the head, swaying together from side to side."""
+    up = {
+        "LeftArm": (-5, 0, 115),
+        "RightArm": (-5, 0, -115),
+        "LeftForeArm": (0, 0, 15),
+        "RightForeArm": (0, 0, -15),
+    }
+    to_left = {"LeftArm": (-5, 0, 100), "RightArm": (-5, 0, -128)}
+    to_right = {"LeftArm": (-5, 0, 128), "RightArm": (-5, 0, -100)}
+    return _waving(
+        "wave_both_hands",
+        0.6,
+        3.0,
+        3.5,
+        0.9,
+        up,
+        (to_left, to_right),
+        {"Neck": (-8, 0, 0), "Head": (-8, 0, 0)},
+    )
+
+
+# -- pick up ----------------------------------------------------------------------------------
+
+
+def _knees_out(turn_deg: float) -> dict[str, tuple[float, float, float]]:
+    """Thighs turned outwards about their length, so that bent knees point over the toes
+    (the IK bends a leg the way its keyed pose bends)."""
+    return {"LeftUpLeg": (0.0, turn_deg, 0.0), "RightUpLeg": (0.0, -turn_deg, 0.0)}
+
+
+def pick_up_squatting() -> Motion:
+    """Squat with the back straight, heels coming up, take a small object from the floor
+    with both hands and stand up holding it at the waist."""
+    return _animate(
+        [
+            Key(
+                0.0,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0, 0, 0),
+                _planted(extra_width_m=0.05, toe_out_deg=15.0),
+            ),
+            Key(0.35, {"LowerBack": (8, 0, 0), "Head": (15, 0, 0)}, (0.0, -0.08, -0.02)),
+            # The hands go down and come up in front of the knees.
+            Key(
+                0.65,
+                {"Hips": (8, 0, 0), "LowerBack": (20, 0, 0), "Spine": (5, 0, 0), **_knees_out(10)},
+                (0.0, -0.28, -0.07),
+                _hands_world(0.56, 0.42, 0.10),
+            ),
+            Key(
+                0.95,
+                {
+                    "Hips": (20, 0, 0),
+                    "LowerBack": (30, 0, 0),
+                    "Spine": (10, 0, 0),
+                    "Neck": (-5, 0, 0),
+                    **_knees_out(20),
+                    **_toes(25),
+                },
+                (0.0, -0.52, -0.12),
+                {
+                    **_planted(extra_width_m=0.05, toe_out_deg=15.0, heel_raise_deg=25.0),
+                    **_hands_world(0.19, 0.52, 0.09),
+                },
+            ),
+            Key(
+                1.25, {"LowerBack": (32, 0, 0)}, (0.0, -0.53, -0.12), _hands_world(0.19, 0.52, 0.08)
+            ),
+            Key(
+                1.6,
+                {
+                    "Hips": (10, 0, 0),
+                    "LowerBack": (18, 0, 0),
+                    "Spine": (5, 0, 0),
+                    "Neck": (0, 0, 0),
+                    **_knees_out(10),
+                    **_toes(12),
+                },
+                (0.0, -0.27, -0.07),
+                {
+                    **_planted(extra_width_m=0.05, toe_out_deg=15.0, heel_raise_deg=12.0),
+                    **_hands_world(0.56, 0.44, 0.08),
+                },
+            ),
+            Key(
+                1.95,
+                {
+                    "Hips": (0, 0, 0),
+                    **SPINE_STRAIGHT,
+                    "Head": (5, 0, 0),
+                    **_knees_out(0),
+                    **_toes(0),
+                },
+                (0.0, -0.01, 0.0),
+                {
+                    **_planted(extra_width_m=0.05, toe_out_deg=15.0),
+                    **_hands_world(0.95, 0.26, 0.07),
+                },
+            ),
+            Key(2.3, {"Head": (0, 0, 0)}, (0.0, 0.0, 0.0), _hands_world(0.94, 0.25, 0.07)),
+        ],
+        "pick_up_squatting",
+    )
+
+
+def pick_up_bending() -> Motion:
+    """Bend from the hips with the legs nearly straight, take a small object from the
+    floor with both hands, straighten up holding it at the waist."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=-0.02)),
+            Key(0.35, {"Head": (15, 0, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                1.0,
+                {
+                    "Hips": (60, 0, 0),
+                    "LowerBack": (38, 0, 0),
+                    "Spine": (22, 0, 0),
+                    "Spine1": (10, 0, 0),
+                    "Neck": (-15, 0, 0),
+                    "Head": (-5, 0, 0),
+                },
+                (0.0, -0.12, -0.20),
+                _hands_world(0.19, 0.36, 0.08),
+            ),
+            Key(1.3, {"Hips": (61, 0, 0)}, (0.0, -0.12, -0.20), _hands_world(0.19, 0.36, 0.07)),
+            Key(
+                2.2,
+                {"Hips": (0, 0, 0), **SPINE_STRAIGHT, "Head": (5, 0, 0)},
+                (0.0, -0.01, 0.0),
+                _hands_world(0.92, 0.24, 0.07),
+            ),
+            Key(2.5, {"Head": (0, 0, 0)}, (0.0, 0.0, 0.0), _hands_world(0.92, 0.24, 0.07)),
+        ],
+        "pick_up_bending",
+    )
+
+
+def pick_up_one_hand() -> Motion:
+    """Bend knees and back, reach down with the right hand alone beside the right foot,
+    pick something up and stand with it at the side."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
+            # The right hand passes outside the right knee, down and up.
+            Key(
+                0.45,
+                {"Hips": (8, 0, 0), "LowerBack": (22, -4, 3), "Spine": (8, 0, 1), **_knees_out(8)},
+                (-0.03, -0.18, -0.06),
+                {"RightHand": Target((-0.42, 0.50, 0.16))},
+            ),
+            Key(
+                0.9,
+                {
+                    "Hips": (20, 0, 0),
+                    "LowerBack": (40, -8, 6),
+                    "Spine": (18, 0, 3),
+                    "Head": (0, 0, 0),
+                    "LeftArm": (-35, 0, -25),
+                    "LeftForeArm": (40, 0, 0),
+                    **_knees_out(15),
+                },
+                (-0.05, -0.40, -0.14),
+                {"RightHand": Target((-0.40, 0.18, 0.28))},
+            ),
+            Key(1.2, {"LowerBack": (41, -8, 6)}, (-0.05, -0.41, -0.14)),
+            Key(
+                1.55,
+                {
+                    "Hips": (8, 0, 0),
+                    "LowerBack": (20, -4, 3),
+                    "Spine": (8, 0, 1),
+                    "LeftArm": (-15, 0, -28),
+                    "LeftForeArm": (35, 0, 0),
+                    **_knees_out(8),
+                },
+                (-0.03, -0.17, -0.06),
+                {"RightHand": Target((-0.42, 0.55, 0.16))},
+            ),
+            Key(
+                1.9,
+                {
+                    "Hips": (0, 0, 0),
+                    **SPINE_STRAIGHT,
+                    **ARMS_DOWN,
+                    "Head": (5, 0, 0),
+                    **_knees_out(0),
+                },
+                (0.0, -0.01, 0.0),
+                {"RightHand": Target((-0.28, 0.84, 0.14))},
+            ),
+            Key(2.3, {"Head": (0, 0, 0)}, (0.0, 0.0, 0.0)),
+        ],
+        "pick_up_one_hand",
+    )
+
+
 MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
     "lift_floor_to_waist_stoop": lift_floor_to_waist_stoop,
+    "lift_suitcase_one_hand": lift_suitcase_one_hand,
     "sit_down_holding_stomach_slow": sit_down_holding_stomach_slow,
     "sit_down_holding_stomach_fast": sit_down_holding_stomach_fast,
     "sit_down_doubled_over": sit_down_doubled_over,
@@ -563,6 +1341,18 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "fall_down_forwards": fall_down_forwards,
     "fall_down_backwards": fall_down_backwards,
     "fall_down_sideways": fall_down_sideways,
+    "turn_in_place_90": turn_in_place_90,
+    "turn_in_place_180": turn_in_place_180,
+    "turn_walking_180": turn_walking_180,
+    "jump_forward_standing": jump_forward_standing,
+    "jump_hop_one_leg": jump_hop_one_leg,
+    "jump_running": jump_running,
+    "wave_right_hand": wave_right_hand,
+    "wave_left_hand": wave_left_hand,
+    "wave_both_hands": wave_both_hands,
+    "pick_up_squatting": pick_up_squatting,
+    "pick_up_bending": pick_up_bending,
+    "pick_up_one_hand": pick_up_one_hand,
 }
 
 
