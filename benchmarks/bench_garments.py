@@ -26,9 +26,9 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import argparse  # noqa: E402
-import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _timing import best_time  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 from eigmotion.avatar import Avatar, load_default_avatar  # noqa: E402
@@ -39,16 +39,6 @@ from eigmotion.library import find_motion  # noqa: E402
 from eigmotion.silhouettes import render_masks  # noqa: E402
 
 MOTIONS = ("walk_02_01", "kick_135_04")
-
-
-def best_time(work, repeats: int = 3):
-    """Shortest wall time of ``repeats`` runs of ``work()`` and its last result."""
-    best, result = np.inf, None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = work()
-        best = min(best, time.perf_counter() - start)
-    return best, result
 
 
 def edges(faces: np.ndarray) -> np.ndarray:

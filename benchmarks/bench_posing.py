@@ -29,22 +29,13 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _timing import best_time  # noqa: E402
 
 from eigmotion.asf_amc import read_amc  # noqa: E402
 from eigmotion.avatar import load_default_avatar, skinning_transforms  # noqa: E402
 from eigmotion.retarget import retarget  # noqa: E402
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
-
-
-def best_time(work, repeats: int):
-    """Shortest wall time of ``repeats`` runs of ``work()`` and its last result."""
-    best, result = np.inf, None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = work()
-        best = min(best, time.perf_counter() - start)
-    return best, result
 
 
 def blend_gemm(avatar, rotations, positions, chunk: int = 64) -> np.ndarray:

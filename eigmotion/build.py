@@ -32,8 +32,9 @@ from .motion_image import MotionImageConfig, motion_image
 #: girth factor).  Several shapes stand in for several people.
 DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
 #: Outfits of the default build: tuples of garment names (see
-#: :mod:`eigmotion.garments`); ``()`` is the plain body.
-DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = ((),)
+#: :mod:`eigmotion.garments`); ``()`` is the plain body.  Database garments only: the
+#: benchmark's (:data:`eigmotion.garments.BENCHMARK_GARMENTS`) stay unseen.
+DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = ((), ("short_skirt",), ("jacket", "wide_shorts"))
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,7 @@ class BuildConfig:
             data["motion_image"] = MotionImageConfig.from_dict(dict(data["motion_image"]))
         if "body_shapes" in data:
             data["body_shapes"] = tuple((None if h < 0 else h, g) for h, g in data["body_shapes"])
+        data.setdefault("garments", ((),))  # stored before garments existed: the plain body
         if data.get("n_components") == 0:
             data["n_components"] = None
         return cls(**data)

@@ -40,7 +40,7 @@ from eigmotion.rotations import axis_rotation
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS = ("kick_135_04", "wave_14_24")
-CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6)
+CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6, garments=((),))
 CLIP_FPS = 30.0
 #: The clip plays the first half of the motion at 0.7× and the second at 1.3× speed.
 SPEEDS = (0.7, 1.3)

@@ -32,7 +32,7 @@ from eigmotion.search import BruteForceIndex
 REPO = Path(__file__).resolve().parents[1]
 
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6)
+CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
 
 
 @pytest.fixture(scope="module")
