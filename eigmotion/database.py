@@ -587,32 +587,25 @@ class MotionDatabase:
         )
 
     def _most_specific(self, whole: Match, windowed) -> Match:
-        """The clip's answer from the whole clip's nearest entry and its windows'.
-
-        A window *shows a specific action* when its nearest entry's label is not
-        filler (:data:`FILLER_LABELS`), lies within the threshold, and is nearer than
-        :data:`SPECIFIC_MARGIN` times the window's nearest filler entry.  The answer
-        is the whole clip's nearest entry when it agrees with the windows: its label
-        is one a window shows, or it is filler and no window shows an action.  Else
-        the nearest entry of the windows showing an action, or, when none does, of
-        all windows: a clip of walking into a turn is a turn, and the motion image of
-        a clip joining two motions matches neither.
-        """
-        if windowed is None:
+        """The clip's answer: the whole clip's nearest entry, unless that is filler
+        (:data:`FILLER_LABELS`: walking into a turn) and a window shows a specific
+        action — its nearest entry has another label, lies within the threshold and is
+        nearer than :data:`SPECIFIC_MARGIN` times the window's nearest filler entry
+        (the library's walking turns hold walking steps of their own) — then the
+        nearest such window entry."""
+        if windowed is None or whole.label not in FILLER_LABELS:
             return whole
-        specific, nearest = [], []
+        specific = []
         for ids, dists in zip(windowed.ids, windowed.distances, strict=True):
             labels = [self._label_of(int(i)) for i in ids]
-            nearest.append((float(dists[0]), int(ids[0]), labels[0]))
             if labels[0] in FILLER_LABELS or dists[0] > self.threshold:
                 continue
             filler = [d for d, label in zip(dists, labels, strict=True) if label in FILLER_LABELS]
             if not filler or dists[0] < SPECIFIC_MARGIN * filler[0]:
-                specific.append(nearest[-1])
-        shown = {label for _, _, label in (specific or nearest)}
-        if whole.label in shown:
+                specific.append((float(dists[0]), int(ids[0])))
+        if not specific:
             return whole
-        dist, entry_id, _ = min(specific or nearest)
+        dist, entry_id = min(specific)
         return self._match(entry_id, dist)
 
     def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
