@@ -36,6 +36,15 @@ Background estimation when none is given (``SilhouetteConfig.background``):
     than half of the clip, even when in view from the first frame: a walk across
     the picture, not a walk towards the camera or a wave on the spot (measured in
     ``docs/motion-image.md``).
+``"grabcut"`` (the default)
+    For a person who stays in place: the plain median keeps their still body, and a
+    first segmentation against it finds only what moves.  The still body is found in
+    the median image by ``cv2.grabCut``, seeded by colour models of the scene and of
+    the moving person (:mod:`eigmotion.background`); then the median again, over
+    the frames where the pixel was neither near the moving person nor on the still
+    body — or, where the person moved, where its colour is the scene's rather than
+    the person's (the body uncovered); pixels never uncovered are inpainted
+    (``cv2.inpaint``, Telea).
 ``"mog2"``
     OpenCV's Gaussian-mixture subtractor (``BackgroundSubtractorMOG2``) run twice
     over the clip, its background image then used as above.  Kept for comparison:
@@ -53,7 +62,7 @@ import numpy as np
 
 from .errors import InvalidParameterError, VideoError
 
-BACKGROUND_METHODS = ("median", "mog2")
+BACKGROUND_METHODS = ("median", "grabcut", "mog2")
 
 #: Gaussian sigma, pixels, of the smoothing before the shadow test.
 SHADOW_SIGMA_PX = 1.0
@@ -65,6 +74,10 @@ RAW_PER_SMOOTHED_NOISE = 2.5
 #: Pixels per frame and channel whose median ratio to the background is the exposure gain.
 GAIN_SAMPLES = 512
 
+#: Radius, pixels, of the inpainting that fills the scene behind a still body never
+#: uncovered (background method "grabcut").
+INPAINT_RADIUS_PX = 3
+
 #: Frame rate assumed for an ``.npz`` of masks that stores none, frames per second.
 DEFAULT_NPZ_FPS = 30.0
 
@@ -75,8 +88,8 @@ class SilhouetteConfig:
 
     Parameters
     ----------
-    background : {"median", "mog2"}
-        How to estimate the background when none is given.
+    background : {"median", "grabcut", "mog2"}
+        How to estimate the background when none is given (see the module's notes).
     max_background_frames : int
         Frames (spread evenly over the clip) the median uses, in [3, 1000].
     low_factor, high_factor : float
@@ -115,7 +128,7 @@ class SilhouetteConfig:
         segmenting full-resolution video only costs time.
     """
 
-    background: str = "median"
+    background: str = "grabcut"
     max_background_frames: int = 60
     low_factor: float = 3.0
     high_factor: float = 7.0
@@ -287,7 +300,8 @@ def estimate_background(
         pixels and left out of the per-pixel median, as are samples darker than
         ``config.shadow_ratio[1]`` times the pixel's bright level (its 80th luminance
         percentile: a lingering cast shadow).  Pixels excluded in every frame fall back
-        to the plain median.  Only used by the median method.
+        to the plain median.  The grabcut method takes them as its first segmentation
+        (made against the plain median when not given); mog2 ignores them.
 
     Returns
     -------
@@ -309,27 +323,96 @@ def estimate_background(
     pick = pick.astype(np.int64)
     sample = frames[pick]
     plain = np.median(sample, axis=0)
+    if exclude is not None:
+        exclude = np.asarray(exclude, dtype=bool)
+        if exclude.shape != frames.shape[:3]:
+            raise InvalidParameterError(
+                f"exclude must have shape {frames.shape[:3]} like the frames, got {exclude.shape}"
+            )
+        exclude = exclude[pick]
+    if config.background == "grabcut":
+        return _without_still_body(sample, plain, exclude, config)
     if exclude is None:
-        return np.clip(np.rint(plain), 0, 255).astype(np.uint8)
-    exclude = np.asarray(exclude, dtype=bool)
-    if exclude.shape != frames.shape[:3]:
-        raise InvalidParameterError(
-            f"exclude must have shape {frames.shape[:3]} like the frames, got {exclude.shape}"
+        return _to_uint8(plain)
+    refined = _median_of_scene(sample, _grown(exclude), config)
+    return _to_uint8(np.where(np.isnan(refined), plain, refined))
+
+
+def _without_still_body(
+    sample: np.ndarray,
+    plain: np.ndarray,
+    first_masks: np.ndarray | None,
+    config: SilhouetteConfig,
+) -> np.ndarray:
+    """The grabcut method of :func:`estimate_background`.
+
+    Parameters
+    ----------
+    sample : (F, H, W, 3) uint8
+        The frames the median is taken over.
+    plain : (H, W, 3) float
+        Their per-pixel median.
+    first_masks : (F, H, W) bool or None
+        The person in each sample frame; segmented against ``plain`` when None.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+    """
+    import cv2
+
+    from .background import find_still_body
+
+    median = _to_uint8(plain)
+    if first_masks is None:
+        first_masks = _segment(sample, median, config)
+    body = find_still_body(median, sample, first_masks)
+    # A sample shows the scene where the person was not near it and the median shows
+    # no still body; and, where the person moved, wherever its colour is more the
+    # scene's than the person's (the still body uncovered).
+    scene = ~_grown(first_masks)
+    if body is not None:
+        scene &= ~body.mask
+        scene[:, body.envelope] |= body.person_log_ratio(sample[:, body.envelope]) < 0.0
+    background = _median_of_scene(sample, ~scene, config)
+    never = np.isnan(background[..., 0])
+    background = _to_uint8(np.where(np.isnan(background), plain, background))
+    if never.any():
+        background = cv2.inpaint(
+            background, never.astype(np.uint8), INPAINT_RADIUS_PX, cv2.INPAINT_TELEA
         )
+    return background
+
+
+def _grown(masks: np.ndarray) -> np.ndarray:
+    """(F, H, W) bool masks, each grown by 3 pixels (the person's blurred rim)."""
+    import cv2
+
     grow = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
-    excluded = np.zeros(sample.shape[:3], bool)
-    for i, k in enumerate(pick):
-        if exclude[k].any():
-            excluded[i] = cv2.dilate(exclude[k].astype(np.uint8), grow).astype(bool)
+    out = np.zeros(masks.shape, bool)
+    for i, mask in enumerate(masks):
+        if mask.any():
+            out[i] = cv2.dilate(mask.astype(np.uint8), grow).astype(bool)
+    return out
+
+
+def _median_of_scene(
+    sample: np.ndarray, excluded: np.ndarray, config: SilhouetteConfig
+) -> np.ndarray:
+    """Per-pixel median (H, W, 3) float32 of the samples (F, H, W, 3) not ``excluded``
+    (F, H, W) nor in a cast shadow; NaN where no sample is left."""
     # Cast shadows only darken: a floor pixel the shadow covers for most of the clip
     # would get a dark median.  Drop the samples darker than a shadow's upper ratio
     # of the pixel's bright level (its 80th luminance percentile), then take the median.
     luma = sample.astype(np.float32) @ np.float32([0.299, 0.587, 0.114])
     bright = _masked_quantile(luma[..., None], excluded, 0.8)[..., 0]
-    excluded |= luma < config.shadow_ratio[1] * bright[None]
-    refined = _masked_quantile(sample, excluded, 0.5)
-    refined = np.where(np.isnan(refined), plain, refined)
-    return np.clip(np.rint(refined), 0, 255).astype(np.uint8)
+    excluded = excluded | (luma < config.shadow_ratio[1] * bright[None])
+    return _masked_quantile(sample, excluded, 0.5)
+
+
+def _to_uint8(image: np.ndarray) -> np.ndarray:
+    """Rounded and clipped to 0–255, uint8."""
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
 
 
 def _masked_quantile(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.ndarray:
