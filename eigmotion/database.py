@@ -50,6 +50,9 @@ FILLER_LABELS = frozenset({"walk", "run"})
 #: turn hold walking steps of their own), among :data:`WINDOW_CANDIDATES` nearest.
 SPECIFIC_MARGIN = 0.7
 WINDOW_CANDIDATES = 8
+#: Windows that must show the same specific action for it to override filler: one
+#: window alone is as often a walk's stride matched to a walking turn's.
+MIN_SPECIFIC_WINDOWS = 2
 
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
@@ -588,24 +591,26 @@ class MotionDatabase:
 
     def _most_specific(self, whole: Match, windowed) -> Match:
         """The clip's answer: the whole clip's nearest entry, unless that is filler
-        (:data:`FILLER_LABELS`: walking into a turn) and a window shows a specific
-        action — its nearest entry has another label, lies within the threshold and is
-        nearer than :data:`SPECIFIC_MARGIN` times the window's nearest filler entry
-        (the library's walking turns hold walking steps of their own) — then the
-        nearest such window entry."""
+        (:data:`FILLER_LABELS`: walking into a turn) and the windows show a specific
+        action — at least :data:`MIN_SPECIFIC_WINDOWS` windows whose nearest entry has
+        that label, lies within the threshold and is nearer than
+        :data:`SPECIFIC_MARGIN` times the window's nearest filler entry (the library's
+        walking turns hold walking steps of their own) — then the nearest of those
+        window entries."""
         if windowed is None or whole.label not in FILLER_LABELS:
             return whole
-        specific = []
+        specific: dict[str, list[tuple[float, int]]] = {}
         for ids, dists in zip(windowed.ids, windowed.distances, strict=True):
             labels = [self._label_of(int(i)) for i in ids]
             if labels[0] in FILLER_LABELS or dists[0] > self.threshold:
                 continue
             filler = [d for d, label in zip(dists, labels, strict=True) if label in FILLER_LABELS]
             if not filler or dists[0] < SPECIFIC_MARGIN * filler[0]:
-                specific.append((float(dists[0]), int(ids[0])))
-        if not specific:
+                specific.setdefault(labels[0], []).append((float(dists[0]), int(ids[0])))
+        shown = [min(found) for found in specific.values() if len(found) >= MIN_SPECIFIC_WINDOWS]
+        if not shown:
             return whole
-        dist, entry_id = min(specific)
+        dist, entry_id = min(shown)
         return self._match(entry_id, dist)
 
     def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
