@@ -26,6 +26,12 @@ background): ``low = max(min_delta_e, low_factor × noise)``, ``high`` likewise.
 lossy codec removes the fine grain but adds blocky errors, so the raw noise level is
 never taken below :data:`RAW_PER_SMOOTHED_NOISE` times the smoothed one.
 
+Each stage runs once over the whole clip, not frame by frame: the frames are stacked
+one above the other in a single image, with empty separator rows wider than any filter
+reaches, so a colour conversion, a blur, a connected-component labelling or a
+morphology is one OpenCV call and the per-pixel tests are compiled loops (numba) over
+the stack; holes are looked for only inside each frame's person box.
+
 Background estimation when none is given (``SilhouetteConfig.background``):
 
 ``"median"``
