@@ -132,6 +132,12 @@ def cosine_distance(a: np.ndarray, b: np.ndarray) -> float:
     return float(1.0 - np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
 
 
+def iou(masks: np.ndarray, truth: np.ndarray) -> float:
+    """Intersection over union per frame, averaged over the clip."""
+    union = np.maximum((masks | truth).sum(axis=(1, 2)), 1)
+    return float(((masks & truth).sum(axis=(1, 2)) / union).mean())
+
+
 def ratio(ours: float, baseline: float) -> float:
     """``ours / baseline`` (nan when the baseline is 0)."""
     return float(ours) / float(baseline) if baseline else float("nan")

@@ -43,7 +43,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _motion_image_common import ratio  # noqa: E402
+from _motion_image_common import iou, ratio  # noqa: E402
 
 from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX  # noqa: E402
 from eigmotion.media import sample_indices  # noqa: E402
@@ -110,12 +110,6 @@ def shrunk_truth(truth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     factor = truth.shape[1] // rows
     blocks = truth[:, : rows * factor, : cols * factor].reshape(-1, rows, factor, cols, factor)
     return blocks.mean(axis=(2, 4)) >= 0.5
-
-
-def iou(masks: np.ndarray, truth: np.ndarray) -> float:
-    """Intersection over union per frame, averaged over the clip."""
-    union = np.maximum((masks | truth).sum(axis=(1, 2)), 1)
-    return float(((masks & truth).sum(axis=(1, 2)) / union).mean())
 
 
 def main(argv=None) -> None:

@@ -31,19 +31,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import WALK_VIEWS, composed_walks, ratio, walk_views
+from _motion_image_common import WALK_VIEWS, composed_walks, iou, ratio, walk_views
 
 from eigmotion.media import read_frames, write_video
 from eigmotion.video import SilhouetteConfig, extract_silhouettes
 
 #: (row name, background given?, SilhouetteConfig.background); the last is the baseline.
 METHODS = (("given", True, "median"), ("median", False, "median"), ("mog2", False, "mog2"))
-
-
-def iou(masks: np.ndarray, truth: np.ndarray) -> float:
-    """Intersection over union per frame, averaged over the clip."""
-    union = np.maximum((masks | truth).sum(axis=(1, 2)), 1)
-    return float(((masks & truth).sum(axis=(1, 2)) / union).mean())
 
 
 def main(argv=None) -> None:
