@@ -238,12 +238,100 @@ def motion_image(
     VideoError
         Every mask empty ("no person"), or nothing moved ("no motion").
     """
-    stack = _check_masks(masks)
-    if clip_fps is not None:
-        _check_real("clip_fps", clip_fps, 1e-3, 1e4)
-        stack = stack[sample_indices(stack.shape[0], float(clip_fps), config.sample_fps)]
-    aligned = align_frames(stack, config)
-    return _image_from_aligned(aligned, config)
+    return ClipMotionImages(masks, config, clip_fps).window(0, len(masks))
+
+
+class ClipMotionImages:
+    """Motion images of a clip and of windows of it, sharing the per-frame work.
+
+    Each frame's silhouette is converted, and its mass profiles, body centre and body
+    height measured, once; a window then only aligns and accumulates its frames.
+    :meth:`window` equals :func:`motion_image` of the window's masks.
+
+    Parameters
+    ----------
+    masks, config, clip_fps
+        As for :func:`motion_image`, for the whole clip.
+    """
+
+    def __init__(
+        self,
+        masks: np.ndarray,
+        config: MotionImageConfig = MotionImageConfig(),  # noqa: B008 - frozen, immutable
+        clip_fps: float | None = None,
+    ):
+        stack = _check_masks(masks)
+        if clip_fps is not None:
+            _check_real("clip_fps", clip_fps, 1e-3, 1e4)
+        self.config, self.clip_fps = config, clip_fps
+        values = stack.astype(np.float32)  # one conversion; every later step reads it
+        if stack.dtype == np.uint8 and stack.max() > 1:
+            values *= 1.0 / 255.0
+        self._values = values
+        self._rows = values.sum(axis=2)  # (F, H) silhouette mass per row
+        self._cols = values.sum(axis=1)  # (F, W) and per column
+        self._occupied = self._rows.sum(axis=1) > 0.0
+        if config.frame == "person":
+            self._centres = np.stack(
+                [_weighted_median(self._rows), _weighted_median(self._cols)], axis=1
+            )
+            self._heights = _trimmed_span(self._rows)
+
+    def window(self, start: int, stop: int) -> np.ndarray:
+        """The motion image of frames ``[start, stop)`` of the clip.
+
+        Returns
+        -------
+        (config.size ** 2,) float32
+            Unit vector, as :func:`motion_image`.
+
+        Raises
+        ------
+        VideoError
+            As :func:`motion_image`: no person, too few frames, or no motion.
+        """
+        frames = np.arange(start, stop)
+        if self.clip_fps is not None:
+            frames = start + sample_indices(
+                stop - start, float(self.clip_fps), self.config.sample_fps
+            )
+        return _image_from_aligned(self._aligned(frames), self.config)
+
+    def _aligned(self, frames: np.ndarray) -> np.ndarray:
+        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`)."""
+        config = self.config
+        occupied = self._occupied[frames]
+        if not occupied.any():
+            raise VideoError(
+                f"masks: no person: all {len(frames)} silhouettes are empty; "
+                "expected pixels > 0 where the person is"
+            )
+        if config.frame == "person" and not occupied.all():
+            frames = frames[occupied]
+        if len(frames) < config.step + 1:
+            raise VideoError(
+                f"masks: {len(frames)} usable frame(s) after sampling at "
+                f"{config.sample_fps:g} fps; step={config.step} needs at least {config.step + 1}"
+            )
+        rows, cols = self._rows[frames], self._cols[frames]
+        size = config.size
+        if config.frame == "image":
+            # The crop: everything the person covered, less a sliver of stray mass.
+            y0, y1 = _trim_1d(rows.sum(axis=0))
+            x0, x1 = _trim_1d(cols.sum(axis=0))
+            h, w = y1 - y0, x1 - x0
+            scale = size / (max(h, w) * (1.0 + 2.0 * config.margin_frac))
+            centres = np.tile([y0 + (h - 1) / 2.0, x0 + (w - 1) / 2.0], (len(frames), 1))
+        else:
+            # Each frame's centre is its own; the scale is the clip's.
+            centres = self._centres[frames]
+            heights = self._heights[frames]
+            scale = config.person_height_frac * size / max(float(np.median(heights)), 1.0)
+            y0, y1 = _support(rows.sum(axis=0))
+            x0, x1 = _support(cols.sum(axis=0))
+        # Only the region of interest is resampled: the rest is empty and costs time.
+        roi = self._values[frames, y0:y1, x0:x1]
+        return _warp(roi, scale, centres - [y0, x0], size)
 
 
 def align_frames(masks: np.ndarray, config: MotionImageConfig) -> np.ndarray:
@@ -266,44 +354,7 @@ def align_frames(masks: np.ndarray, config: MotionImageConfig) -> np.ndarray:
     VideoError
         No person in any frame, or too few frames with a person.
     """
-    stack = _check_masks(masks)
-    values = stack.astype(np.float32)  # one conversion; every later step reads it
-    if stack.dtype == np.uint8 and stack.max() > 1:
-        values *= 1.0 / 255.0
-    rows = values.sum(axis=2)  # (F, H) silhouette mass per row
-    cols = values.sum(axis=1)  # (F, W) and per column
-    occupied = rows.sum(axis=1) > 0.0
-    if not occupied.any():
-        raise VideoError(
-            f"masks: no person: all {stack.shape[0]} silhouettes are empty; "
-            "expected pixels > 0 where the person is"
-        )
-    if config.frame == "person" and not occupied.all():
-        values, rows, cols = values[occupied], rows[occupied], cols[occupied]
-    n_frames = values.shape[0]
-    if n_frames < config.step + 1:
-        raise VideoError(
-            f"masks: {n_frames} usable frame(s) after sampling at "
-            f"{config.sample_fps:g} fps; step={config.step} needs at least {config.step + 1}"
-        )
-    size = config.size
-    if config.frame == "image":
-        # The crop: everything the person covered, less a sliver of stray mass.
-        y0, y1 = _trim_1d(rows.sum(axis=0))
-        x0, x1 = _trim_1d(cols.sum(axis=0))
-        h, w = y1 - y0, x1 - x0
-        scale = size / (max(h, w) * (1.0 + 2.0 * config.margin_frac))
-        centres = np.tile([y0 + (h - 1) / 2.0, x0 + (w - 1) / 2.0], (n_frames, 1))
-    else:
-        # Each frame's centre is its own; the scale is the clip's.
-        centres = np.stack([_weighted_median(rows), _weighted_median(cols)], axis=1)
-        heights = _trimmed_span(rows)
-        scale = config.person_height_frac * size / max(float(np.median(heights)), 1.0)
-        y0, y1 = _support(rows.sum(axis=0))
-        x0, x1 = _support(cols.sum(axis=0))
-    # Only the region of interest is resampled: the rest is empty and costs time.
-    roi = values[:, y0:y1, x0:x1]
-    return _warp(roi, scale, centres - [y0, x0], size)
+    return ClipMotionImages(masks, config)._aligned(np.arange(len(masks)))
 
 
 def motion_image_picture(vector: np.ndarray, config: MotionImageConfig) -> np.ndarray:

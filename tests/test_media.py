@@ -8,6 +8,7 @@ from PIL import Image
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.media import (
+    FrameSampleStream,
     as_rgb_frames,
     image_files,
     mp4_fourcc,
@@ -47,6 +48,27 @@ def test_frame_sample_holds_the_frames_sample_indices_picks(tmp_path, suffix, cl
     whole = read_frame_sample(path)
     np.testing.assert_array_equal(whole.frames, every)
     assert whole.fps == read_fps
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+@pytest.mark.parametrize("size", [1, 4, 100])
+def test_frame_sample_stream_hands_over_the_sample_in_chunks(tmp_path, suffix, size):
+    path = write_video(_smooth_clip(n_frames=23), tmp_path / f"clip{suffix}", fps=25.0)
+    whole = read_frame_sample(path, 15.0)
+    stream = FrameSampleStream(path, 15.0)
+    chunks = list(stream.chunks(size))
+    assert all(1 <= len(chunk) <= size for chunk in chunks)
+    np.testing.assert_array_equal(np.concatenate(chunks), whole.frames)
+    np.testing.assert_array_equal(stream.frame_indices, whole.frame_indices)
+    assert (stream.n_frames, stream.clip_fps, stream.fps) == (23, whole.clip_fps, whole.fps)
+
+
+@pytest.mark.parametrize("content", [b"", b"not a video at all"])
+def test_frame_sample_stream_names_an_unreadable_video(tmp_path, content):
+    path = tmp_path / "broken.mp4"
+    path.write_bytes(content)
+    with pytest.raises(VideoError, match="broken.mp4: cannot be opened|broken.mp4: no frame"):
+        list(FrameSampleStream(path, 15.0).chunks(4))
 
 
 @pytest.mark.parametrize("sample_fps", [0.0, -5.0, float("nan")])

@@ -13,6 +13,7 @@ from eigmotion.motion_image import (
     FILTERS,
     FRAMES,
     WEIGHTINGS,
+    ClipMotionImages,
     MotionImageConfig,
     align_frames,
     motion_image,
@@ -160,6 +161,24 @@ def test_frame_rates_of_one_motion_agree(clip_fps):
     reference = motion_image(walk(37, fps=24.0), clip_fps=24.0)
     vector = motion_image(walk(n, fps=clip_fps), clip_fps=clip_fps)
     assert cosine_distance(vector, reference) < 0.05
+
+
+@pytest.mark.parametrize("frame", FRAMES)
+@pytest.mark.parametrize("clip_fps", [None, 30.0])
+def test_windows_of_a_clip_equal_motion_images_of_their_masks(frame, clip_fps):
+    masks = walk(60)
+    masks[40:44] = False  # frames without the person
+    config = MotionImageConfig(frame=frame)
+    images = ClipMotionImages(masks, config, clip_fps)
+    for start, stop in [(0, 60), (0, 23), (7, 30), (15, 38), (37, 60)]:
+        # Equal but for float32 rounding (BLAS sums depend on memory alignment).
+        np.testing.assert_allclose(
+            images.window(start, stop),
+            motion_image(masks[start:stop], config, clip_fps),
+            atol=1e-6,
+        )
+    with pytest.raises(VideoError, match="no person"):
+        images.window(40, 44)
 
 
 def test_sampling_matters():

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
+from eigmotion import video
 from eigmotion.background import find_still_body
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.motion_image import motion_image
@@ -147,6 +148,32 @@ def test_person_staying_in_place_without_a_background(lift_scene):
     # The temporal median keeps the body that stays in place (the test can fail).
     median = SilhouetteConfig(background="median")
     assert iou(extract_silhouettes(lift_scene.frames, None, median), truth).mean() < 0.6
+
+
+@pytest.mark.parametrize("background_given", [True, False], ids=["background", "estimated"])
+def test_masks_do_not_depend_on_the_chunks_frames_are_segmented_in(
+    avatar_scene, monkeypatch, background_given
+):
+    frames, background, _ = avatar_scene
+    given = background if background_given else None
+    reference = extract_silhouettes(frames, given)
+    for chunk in (1, 3, len(frames)):
+        monkeypatch.setattr(video, "CHUNK_FRAMES", chunk)
+        np.testing.assert_array_equal(extract_silhouettes(frames, given), reference)
+
+
+def test_a_clip_segmented_while_it_is_decoded_equals_one_read_whole(avatar_scene, tmp_path):
+    from eigmotion.media import read_frame_sample, write_video
+
+    frames, background, _ = avatar_scene
+    path = write_video(frames, tmp_path / "clip.mp4", 30.0)
+    empty = write_png(tmp_path / "empty.png", background)
+    streamed = load_clip_masks(path, empty, sample_fps=15.0)
+    whole = read_frame_sample(path, 15.0)
+    np.testing.assert_array_equal(streamed.frame_indices, whole.frame_indices)
+    np.testing.assert_array_equal(
+        streamed.masks, extract_silhouettes(whole.frames, read_background(empty))
+    )
 
 
 # -- what the front end copes with -------------------------------------------------------
