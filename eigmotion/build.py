@@ -3,9 +3,14 @@
 For every basic motion and every virtual camera of a rig, the motion drives the
 avatar (low-poly copy, see :meth:`eigmotion.avatar.Avatar.decimated`), the rig is
 re-aimed at the motion (:meth:`eigmotion.cameras.CameraRig.fitted`), the CPU
-rasteriser renders one silhouette per frame, and :func:`eigmotion.motion_image.
-motion_image` turns the whole motion and each sliding window of it into one unit
-vector.  The windows let part of a motion (a clip that starts mid-walk) still match.
+rasteriser renders one silhouette per frame, and :class:`eigmotion.motion_image.
+ClipMotionImages` turns the whole motion and each sliding window of it into one unit
+vector (each as :func:`~eigmotion.motion_image.motion_image` of its masks).  The
+windows let part of a motion (a clip that starts mid-walk) still match.
+Each image carries a label (:func:`window_labels`): the motion's own, except for a
+sliding window that shows mostly what comes before or after the motion's action
+(``LibraryMotion.action``), labelled with the motion's ``filler`` (the walking around
+a walking turn) or, when it has none, left out (the standing before a jump).
 
 The work is split over processes by (motion, view); the vectors then go to
 :mod:`eigmotion.database`, which fits the eigenspace and writes the store.
@@ -26,7 +31,7 @@ import numpy as np
 from .cameras import CameraRig
 from .errors import InvalidParameterError, VideoError
 from .library import LibraryMotion
-from .motion_image import MotionImageConfig, motion_image
+from .motion_image import ClipMotionImages, MotionImageConfig
 
 #: Body shapes of the default build: (height in metres or None for the avatar's own,
 #: girth factor).  Several shapes stand in for several people.
@@ -35,6 +40,13 @@ DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
 #: :mod:`eigmotion.garments`); ``()`` is the plain body.  Database garments only: the
 #: benchmark's (:data:`eigmotion.garments.BENCHMARK_GARMENTS`) stay unseen.
 DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = ((), ("short_skirt",), ("jacket", "wide_shorts"))
+#: A sliding window shows a motion's action (:attr:`LibraryMotion.action
+#: <eigmotion.library.LibraryMotion.action>`) when the action fills at least this share
+#: of the window, or of the action when that is shorter than a window: a window is
+#: labelled by what takes most of it, and with the default windows (a step of a third
+#: of a window) every action keeps a window of its own (the last window to start
+#: before the action holds two thirds of a window of it, or all of it).
+ACTION_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -154,6 +166,8 @@ class ViewImages:
         row is the whole motion.
     vectors : (W, D) float32
         Unit motion-image vectors, one per window.
+    labels : tuple of W str
+        Each image's label (:func:`window_labels`); the whole motion's is the motion's.
     """
 
     motion_index: int
@@ -161,6 +175,7 @@ class ViewImages:
     shape_index: int
     windows: np.ndarray
     vectors: np.ndarray
+    labels: tuple[str, ...]
 
 
 def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> np.ndarray:
@@ -190,6 +205,35 @@ def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> 
             starts.append(n_frames - length)
         rows += [(s, s + length) for s in starts]
     return np.asarray(rows, dtype=np.int64)
+
+
+def window_labels(item: LibraryMotion, windows_s: np.ndarray) -> list[str | None]:
+    """The label of each window of a library motion, by how much of its action it shows.
+
+    Parameters
+    ----------
+    item : LibraryMotion
+    windows_s : (W, 2) float
+        ``[start, stop)`` of each window, seconds of ``item.motion``.
+
+    Returns
+    -------
+    list of (str or None)
+        ``item.label`` for a window that shows the action — every window when
+        ``item.action`` is ``None``; otherwise the action must fill
+        :data:`ACTION_SHARE` of the window, or of the action when that is shorter (so
+        the whole motion always shows it).  Any other window gets ``item.filler``, or
+        ``None`` — left out of the database — when the motion has no filler.
+    """
+    windows_s = np.asarray(windows_s, dtype=np.float64).reshape(-1, 2)
+    if item.action is None:
+        return [item.label] * len(windows_s)
+    start, stop = item.action
+    overlap = np.minimum(windows_s[:, 1], stop) - np.maximum(windows_s[:, 0], start)
+    needed = ACTION_SHARE * np.minimum(windows_s[:, 1] - windows_s[:, 0], stop - start)
+    return [
+        item.label if o >= n - 1e-9 else item.filler for o, n in zip(overlap, needed, strict=True)
+    ]
 
 
 def _outfits(garments) -> tuple[tuple[str, ...], ...]:
@@ -328,17 +372,21 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
     camera = fitted[view_index]
     masks = render_masks(vertices, faces, camera)
     windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
-    vectors = []
-    kept = []
-    for start, stop in windows:
+    item = library[motion_index]
+    images = ClipMotionImages(masks, config.motion_image, clip_fps=config.render_fps)
+    vectors, kept, labels = [], [], []
+    for (start, stop), label in zip(
+        windows, window_labels(item, windows / config.render_fps), strict=True
+    ):
+        if label is None:
+            continue  # standing before or after the action: not the action
         try:
-            vectors.append(
-                motion_image(masks[start:stop], config.motion_image, clip_fps=config.render_fps)
-            )
+            vectors.append(images.window(start, stop))
             kept.append((start, stop))
+            labels.append(label)
         except VideoError:
             continue  # a window where nothing moves (a held pose) carries no motion image
-    motion = library[motion_index].motion
+    motion = item.motion
     to_source = motion.fps / config.render_fps
     source_windows = np.round(np.asarray(kept, dtype=np.float64) * to_source).astype(np.int64)
     source_windows = np.minimum(source_windows, motion.n_frames)
@@ -349,6 +397,7 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
         shape_index,
         source_windows.reshape(-1, 2),
         np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
+        tuple(labels),
     )
 
 

@@ -26,9 +26,9 @@ from .cameras import Camera, CameraRig
 from .eigenspace import Eigenspace
 from .errors import DatabaseError, InvalidParameterError, VideoError
 from .keys import Quantizer
-from .library import LibraryMotion
+from .library import FILLER_LABELS, LibraryMotion
 from .motion import Motion
-from .motion_image import motion_image
+from .motion_image import ClipMotionImages
 from .search import BruteForceIndex, TreeIndex
 from .store import Store, parse_uri
 from .video import ClipMasks, SilhouetteConfig, load_clip_masks
@@ -41,10 +41,6 @@ DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.
 #: time (measured in docs/retrieval.md).
 QUERY_SILHOUETTE_SIDE_PX = 160
 
-#: Labels that carry a person to or from an action rather than being one: when a
-#: window of the clip shows another label, the clip is that action (walking into a
-#: turn is a turn, running into a jump a jump); ``segments`` still list the walking.
-FILLER_LABELS = frozenset({"walk", "run"})
 #: A window overrides a filler answer only when its nearest specific entry is nearer
 #: than this fraction of its nearest filler entry (specific motions such as a walking
 #: turn hold walking steps of their own), among :data:`WINDOW_CANDIDATES` nearest.
@@ -134,6 +130,7 @@ class _Collected:
     elevation: list = field(default_factory=list)
     start: list = field(default_factory=list)
     stop: list = field(default_factory=list)
+    labels: list = field(default_factory=list)
 
     def add(self, view: ViewImages, rig: CameraRig) -> None:
         n = len(view.vectors)
@@ -144,6 +141,7 @@ class _Collected:
         self.elevation += [cam.elevation_deg] * n
         self.start += view.windows[:, 0].tolist()
         self.stop += view.windows[:, 1].tolist()
+        self.labels += view.labels
 
     def arrays(self):
         return (
@@ -153,6 +151,7 @@ class _Collected:
             np.asarray(self.elevation, dtype=np.float64),
             np.asarray(self.start, dtype=np.int64),
             np.asarray(self.stop, dtype=np.int64),
+            list(self.labels),
         )
 
 
@@ -237,7 +236,7 @@ def build_database(
     collected = _Collected()
     for view in render_views(library, rig, config, workers=workers, progress=progress):
         collected.add(view, rig)
-    X, motion_of, az, el, start, stop = collected.arrays()
+    X, motion_of, az, el, start, stop, labels = collected.arrays()
     space = Eigenspace(config.n_components, config.explained_variance).fit(X)
     points = space.transform(X).astype(np.float32)
     n_axes = min(config.key_axes, space.n_components_)
@@ -262,7 +261,7 @@ def build_database(
                 store.initialise(stored_config, space, quantizer)
                 motion_ids = [_add_motion(store, m) for m in library]
                 store.add_entries(
-                    np.asarray(motion_ids)[motion_of], points, keys, az, el, start, stop
+                    np.asarray(motion_ids)[motion_of], points, keys, az, el, start, stop, labels
                 )
         finally:
             store.close()
@@ -289,6 +288,8 @@ def _add_motion(store: Store, item: LibraryMotion) -> int:
             "variation": item.variation,
             "role": item.role,
             "mirror_of": item.mirror_of or "",
+            "action": list(item.action or ()),
+            "filler": item.filler or "",
             "n_frames": motion.n_frames,
             "frame_time_s": motion.frame_time_s,
             "length_unit_m": -1.0 if motion.length_unit_m is None else motion.length_unit_m,
@@ -464,6 +465,7 @@ class MotionDatabase:
         arrays = self.store.arrays()
         self.index = TreeIndex.from_store(self.store)
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
+        self._entry_labels: dict[int, str] = {}
         self._motions = {int(mid): self.store.motion(int(mid)) for mid in self.store.motion_ids()}
 
     @classmethod
@@ -506,7 +508,7 @@ class MotionDatabase:
         entry = self.store.entry(entry_id)
         rec = self._motions[entry["motion"]]
         return Match(
-            rec["label"],
+            self._label_of(entry_id),
             rec["metadata"].get("name", str(entry["motion"])),
             int(entry["motion"]),
             int(entry_id),
@@ -517,7 +519,12 @@ class MotionDatabase:
         )
 
     def _label_of(self, entry_id: int) -> str:
-        return self._motions[self._motion_of[entry_id]]["label"]
+        """The entry's label: its motion's, or the filler's for a window outside the
+        motion's action (:func:`eigmotion.build.window_labels`); read once, then kept."""
+        label = self._entry_labels.get(entry_id)
+        if label is None:
+            label = self._entry_labels[entry_id] = self.store.entry(entry_id)["label"]
+        return label
 
     def query_masks(self, masks: np.ndarray, fps: float, top_k: int = 3) -> QueryResult:
         """Answer a clip given as silhouettes.
@@ -541,10 +548,11 @@ class MotionDatabase:
         t0 = time.perf_counter()
         cfg = self.config
         windows = window_bounds(len(masks), fps, cfg.window_s, cfg.window_step_s)
+        images = ClipMotionImages(masks, cfg.motion_image, clip_fps=fps)
         vectors, kept = [], []
         for start, stop in windows:
             try:
-                vectors.append(motion_image(masks[start:stop], cfg.motion_image, clip_fps=fps))
+                vectors.append(images.window(start, stop))
                 kept.append((int(start), int(stop)))
             except VideoError:
                 if start == 0 and stop == len(masks):
@@ -704,14 +712,14 @@ class MotionDatabase:
         collected = _Collected()
         for view in render_views([item], self.rig, self.config, workers=None, progress=progress):
             collected.add(view, self.rig)
-        X, _, az, el, start, stop = collected.arrays()
+        X, _, az, el, start, stop, labels = collected.arrays()
         points = self.eigenspace.transform(X).astype(np.float32)
         keys = self.store.quantizer().keys(points)
         error = float(np.median(self.eigenspace.reconstruction_error(X)))
         with self.store.transaction():
             motion_id = _add_motion(self.store, item)
             self.store.add_entries(
-                np.full(len(points), motion_id), points, keys, az, el, start, stop
+                np.full(len(points), motion_id), points, keys, az, el, start, stop, labels
             )
         self._load_index()
         return IndexReport(
@@ -739,6 +747,8 @@ class MotionDatabase:
                     licence="",
                     role=meta.get("role", "basic"),
                     mirror_of=meta.get("mirror_of") or None,
+                    action=tuple(meta["action"]) if meta.get("action") else None,
+                    filler=meta.get("filler") or None,
                 )
             )
         return out

@@ -14,6 +14,8 @@ names one basic motion::
     attribution = "mocap.cs.cmu.edu, NSF EIA-0196217"
     role = "basic"                     # optional: "basic" (default) or "distractor"
     mirror = true                      # optional: also its mirror image (default false)
+    action = [0.2, 1.4]                # optional: the seconds that show the action
+    filler = "walk"                    # optional, with action: "walk" or "run" around it
 
 Paths are relative to the manifest's folder.  ``frame_range`` counts the frames of
 the file as read (frame 0 is the first frame of an AMC file, whatever number the file
@@ -28,11 +30,21 @@ motion of its own, named ``<name>_mirror``, with the same label, performer, role
 source.  :func:`load_library` makes it, right after the original, so everything that
 takes the library (the build, the benchmarks, ``eigmotion show``) sees it as any other
 motion.
+
+``action = [start_s, stop_s]`` marks the part of the motion that shows its labelled
+action, in seconds from the first frame of ``frame_range`` (``0 <= start_s < stop_s``,
+``stop_s`` at most the motion's duration); without it the whole motion shows the
+action.  ``filler`` names what the person does before and after it: ``"walk"`` or
+``"run"`` (:data:`FILLER_LABELS`), as on the way into a walking turn or a running
+jump.  The build labels the sliding windows mostly outside the action with the filler,
+or leaves them out when there is no filler (standing before an action is not the
+action); see :func:`eigmotion.build.window_labels`.  A mirror image keeps both.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import tomllib
 from dataclasses import dataclass
@@ -60,6 +72,12 @@ LABELS = (
 #: Labels of distractor motions (not basic motions; kept to test rejection).
 DISTRACTOR_LABELS = ("duck", "block")
 
+#: Labels that carry a person to or from an action rather than being one (the walking
+#: into a turn, the run-up of a jump): the values ``filler`` may take, and the answers a
+#: query gives up for an action shown by windows of the clip (see
+#: :meth:`eigmotion.database.MotionDatabase.query_masks`).
+FILLER_LABELS = frozenset({"walk", "run"})
+
 #: Roles a manifest entry may have.
 ROLES = ("basic", "distractor")
 
@@ -71,7 +89,17 @@ DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "database" / "motions" 
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
 _TEXT_FIELDS = ("performer", "variation", "licence", "attribution")
-_KNOWN_FIELDS = {"name", "label", "source", "frame_range", "role", "mirror", *_TEXT_FIELDS}
+_KNOWN_FIELDS = {
+    "name",
+    "label",
+    "source",
+    "frame_range",
+    "role",
+    "mirror",
+    "action",
+    "filler",
+    *_TEXT_FIELDS,
+}
 
 
 @dataclass(frozen=True)
@@ -90,6 +118,12 @@ class ManifestEntry:
         ``"basic"`` or ``"distractor"``.
     mirror : bool
         The library also holds the motion's mirror image, named ``name + MIRROR_SUFFIX``.
+    action : (float, float) or None
+        ``[start, stop)`` seconds of the trimmed motion that show the labelled action;
+        ``None``: all of it.
+    filler : str or None
+        Label of the parts before and after ``action`` (one of :data:`FILLER_LABELS`),
+        or ``None`` when they show nothing to label.
     """
 
     name: str
@@ -102,6 +136,8 @@ class ManifestEntry:
     attribution: str
     role: str
     mirror: bool = False
+    action: tuple[float, float] | None = None
+    filler: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +161,12 @@ class LibraryMotion:
         The frames of the source that were kept.
     mirror_of : str or None
         For a mirror image, the name of the motion it mirrors; ``None`` otherwise.
+    action : (float, float) or None
+        ``[start, stop)`` seconds of ``motion`` that show the labelled action;
+        ``None``: all of it.
+    filler : str or None
+        Label of the parts before and after ``action`` (one of :data:`FILLER_LABELS`),
+        or ``None`` when they show nothing to label.
     """
 
     name: str
@@ -138,6 +180,8 @@ class LibraryMotion:
     attribution: str = ""
     frame_range: tuple[int, int] | None = None
     mirror_of: str | None = None
+    action: tuple[float, float] | None = None
+    filler: str | None = None
 
 
 def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
@@ -158,8 +202,10 @@ def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
     InvalidParameterError
         The manifest is missing or not valid TOML, or an entry lacks a field, has a
         field of the wrong type, an unknown label or role, a duplicate name (mirror
-        names included), or a source that is neither one ``.bvh`` nor an ``.amc``
-        with its ``.asf``.
+        names included), a source that is neither one ``.bvh`` nor an ``.amc``
+        with its ``.asf``, an ``action`` that is not ``[start_s, stop_s]`` with
+        ``0 <= start_s < stop_s``, or a ``filler`` that is not one of
+        :data:`FILLER_LABELS`, has no ``action`` or equals the label.
     """
     path = Path(DEFAULT_MANIFEST if manifest is None else manifest)
     if not path.is_file():
@@ -221,6 +267,7 @@ def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
             f"{where}: label {fields['label']!r} is not a known {role} label; "
             f"known: {', '.join(allowed)}"
         )
+    action = _action(table.get("action"), where)
     return ManifestEntry(
         name=fields["name"],
         label=fields["label"],
@@ -232,6 +279,8 @@ def _entry(table: dict, path: Path, index: int) -> ManifestEntry:
         attribution=fields["attribution"],
         role=role,
         mirror=mirror,
+        action=action,
+        filler=_filler(table.get("filler"), action, fields["label"], where),
     )
 
 
@@ -266,6 +315,39 @@ def _frame_range(value, where: str) -> tuple[int, int] | None:
     return int(value[0]), int(value[1])
 
 
+def _action(value, where: str) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    ok = (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+        and all(math.isfinite(v) for v in value)
+        and 0 <= value[0] < value[1]
+    )
+    if not ok:
+        raise InvalidParameterError(
+            f"{where}: action must be [start_s, stop_s] seconds with 0 <= start_s < stop_s, "
+            f"got {value!r}"
+        )
+    return float(value[0]), float(value[1])
+
+
+def _filler(value, action: tuple[float, float] | None, label: str, where: str) -> str | None:
+    if value is None:
+        return None
+    known = ", ".join(sorted(FILLER_LABELS))
+    if value not in FILLER_LABELS:
+        raise InvalidParameterError(f"{where}: filler must be one of {known}, got {value!r}")
+    if action is None:
+        raise InvalidParameterError(
+            f"{where}: filler {value!r} needs an action = [start_s, stop_s] to lie around"
+        )
+    if value == label:
+        raise InvalidParameterError(f"{where}: filler {value!r} is the motion's own label")
+    return value
+
+
 def load_entry(entry: ManifestEntry) -> LibraryMotion:
     """Read one manifest entry's motion and trim it.
 
@@ -282,7 +364,8 @@ def load_entry(entry: ManifestEntry) -> LibraryMotion:
     Raises
     ------
     InvalidParameterError
-        A source file is missing, or ``frame_range`` runs past the end of the file.
+        A source file is missing, ``frame_range`` runs past the end of the file, or
+        ``action`` past the end of the trimmed motion.
     MotionFormatError
         A source file cannot be parsed.
     """
@@ -309,6 +392,12 @@ def _load_entry(entry: ManifestEntry, cache: dict | None) -> LibraryMotion:
                 f"end of {entry.source[0]} ({motion.n_frames} frames)"
             )
         motion = motion.trim(start, stop)
+    if entry.action is not None and entry.action[1] > motion.duration_s:
+        raise InvalidParameterError(
+            f"library motion {entry.name!r}: action [{entry.action[0]:g}, "
+            f"{entry.action[1]:g}] s runs past the end of the motion "
+            f"({motion.duration_s:.3f} s)"
+        )
     return LibraryMotion(
         name=entry.name,
         label=entry.label,
@@ -320,6 +409,8 @@ def _load_entry(entry: ManifestEntry, cache: dict | None) -> LibraryMotion:
         role=entry.role,
         attribution=entry.attribution,
         frame_range=entry.frame_range,
+        action=entry.action,
+        filler=entry.filler,
     )
 
 
@@ -335,8 +426,8 @@ def mirror_image(item: LibraryMotion) -> LibraryMotion:
     LibraryMotion
         Named ``item.name + MIRROR_SUFFIX``, its motion :meth:`Motion.mirrored
         <eigmotion.motion.Motion.mirrored>`, the variation marked as mirrored,
-        ``mirror_of = item.name``; label, performer, role, source and the rest as
-        ``item``'s.
+        ``mirror_of = item.name``; label, performer, role, source, action span,
+        filler and the rest as ``item``'s.
     """
     name = item.name + MIRROR_SUFFIX
     return dataclasses.replace(

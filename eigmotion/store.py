@@ -488,6 +488,7 @@ class Store:
         view_elevation_deg,
         start_frame,
         end_frame,
+        labels=None,
     ) -> np.ndarray:
         """Store N entries (motion images' points) under their keys.
 
@@ -504,6 +505,9 @@ class Store:
         start_frame, end_frame : (N,) int
             The time window of the motion image, frames of the motion,
             ``0 <= start_frame <= end_frame``.
+        labels : sequence of N str, optional
+            Each entry's label; default its motion's (a window outside a motion's
+            action carries the filler's).
 
         Returns
         -------
@@ -551,11 +555,14 @@ class Store:
                 f"entry {row}: time window {start[row]}..{end[row]} is not 0 <= start <= end"
             )
         known = root["motions"]
-        labels = {}
         for m in np.unique(motions).tolist():
             if m not in known:
                 raise InvalidParameterError(f"motion id {m} was never added (add_motion first)")
-            labels[m] = known[m]["label"]
+        if labels is None:
+            labels = [known[m]["label"] for m in motions.tolist()]
+        labels = list(labels)
+        if len(labels) != n or not all(isinstance(x, str) and x for x in labels):
+            raise InvalidParameterError(f"labels must be {n} non-empty strings")
         expected = self.quantizer().keys(pts) if n else keys
         wrong = np.flatnonzero(expected != keys)
         if wrong.size:
@@ -573,7 +580,7 @@ class Store:
             {
                 int(ids[i]): {
                     "motion": int(motions[i]),
-                    "label": labels[int(motions[i])],
+                    "label": labels[i],
                     "view_azimuth_deg": float(azimuth[i]),
                     "view_elevation_deg": float(elevation[i]),
                     "start_frame": int(start[i]),

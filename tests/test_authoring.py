@@ -32,11 +32,23 @@ from eigmotion.rotations import euler_to_matrix
 REPO = Path(__file__).resolve().parents[1]
 AUTHORED = REPO / "database" / "motions" / "authored"
 
-#: Motions in which both feet stay planted from start to end.
+#: Motions in which both feet stay planted from start to end: those of these labels
+#: but the ones that step.
 PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_", "pick_up_", "wave_")
+STEPPING = ("cover_head_stepping_back",)
 
 #: Labels with authored motions.
-AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down", "jump", "turn", "wave", "pick_up")
+AUTHORED_LABELS = (
+    "lift",
+    "sit_down",
+    "cover_head",
+    "fall_down",
+    "jump",
+    "turn",
+    "wave",
+    "pick_up",
+    "punch",
+)
 
 #: A foot point this close to the floor touches it, metres.
 TOUCHING_M = 0.02
@@ -116,7 +128,7 @@ def test_authored_durations_and_rate(authored_poses):
 @pytest.mark.parametrize("label", AUTHORED_LABELS)
 def test_several_variations_per_label(generator, label):
     names = [n for n in generator.MOTIONS if n.startswith(label + "_")]
-    assert 2 <= len(names) <= 4
+    assert 2 <= len(names) <= 6
 
 
 def test_nothing_sinks_below_the_floor(authored_poses):
@@ -201,7 +213,7 @@ def test_knees_bend_forwards_within_their_range(authored_poses):
 def test_planted_feet_do_not_slide(authored_poses, prefix):
     checked = 0
     for name, (_, pose) in authored_poses.items():
-        if not name.startswith(prefix):
+        if not name.startswith(prefix) or name in STEPPING:
             continue
         # The ball of the foot: a heel may come up about it (squatting deep).
         for foot in ("LeftToeBase", "RightToeBase"):
@@ -277,7 +289,9 @@ def test_sitting_ends_on_a_chair_with_hands_on_the_stomach(authored_poses, gener
         assert 0.05 <= local[2] <= 0.2 and -0.05 <= local[1] <= 0.25, (hand, local)
 
 
-@pytest.mark.parametrize("name", ["cover_head_standing", "cover_head_crouching"])
+@pytest.mark.parametrize(
+    "name", ["cover_head_standing", "cover_head_crouching", "cover_head_stepping_back"]
+)
 def test_cover_head_ends_with_both_hands_on_the_crown(authored_poses, name):
     _, pose = authored_poses[name]
     crown = pose.end_sites[-1, list(pose.end_site_joints).index(pose.names.index("Head"))]
@@ -293,6 +307,79 @@ def test_falls_end_lying_on_the_floor(authored_poses, name):
     assert _joint(pose, "Head")[0, 1] > 1.4
     assert _joint(pose, "Head")[-1, 1] < 0.5
     assert _joint(pose, "Hips")[-1, 1] < 0.3
+
+
+def test_cover_head_one_arm_over_the_crown_the_other_before_the_face(authored_poses):
+    _, pose = authored_poses["cover_head_one_arm"]
+    crown = pose.end_sites[-1, list(pose.end_site_joints).index(pose.names.index("Head"))]
+    assert np.linalg.norm(_joint(pose, "RightHand")[-1] - crown) < 0.15
+    head = pose.rotations[-1, pose.names.index("Head")]
+    face = head.T @ (_joint(pose, "LeftHand")[-1] - _joint(pose, "Head")[-1])
+    assert face[2] >= 0.15 and abs(face[0]) <= 0.1 and abs(face[1]) <= 0.15, face
+
+
+#: Straight punches: the motion and the arm that throws them.
+STRAIGHT_PUNCHES = [
+    ("punch_straight_alternating", "Left"),
+    ("punch_straight_alternating", "Right"),
+    ("punch_jab_cross", "Left"),
+    ("punch_jab_cross", "Right"),
+    ("punch_stepping_in", "Right"),
+]
+
+
+@pytest.mark.parametrize(("name", "side"), STRAIGHT_PUNCHES)
+def test_straight_punches_hit_with_the_arm_straight_and_fast(authored_poses, name, side):
+    """At each hit (the wrist at 97 % of the arm's length from the shoulder, no lower
+    than 15 cm under it) the elbow is straight to within 10 degrees, and the wrist got
+    there from half the arm's length in 0.1-0.25 s."""
+    motion, pose = authored_poses[name]
+    shoulder, elbow, wrist = (_joint(pose, side + n) for n in ("Arm", "ForeArm", "Hand"))
+    length = np.linalg.norm(elbow[0] - shoulder[0]) + np.linalg.norm(wrist[0] - elbow[0])
+    reach = np.linalg.norm(wrist - shoulder, axis=1) / length
+    out = (reach >= 0.97) & (wrist[:, 1] >= shoulder[:, 1] - 0.15)
+    hits = [a for a, _ in _runs(out)]
+    assert hits, (name, side)
+    upper, fore = shoulder - elbow, wrist - elbow
+    cos = np.sum(upper * fore, axis=1) / (
+        np.linalg.norm(upper, axis=1) * np.linalg.norm(fore, axis=1)
+    )
+    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    for hit in hits:
+        assert angle[hit : hit + 3].max() >= 170.0, (name, side, hit)
+        start = np.flatnonzero(reach[:hit] <= 0.5)[-1]
+        assert 0.1 <= (hit - start) * motion.frame_time_s <= 0.25, (name, side, hit, start)
+
+
+@pytest.mark.parametrize(
+    ("name", "top_m"), [("lift_table_to_shoulder", 1.15), ("lift_clean_and_press", 1.65)]
+)
+def test_heavy_lifts_end_high_from_a_wide_stance(authored_poses, name, top_m):
+    """A heavy load ends at the shoulders or overhead (a pick-up ends at the waist),
+    lifted with the feet wider apart than at rest (0.36 m between the ankles)."""
+    _, pose = authored_poses[name]
+    for hand in ("LeftHand", "RightHand"):
+        assert _joint(pose, hand)[-1, 1] >= top_m, hand
+    stance = np.linalg.norm(_joint(pose, "LeftFoot")[0] - _joint(pose, "RightFoot")[0])
+    assert stance >= 0.45
+
+
+def test_sitting_down_normally_ends_with_the_hands_on_the_knees(authored_poses, generator):
+    _, pose = authored_poses["sit_down_hands_on_knees"]
+    assert _joint(pose, "Hips")[-1, 1] - 0.11 == pytest.approx(generator.SEAT_HEIGHT_M, abs=0.03)
+    for side in ("Left", "Right"):
+        to_knee = _joint(pose, side + "Hand")[-1] - _joint(pose, side + "Leg")[-1]
+        assert np.linalg.norm(to_knee) < 0.2 and to_knee[1] > 0.05, side
+
+
+def test_sitting_on_the_floor_ends_on_the_seat_feet_and_hands(authored_poses):
+    _, pose = authored_poses["sit_down_on_the_floor"]
+    # The buttocks (about 0.11 m under the hip joint) on the floor, knees up.
+    assert _joint(pose, "Hips")[-1, 1] - 0.11 == pytest.approx(0.0, abs=0.03)
+    for side in ("Left", "Right"):
+        assert _joint(pose, side + "Foot")[-1, 1] <= 0.07, side
+        assert _joint(pose, side + "Leg")[-1, 1] >= 0.3, side
+        assert _joint(pose, side + "Hand")[-1, 1] <= 0.1, side
 
 
 # -- the engine ----------------------------------------------------------------------------------

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.util
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,7 @@ from eigmotion.kinematics import forward_kinematics
 from eigmotion.library import (
     DEFAULT_MANIFEST,
     DISTRACTOR_LABELS,
+    FILLER_LABELS,
     LABELS,
     MIRROR_SUFFIX,
     LibraryMotion,
@@ -28,7 +31,17 @@ from eigmotion.naming import canonical_joint_map
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"
 PATIENT_LABELS = ("lift", "pick_up", "sit_down", "cover_head", "walk", "fall_down")
-AUTHORED_LABELS = ("lift", "sit_down", "cover_head", "fall_down", "jump", "turn", "wave", "pick_up")
+AUTHORED_LABELS = (
+    "lift",
+    "sit_down",
+    "cover_head",
+    "fall_down",
+    "jump",
+    "turn",
+    "wave",
+    "pick_up",
+    "punch",
+)
 
 
 @pytest.fixture(scope="module")
@@ -94,7 +107,7 @@ def test_every_label_has_a_motion(library, label):
     assert motions
     authored = [lm for lm in motions if lm.performer == "authored" and lm.mirror_of is None]
     if label in AUTHORED_LABELS:
-        assert 2 <= len(authored) <= 4
+        assert 2 <= len(authored) <= 6
 
 
 def test_the_patents_six_labels_are_there():
@@ -224,6 +237,20 @@ def test_a_manifest_entry_with_mirror_loads_both(tmp_path):
         (GOOD_ENTRY + 'colour = "red"\n', "unknown field"),
         (GOOD_ENTRY.replace('performer = "cmu_16"', "performer = 16"), "'performer'"),
         (GOOD_ENTRY + 'mirror = "yes"\n', "mirror must be true or false"),
+        (GOOD_ENTRY + "action = [0.5, 0.2]\n", "0 <= start_s < stop_s"),
+        (GOOD_ENTRY + "action = [0.2, 0.2]\n", "0 <= start_s < stop_s"),
+        (GOOD_ENTRY + "action = [-0.1, 0.2]\n", "0 <= start_s < stop_s"),
+        (GOOD_ENTRY + "action = [0.1]\n", "action must be"),
+        (GOOD_ENTRY + "action = [true, 0.5]\n", "action must be"),
+        (GOOD_ENTRY + 'action = ["0.1", 0.5]\n', "action must be"),
+        (GOOD_ENTRY + "action = [0.1, nan]\n", "action must be"),
+        (
+            GOOD_ENTRY + "action = [0.1, 0.5]\n" + 'filler = "stand"\n',
+            "filler must be one of run, walk",
+        ),
+        (GOOD_ENTRY + "action = [0.1, 0.5]\n" + "filler = true\n", "filler must be one of"),
+        (GOOD_ENTRY + 'filler = "walk"\n', "needs an action"),
+        (GOOD_ENTRY + "action = [0.1, 0.5]\n" + 'filler = "run"\n', "the motion's own label"),
         (
             GOOD_ENTRY + "mirror = true\n" + GOOD_ENTRY.replace('"x"', '"x_mirror"'),
             "duplicate name 'x_mirror'",
@@ -241,6 +268,8 @@ def test_broken_manifests_raise(tmp_path, text, match):
     [
         (GOOD_ENTRY.replace("16_35.amc", "16_99.amc"), "file not found"),
         (GOOD_ENTRY.replace("[0, 100]", "[0, 1000]"), "runs past the end"),
+        # 100 frames at 120 frames/s: the motion lasts 0.833 s.
+        (GOOD_ENTRY + "action = [0.2, 0.9]\n", r"action \[0.2, 0.9\] s runs past the end"),
     ],
 )
 def test_entries_that_cannot_load_raise(tmp_path, text, match):
@@ -248,6 +277,23 @@ def test_entries_that_cannot_load_raise(tmp_path, text, match):
     read_manifest(path)  # the manifest itself is fine
     with pytest.raises(InvalidParameterError, match=match):
         load_library(path)
+
+
+def test_an_action_span_and_filler_load_and_mirror(tmp_path):
+    text = GOOD_ENTRY.replace('"run"', '"jump"') + (
+        'action = [0.25, 0.8]\nfiller = "run"\nmirror = true\n'
+    )
+    path = _manifest(tmp_path, text)
+    (entry,) = read_manifest(path)
+    assert (entry.action, entry.filler) == ((0.25, 0.8), "run")
+    lm, mirror = load_library(path)
+    assert (lm.action, lm.filler) == ((0.25, 0.8), "run")
+    assert (mirror.action, mirror.filler, mirror.mirror_of) == ((0.25, 0.8), "run", "x")
+    # Whole seconds and a span up to the motion's last frame are fine; no filler either.
+    (whole,) = load_library(_manifest(tmp_path / "b", GOOD_ENTRY + "action = [0, 0.8]\n"))
+    assert (whole.action, whole.filler) == ((0.0, 0.8), None)
+    (plain,) = load_library(_manifest(tmp_path / "c", GOOD_ENTRY))
+    assert (plain.action, plain.filler) == (None, None)
 
 
 def test_missing_manifest_raises(tmp_path):
@@ -336,6 +382,85 @@ def test_each_clip_shows_its_label(library, poses):
             _check_label(lm.label, poses[lm.name], lm.motion.frame_time_s)
         except AssertionError as exc:
             raise AssertionError(f"{lm.name} does not look like {lm.label!r}") from exc
+
+
+def _seconds(p, frame_time_s: float, start_s: float, stop_s: float):
+    """The poses of ``p`` in ``[start_s, stop_s)``."""
+    part = slice(int(round(start_s / frame_time_s)), int(round(stop_s / frame_time_s)))
+    return {name: xyz[part] for name, xyz in p.items()}
+
+
+def test_turns_and_jumps_mark_their_action(library):
+    """Every turn and jump says which seconds show it: what is around them (walking into
+    a turn, the run-up of a jump, standing) is not labelled turn or jump."""
+    for lm in library:
+        if lm.label in ("turn", "jump"):
+            assert lm.action is not None, lm.name
+        if lm.action is not None:
+            assert lm.filler in (None, *FILLER_LABELS), lm.name
+
+
+def test_action_spans_show_the_action_and_the_rest_does_not(library, poses):
+    """The span passes its label's check; each part outside it (long enough to judge)
+    fails it, and the part before a filler's action moves like the filler: getting on
+    at 0.5 m/s or more, both feet leaving the floor for a run only."""
+    for lm in library:
+        if lm.action is None:
+            continue
+        p, dt = poses[lm.name], lm.motion.frame_time_s
+        try:
+            _check_label(lm.label, _seconds(p, dt, *lm.action), dt)
+        except AssertionError as exc:
+            raise AssertionError(f"{lm.name}: its action span does not show {lm.label}") from exc
+        for outside in ((0.0, lm.action[0]), (lm.action[1], lm.motion.duration_s)):
+            part = _seconds(p, dt, *outside)
+            if outside[1] - outside[0] < 0.25:
+                continue
+            with pytest.raises(AssertionError):
+                _check_label(lm.label, part, dt)
+            if lm.filler is not None and outside[0] == 0.0:
+                floor = _both_feet_height(p).min()
+                flight = _both_feet_height(part).max() - floor >= 0.04
+                assert flight == (lm.filler == "run"), lm.name
+                assert _travel(part) >= 0.5 * (outside[1] - outside[0]), lm.name  # >= 0.5 m/s
+
+
+@pytest.fixture(scope="module")
+def spans_script():
+    """benchmarks/plot_action_spans.py, the measuring behind the manifest's spans."""
+    spec = importlib.util.spec_from_file_location(
+        "plot_action_spans", REPO / "benchmarks" / "plot_action_spans.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop(spec.name, None)
+
+
+def test_action_spans_are_the_measured_ones(library, spans_script):
+    """Each turn's and jump's span and filler are what the measuring rules give (to the
+    0.01 s the manifest writes); the mirror image measures the same."""
+    for lm in library:
+        if lm.label not in ("turn", "jump"):
+            continue
+        signals = spans_script.body_signals(lm)
+        measured = spans_script.measured_span(lm, signals)
+        np.testing.assert_allclose(lm.action, measured, atol=0.0051, err_msg=lm.name)
+        assert lm.filler == spans_script.measured_filler(signals, measured), lm.name
+
+
+def test_action_spans_plot(library, spans_script, tmp_path):
+    by_name = {lm.name: lm for lm in library}
+    items = [by_name["turn_walking_180"], by_name["walk_02_01"]]
+    windows_s, labels = spans_script.build_windows(items[0], spans_script.BuildConfig())
+    assert labels == ["walk", "turn", "turn", "turn", "walk", "walk"]
+    assert windows_s[0, 0] == 0.0 and windows_s[-1, 1] == pytest.approx(items[0].motion.duration_s)
+    out = tmp_path / "spans.png"
+    spans_script.plot(items, spans_script.BuildConfig(), out)
+    assert out.stat().st_size > 10_000
 
 
 @pytest.mark.parametrize(

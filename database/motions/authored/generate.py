@@ -2,13 +2,14 @@
 
 No free motion capture shows some basic motions (covering the head, falling, lifting a
 heavy load, sitting down holding the stomach), and the CMU clips show the others done
-one way; these motions and the other ways of doing them (jumps, turns, waves, pick-ups)
-are authored on the default avatar's skeleton
-(:func:`eigmotion.canonical.canonical_skeleton`) with :mod:`eigmotion.authoring`: a few
-key poses each, interpolated at 30 fps, feet planted by two-bone IK, every frame
-resting on the floor except in the flight of a jump.  Motions made of steps key each
-foot, the hips and the joints on their own times (tracks) and are sampled into a key
-per frame.
+one way; these motions and the other ways of doing them (jumps, turns, waves, pick-ups,
+punches, lifts, sitting down, covering the head) are authored on the default avatar's
+skeleton (:func:`eigmotion.canonical.canonical_skeleton`) with
+:mod:`eigmotion.authoring`: a few key poses each, interpolated at 30 fps, feet planted
+by two-bone IK, every frame resting on the floor except in the flight of a jump.
+Motions made of steps key each foot, the hips and the joints on their own times
+(tracks) and are sampled into a key per frame; a single step among key poses is keyed
+as foot targets (heel up, swing, down flat).
 
 Run from anywhere (the output is the same every time)::
 
@@ -41,9 +42,11 @@ from eigmotion.authoring import (
     body_surface_points,
     foot_target,
     foot_targets,
+    rest_positions_m,
     unwrap_rotvecs,
 )
 from eigmotion.bvh import write_bvh
+from eigmotion.canonical import canonical_skeleton
 from eigmotion.motion import Motion
 from eigmotion.rotations import euler_to_matrix, matrix_to_euler
 
@@ -273,7 +276,122 @@ def lift_suitcase_one_hand() -> Motion:
     )
 
 
-# -- sit down holding the stomach ------------------------------------------------------------
+def lift_table_to_shoulder() -> Motion:
+    """Wide stance at a table, lean in and grip a heavy box by its sides at waist height,
+    pull it in against the body, dip under it and heave it up to the shoulders."""
+    return _animate(
+        [
+            Key(
+                0.0,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0, 0, 0),
+                _planted(extra_width_m=0.08, toe_out_deg=10.0),
+            ),
+            Key(
+                0.7,
+                {"LowerBack": (22, 0, 0), "Spine": (8, 0, 0), "Head": (5, 0, 0)},
+                (0.0, -0.07, -0.06),
+                _box(0.86, 0.46),
+            ),
+            Key(1.1, {"LowerBack": (24, 0, 0)}, (0.0, -0.10, -0.07), _box(0.86, 0.46)),
+            Key(
+                1.9,
+                {"LowerBack": (-4, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0)},
+                (0.0, -0.05, -0.01),
+                _box(1.0, 0.30),
+            ),
+            Key(2.4, {"LowerBack": (-6, 0, 0)}, (0.0, -0.13, -0.02), _box(1.06, 0.29)),
+            # Elbows down under the box, close to the body.
+            Key(
+                3.0,
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Neck": (-5, 0, 0),
+                    "LeftArm": (-45, 0, -25),
+                    "RightArm": (-45, 0, 25),
+                },
+                (0.0, 0.0, 0.0),
+                _box(1.26, 0.27, 0.19),
+            ),
+            Key(3.5, {"LowerBack": (-7, 0, 0)}, (0.0, -0.01, 0.0), _box(1.25, 0.27, 0.19)),
+        ],
+        "lift_table_to_shoulder",
+    )
+
+
+def lift_clean_and_press() -> Motion:
+    """Clean and press a heavy box: squat wide and grip it on the floor, stand up with it
+    slowly, pull it explosively to the shoulders dipping under it, stand, then dip and
+    press it overhead and hold it there."""
+    wide = {"extra_width_m": 0.14, "toe_out_deg": 20.0}
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(**wide)),
+            Key(
+                0.8,
+                {
+                    "LowerBack": (32, 0, 0),
+                    "Spine": (12, 0, 0),
+                    "Neck": (-10, 0, 0),
+                    "Head": (-10, 0, 0),
+                    **_knees_out(15),
+                },
+                (0.0, -0.42, -0.15),
+                _box(0.36, 0.37, 0.17),
+            ),
+            Key(1.1, {"LowerBack": (33, 0, 0)}, (0.0, -0.44, -0.16), _box(0.35, 0.37, 0.17)),
+            Key(
+                1.9,
+                {
+                    "LowerBack": (8, 0, 0),
+                    "Spine": (2, 0, 0),
+                    "Neck": (0, 0, 0),
+                    "Head": (0, 0, 0),
+                    **_knees_out(0),
+                },
+                (0.0, -0.07, -0.04),
+                _box(0.70, 0.32, 0.17),
+            ),
+            Key(
+                2.15,
+                {"LowerBack": (-5, 0, 0), "Spine": (0, 0, 0), **_toes(15)},
+                (0.0, 0.03, 0.02),
+                {**_planted(**wide, heel_raise_deg=15.0), **_box(1.02, 0.21, 0.18)},
+            ),
+            # Catch it at the shoulders, elbows forwards, knees bent.
+            Key(
+                2.4,
+                {
+                    "LowerBack": (5, 0, 0),
+                    "LeftArm": (-40, 0, -10),
+                    "RightArm": (-40, 0, 10),
+                    **_toes(0),
+                },
+                (0.0, -0.15, -0.05),
+                {**_planted(**wide), **_box(1.12, 0.24, 0.19)},
+            ),
+            Key(2.8, {"LowerBack": (-3, 0, 0)}, (0.0, -0.01, 0.0), _box(1.24, 0.24, 0.19)),
+            Key(3.0, {"LowerBack": (-2, 0, 0)}, (0.0, -0.08, -0.02), _box(1.22, 0.24, 0.19)),
+            # The box goes up in front of the face.
+            Key(3.2, {"LowerBack": (-5, 0, 0)}, (0.0, -0.02, 0.0), _box(1.52, 0.24, 0.19)),
+            Key(
+                3.45,
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Neck": (-5, 0, 0),
+                    "LeftArm": (-20, 0, 60),
+                    "RightArm": (-20, 0, -60),
+                },
+                (0.0, 0.0, 0.0),
+                _box(1.76, 0.08, 0.2),
+            ),
+            Key(3.9, {"LowerBack": (-7, 0, 0)}, (0.0, 0.0, 0.0), _box(1.77, 0.08, 0.2)),
+        ],
+        "lift_clean_and_press",
+    )
+
+
+# -- sit down: holding the stomach, onto a chair, onto the floor -----------------------------
 
 
 def _stomach(high_m: float = 0.15, low_m: float = 0.05) -> dict[str, Target]:
@@ -336,6 +454,100 @@ def sit_down_holding_stomach_fast() -> Motion:
 
 def sit_down_doubled_over() -> Motion:
     return _sit_down("sit_down_doubled_over", (0.0, 0.7, 1.5, 2.6, 3.3, 3.8), 40.0, 0.08)
+
+
+def sit_down_hands_on_knees() -> Motion:
+    """An ordinary sit onto a 0.45 m seat behind: lean forwards, arms a little forwards
+    for balance, lower the hips back onto the seat, sit up with the hands on the knees."""
+    seated = (0.0, SEAT_HEIGHT_M + 0.11 - 0.852, -0.40)
+    # The left wrist on the thigh just behind the knee (which ends at (0.15, 0.45, -0.03)),
+    # world metres, the fingers over the knee; the right hand mirrors it.
+    x, y, z = (0.16, 0.57, -0.12)
+    on_knee = ((0.0, -0.5, 1.0), (0.0, -1.0, 0.2))
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.02)),
+            Key(0.4, {"LowerBack": (8, 0, 0), "Head": (8, 0, 0)}, (0.0, -0.02, -0.01)),
+            Key(
+                1.0,
+                {
+                    "LowerBack": (30, 0, 0),
+                    "Spine": (8, 0, 0),
+                    "Head": (-5, 0, 0),
+                    "LeftArm": (-35, 0, -25),
+                    "RightArm": (-35, 0, 25),
+                },
+                (0.0, -0.16, -0.20),
+            ),
+            Key(1.6, {"LowerBack": (26, 0, 0)}, seated),
+            Key(
+                2.3,
+                {"LowerBack": (8, 0, 0), "Spine": (3, 0, 0), "Head": (0, 0, 0)},
+                seated,
+                {
+                    "LeftHand": Target((x, y, z), None, _hand_deg(1.0, *on_knee)),
+                    "RightHand": Target((-x, y, z), None, _hand_deg(-1.0, *on_knee)),
+                },
+            ),
+            Key(2.9, {"LowerBack": (7, 0, 0)}, seated),
+        ],
+        "sit_down_hands_on_knees",
+    )
+
+
+def sit_down_on_the_floor() -> Motion:
+    """Sit down on the floor: squat, reach back to the floor with the right hand, lower
+    the seat onto the floor behind the feet, knees up, and lean back on both hands."""
+    # The buttocks (about 0.11 m under the hip joint) on the floor 0.4 m behind.
+    sat = (0.0, 0.11 - 0.852, -0.40)
+    behind = ((0.3, 0.0, -1.0), (0.0, -1.0, 0.0))
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=-0.02)),
+            Key(
+                0.6,
+                {
+                    "LowerBack": (25, 0, -5),
+                    "Spine": (8, -5, 0),
+                    "Head": (10, -10, 0),
+                    "LeftArm": (-30, 0, 5),
+                    **_knees_out(8),
+                },
+                (-0.02, -0.25, -0.10),
+            ),
+            Key(
+                1.2,
+                {"LowerBack": (28, -10, -8), "Spine": (8, -10, 0)},
+                (-0.04, -0.52, -0.24),
+                {"RightHand": Target((-0.32, 0.07, -0.30), None, _hand_deg(-1.0, *behind))},
+            ),
+            Key(
+                1.8,
+                {"LowerBack": (5, -5, -5), "Spine": (0, -5, 0), "Head": (0, 0, 0)},
+                sat,
+                {
+                    "RightHand": Target((-0.30, 0.07, -0.62), None, _hand_deg(-1.0, *behind)),
+                    "LeftHand": Target((0.40, 0.25, -0.25)),
+                },
+            ),
+            Key(
+                2.4,
+                {
+                    "LowerBack": (-22, 0, 0),
+                    "Spine": (-8, 0, 0),
+                    "Head": (15, 0, 0),
+                    **_knees_out(5),
+                },
+                sat,
+                {
+                    "LeftHand": Target((0.25, 0.07, -0.62), None, _hand_deg(1.0, *behind)),
+                    "RightHand": Target((-0.25, 0.07, -0.62), None, _hand_deg(-1.0, *behind)),
+                },
+            ),
+            Key(3.0, {"LowerBack": (-21, 0, 0)}, sat),
+        ],
+        "sit_down_on_the_floor",
+    )
 
 
 # -- cover the head against a falling object -----------------------------------------------
@@ -415,6 +627,107 @@ def cover_head_crouching() -> Motion:
 
 def cover_head_stooping() -> Motion:
     return _cover_head("cover_head_stooping", (0.0, 0.15, 0.45, 1.2, 1.8), 0.12, 60.0)
+
+
+def cover_head_stepping_back() -> Motion:
+    """Startled by something falling from above on the left: look up, step back to the
+    right with the right foot, leaning away, both forearms crossed over the head."""
+    rest = rest_positions_m(canonical_skeleton())
+    ankle = rest["RightFoot"][[0, 2]]
+
+    def right(back_m: float, heel_deg: float = 0.0, lift_m: float = 0.0) -> Target:
+        """The right foot ``back_m`` behind its place and out to the right, toes out."""
+        x, z = ankle[0] - 0.3 * back_m, ankle[1] - back_m
+        return foot_target("RightFoot", (x, z), -50.0 * back_m, heel_deg, lift_m)
+
+    crossed = ((1.0, -0.3, 0.2), (0.0, -1.0, 0.0))
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
+            Key(0.12, {"Neck": (-10, 10, 0), "Head": (-15, 15, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                0.3,
+                {"RightToeBase": (-25, 0, 0), "LeftArm": (-50, 0, -10), "RightArm": (-50, 0, 10)},
+                (-0.02, -0.03, -0.02),
+                {"RightFoot": right(0.0, 25.0), **_before_face()},
+            ),
+            Key(
+                0.42,
+                {"RightToeBase": (0, 0, 0), "LowerBack": (5, -5, 5)},
+                (-0.06, -0.05, -0.10),
+                {"RightFoot": right(0.16, 5.0, 0.06)},
+            ),
+            Key(
+                0.56,
+                {
+                    **ARMS_UP,
+                    "LowerBack": (15, -8, 10),
+                    "Spine": (8, -5, 3),
+                    "Neck": (15, -15, 0),
+                    "Head": (15, -20, 0),
+                    "LeftShoulder": (0, 0, 10),
+                    "RightShoulder": (0, 0, -10),
+                },
+                (-0.13, -0.12, -0.17),
+                {
+                    "RightFoot": right(0.32),
+                    "LeftHand": Target((-0.03, 0.23, 0.06), "Head", _hand_deg(1.0, *crossed)),
+                    "RightHand": Target((0.03, 0.25, 0.0), "Head", _hand_deg(-1.0, *crossed)),
+                },
+            ),
+            Key(1.2, {"LowerBack": (18, -8, 11)}, (-0.14, -0.15, -0.19)),
+            Key(1.9, {"LowerBack": (17, -8, 10)}, (-0.14, -0.14, -0.19)),
+        ],
+        "cover_head_stepping_back",
+    )
+
+
+def cover_head_one_arm() -> Motion:
+    """Ducking under something falling: the right forearm across the top of the head,
+    the left forearm up in front of the face, palm out, knees bent, head down."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
+            Key(0.15, {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
+            # The right hand goes up beside the head, the left one up in front of the chin.
+            Key(
+                0.35,
+                {"RightArm": (-30, 0, -50), "LeftArm": (-50, 0, -10)},
+                (0.0, -0.07, -0.03),
+                {
+                    "RightHand": Target((-0.25, 0.05, 0.10), "Head"),
+                    "LeftHand": Target((0.12, -0.12, 0.30), "Head"),
+                },
+            ),
+            Key(
+                0.6,
+                {
+                    "RightArm": (-30, 0, -80),
+                    "LeftArm": (-60, 0, -20),
+                    "LowerBack": (12, -5, 0),
+                    "Spine": (8, -5, 0),
+                    "Neck": (5, -5, 0),
+                    "Head": (5, -10, 0),
+                    "RightShoulder": (0, 0, -10),
+                    "LeftShoulder": (0, 0, 5),
+                },
+                (0.0, -0.14, -0.06),
+                {
+                    "RightHand": Target(
+                        (0.05, 0.2, -0.05),
+                        "Head",
+                        _hand_deg(-1.0, (-1.0, -0.4, 0.0), (0.0, -1.0, 0.0)),
+                    ),
+                    "LeftHand": Target(
+                        (0.03, 0.08, 0.21), "Head", _hand_deg(1.0, (0.0, 1.0, 0.1), (0.0, 0.0, 1.0))
+                    ),
+                },
+            ),
+            Key(1.3, {"LowerBack": (15, -5, 0)}, (0.0, -0.16, -0.07)),
+            Key(2.0, {"LowerBack": (14, -5, 0)}, (0.0, -0.15, -0.07)),
+        ],
+        "cover_head_one_arm",
+    )
 
 
 # -- fall down ----------------------------------------------------------------------------------
@@ -1327,17 +1640,428 @@ def pick_up_one_hand() -> Motion:
     )
 
 
+# -- punch ------------------------------------------------------------------------------------
+
+#: Time a straight punch takes from the guard to full extension, seconds.
+PUNCH_EXTEND_S = 0.17
+
+#: Time a fist takes back from a straight punch to the guard, seconds.
+PUNCH_RETRACT_S = 0.24
+
+#: Left wrist in the chest (Spine1) frame, metres: a relaxed guard, fists in front of
+#: the chest, and a boxing guard, fists at the chin (the right hand mirrors it).
+RELAXED_GUARD = (0.12, 0.10, 0.22)
+BOXING_GUARD = (0.10, 0.15, 0.19)
+
+#: Left fist, (fingers, palm) directions in the chest frame: knuckles up and palm in in
+#: the guard, palm towards the face at the end of an uppercut.
+FIST_GUARD = ((0.0, 1.0, 0.35), (-1.0, 0.0, 0.0))
+FIST_UPPERCUT = ((0.0, 1.0, 0.1), (0.0, 0.0, -1.0))
+
+#: Orthodox boxing stance: where the balls of the feet are (world x, z, metres) and
+#: which way the feet point (degrees, positive towards the left): the left foot ahead
+#: with its toes a little in, the right one behind turned out; the hips between them,
+#: a little down, turned to the right.
+LEAD_BALL_XZ = (0.10, 0.24)
+REAR_BALL_XZ = (-0.15, -0.18)
+LEAD_YAW_DEG = -10.0
+REAR_YAW_DEG = -45.0
+STANCE_ROOT_M = (-0.02, -0.06, 0.0)
+STANCE_TURN_DEG = -25.0
+
+
+def _fists(curl_deg: float = 130.0) -> dict[str, tuple[float, float, float]]:
+    """Finger rotations closing both hands into fists: the fingers curl towards the palm
+    by ``curl_deg`` at the knuckles, the palm cups a little, the thumb folds in; 0 opens
+    the hands again."""
+    axis = np.cross(LEFT_FINGERS_REST, LEFT_PALM_REST)
+    axis /= np.linalg.norm(axis)
+    out = {}
+    for left, right, share in (
+        ("LeftFingerBase", "RightFingerBase", 0.2),
+        ("LeftHandFinger1", "RightHandFinger1", 1.0),
+        ("LThumb", "RThumb", 0.4),
+    ):
+        rotation = Rotation.from_rotvec(np.radians(share * curl_deg) * axis).as_matrix()
+        z, x, y = matrix_to_euler(rotation, "ZXY")
+        # The right hand mirrors the left: x angles stay, y and z change sign.
+        out[left] = (float(x), float(y), float(z))
+        out[right] = (float(x), float(-y), float(-z))
+    return out
+
+
+def _guard_arms() -> dict[str, tuple[float, float, float]]:
+    """Arm rotations of a guard: the upper arms forwards and in, the elbows down (the
+    bend the IK keeps), the hands closed into fists."""
+    return {
+        "LeftArm": (-35, 0, -30),
+        "RightArm": (-35, 0, 30),
+        "LeftForeArm": (0, 0, 0),
+        "RightForeArm": (0, 0, 0),
+        **_fists(),
+    }
+
+
+def _fist(side: float, point_m, fingers_palm=FIST_GUARD) -> Target:
+    """Wrist target of the left (side +1) or right (-1) hand in the chest (Spine1) frame;
+    the point and the (fingers, palm) directions are given for the left hand, mirrored
+    (x negated) for the right."""
+    x, y, z = point_m
+    return Target((side * x, y, z), "Spine1", _hand_deg(side, *fingers_palm))
+
+
+def _guard(point_m) -> dict[str, Target]:
+    """Both fists at ``point_m`` (chest frame, given for the left hand)."""
+    return {"LeftHand": _fist(1.0, point_m), "RightHand": _fist(-1.0, point_m)}
+
+
+def _straight(side: float, aim) -> dict[str, Target]:
+    """Wrist target of a straight punch, palm down: the arm straight from the shoulder
+    towards ``aim`` (chest frame, given for the left arm); the elbow keeps a few degrees
+    of bend so that the IK knows which way it bends on the way back."""
+    rest = rest_positions_m(canonical_skeleton())
+    reach = np.linalg.norm(rest["LeftForeArm"] - rest["LeftArm"]) + np.linalg.norm(
+        rest["LeftHand"] - rest["LeftForeArm"]
+    )
+    direction = np.asarray(aim, dtype=np.float64) / np.linalg.norm(aim)
+    point = rest["LeftArm"] - rest["Spine1"] + 0.998 * reach * direction
+    hand = "LeftHand" if side > 0 else "RightHand"
+    return {hand: _fist(side, point, (tuple(direction), (0.0, -1.0, 0.0)))}
+
+
+def _chest_turn(turn_deg: float, lean_deg: float = 0.0) -> dict[str, tuple[float, float, float]]:
+    """The shoulders turned by ``turn_deg`` (positive to the left) over the hips, the
+    spine leaning forwards by ``lean_deg``, the head turned back to look ahead."""
+    return {
+        "LowerBack": (0.5 * lean_deg, 0.35 * turn_deg, 0.0),
+        "Spine": (0.3 * lean_deg, 0.35 * turn_deg, 0.0),
+        "Spine1": (0.2 * lean_deg, 0.3 * turn_deg, 0.0),
+        "Neck": (-0.5 * lean_deg, -0.5 * turn_deg, 0.0),
+        "Head": (-0.3 * lean_deg, -0.3 * turn_deg, 0.0),
+    }
+
+
+def _foot_on_ball(
+    joint: str, ball_xz: tuple[float, float], yaw_deg: float = 0.0, heel_raise_deg: float = 0.0
+) -> Target:
+    """Target of a foot whose ball stays at ``ball_xz`` (world x, z, metres) however it
+    turns (``yaw_deg``, as :func:`eigmotion.authoring.foot_target`) or raises its heel: a
+    pivot on the ball of the foot."""
+    rest = rest_positions_m(canonical_skeleton())
+    to_ball = rest[joint.replace("Foot", "ToeBase")] - rest[joint]
+    dx, dz = _turned(to_ball[0], to_ball[2], yaw_deg)
+    return foot_target(joint, (ball_xz[0] - dx, ball_xz[1] - dz), yaw_deg, heel_raise_deg)
+
+
+def _boxing_feet(
+    lead_turn_deg: float = 0.0,
+    lead_heel_deg: float = 0.0,
+    rear_turn_deg: float = 0.0,
+    rear_heel_deg: float = 0.0,
+) -> dict[str, Target]:
+    """Both feet in the orthodox stance, each turned on its ball from its stance
+    heading by ``*_turn_deg`` with its heel raised by ``*_heel_deg``."""
+    lead_yaw, rear_yaw = LEAD_YAW_DEG + lead_turn_deg, REAR_YAW_DEG + rear_turn_deg
+    return {
+        "LeftFoot": _foot_on_ball("LeftFoot", LEAD_BALL_XZ, lead_yaw, lead_heel_deg),
+        "RightFoot": _foot_on_ball("RightFoot", REAR_BALL_XZ, rear_yaw, rear_heel_deg),
+    }
+
+
+def _stance(root_shift_m=(0.0, 0.0, 0.0)) -> tuple[float, float, float]:
+    """Root offset of the boxing stance, shifted by ``root_shift_m`` (metres)."""
+    return tuple(float(a + b) for a, b in zip(STANCE_ROOT_M, root_shift_m, strict=True))
+
+
+#: Hips and spine in the boxing guard: side-on, the shoulders a little further round,
+#: leaning a little forwards.
+BOXING_GUARD_BODY = {"Hips": (0, STANCE_TURN_DEG, 0), **_chest_turn(-10, 6)}
+
+
+def _into_boxing_guard(guard_time_s: float) -> list[Key]:
+    """The first keys of a boxing motion: standing in the orthodox stance, knees a little
+    bent, arms down, and by ``guard_time_s`` in the guard, turned side-on."""
+    return [
+        Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, _stance(), _boxing_feet()),
+        Key(guard_time_s, {**_guard_arms(), **BOXING_GUARD_BODY}, _stance(), _guard(BOXING_GUARD)),
+    ]
+
+
+def punch_straight_alternating() -> Motion:
+    """From a relaxed guard, the feet where they stand, four straight punches at head
+    height, left, right, left, right, the shoulders turning into each."""
+    keys = [
+        Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=-0.02)),
+        Key(0.5, _guard_arms(), (0.0, -0.03, 0.0), _guard(RELAXED_GUARD)),
+    ]
+    # A hit every 13 frames from frame 39 to frame 78 of 92: the hits fall on the frames
+    # of an 8-frame contact sheet.
+    for i, side in enumerate((1.0, -1.0, 1.0, -1.0)):
+        hit = (39 + 13 * i) / DEFAULT_FPS
+        keys += [
+            Key(hit - PUNCH_EXTEND_S, {}, (0.0, -0.03, 0.0)),
+            Key(
+                hit,
+                {"Hips": (0, -5 * side, 0), **_chest_turn(-22 * side, 4)},
+                (0.0, -0.04, 0.03),
+                _straight(side, (-0.22, 0.05, 1.0)),
+            ),
+            Key(
+                hit + PUNCH_RETRACT_S,
+                {"Hips": (0, 0, 0), **_chest_turn(0)},
+                (0.0, -0.03, 0.0),
+                _guard(RELAXED_GUARD),
+            ),
+        ]
+    keys.append(Key(91 / DEFAULT_FPS, {}, (0.0, -0.02, 0.0)))
+    return _animate(keys, "punch_straight_alternating")
+
+
+def punch_jab_cross() -> Motion:
+    """Boxing: from the orthodox guard a left jab and a right cross, twice; in the cross
+    the weight goes onto the front foot and the rear heel turns out as the hips turn."""
+    keys = _into_boxing_guard(0.4)
+    for t in (0.6, 1.6):
+        jab = t + PUNCH_EXTEND_S
+        cross = jab + 0.2 + PUNCH_EXTEND_S + 0.03
+        keys += [
+            Key(t, {}, _stance()),
+            Key(
+                jab,
+                {"Hips": (0, STANCE_TURN_DEG - 5, 0), **_chest_turn(-22, 8)},
+                _stance((0.01, -0.01, 0.04)),
+                _straight(1.0, (-0.25, 0.12, 1.0)),
+            ),
+            Key(jab + 0.2, BOXING_GUARD_BODY, _stance(), {"LeftHand": _fist(1.0, BOXING_GUARD)}),
+            Key(
+                cross,
+                {"Hips": (0, 10, 0), **_chest_turn(15, 10), "RightToeBase": (-35, 0, 0)},
+                _stance((0.03, -0.03, 0.10)),
+                {
+                    **_straight(-1.0, (-0.12, 0.10, 1.0)),
+                    **_boxing_feet(rear_turn_deg=30, rear_heel_deg=35),
+                },
+            ),
+            Key(
+                cross + PUNCH_RETRACT_S + 0.06,
+                {**BOXING_GUARD_BODY, "RightToeBase": (0, 0, 0)},
+                _stance(),
+                {"RightHand": _fist(-1.0, BOXING_GUARD), **_boxing_feet()},
+            ),
+        ]
+    keys.append(Key(keys[-1].time_s + 0.4, {}, _stance((0.0, 0.01, 0.0))))
+    return _animate(keys, "punch_jab_cross")
+
+
+def punch_hooks() -> Motion:
+    """Boxing: from the orthodox guard a left hook, back to the guard, a right hook; the
+    elbow comes up level with the fist, the body turns the fist across, the foot on the
+    punching side turns on its ball."""
+    hook = (0.28, 0.09, 0.34)
+    across = ((-0.5, 0.0, 0.85), (0.0, -1.0, 0.0))
+    wound_up = (0.2, 0.1, 0.2)
+    back = {**BOXING_GUARD_BODY, **_guard_arms()}
+    return _animate(
+        [
+            *_into_boxing_guard(0.4),
+            Key(
+                0.7,
+                {"Hips": (0, STANCE_TURN_DEG + 5, 0), **_chest_turn(5, 6)},
+                _stance((0.02, -0.03, 0.03)),
+                {"LeftHand": _fist(1.0, wound_up)},
+            ),
+            Key(
+                0.9,
+                {
+                    "Hips": (0, STANCE_TURN_DEG - 10, 0),
+                    **_chest_turn(-15, 8),
+                    "LeftArm": (0, -25, 45),
+                    "LeftToeBase": (-20, 0, 0),
+                },
+                _stance((0.0, -0.04, 0.02)),
+                {
+                    "LeftHand": _fist(1.0, hook, across),
+                    **_boxing_feet(lead_turn_deg=-35, lead_heel_deg=20),
+                },
+            ),
+            Key(
+                1.2,
+                {**back, "LeftToeBase": (0, 0, 0)},
+                _stance(),
+                {"LeftHand": _fist(1.0, BOXING_GUARD), **_boxing_feet()},
+            ),
+            Key(
+                1.5,
+                {"Hips": (0, STANCE_TURN_DEG - 8, 0), **_chest_turn(-25, 6)},
+                _stance((-0.01, -0.03, -0.01)),
+                {"RightHand": _fist(-1.0, wound_up)},
+            ),
+            Key(
+                1.7,
+                {
+                    "Hips": (0, 15, 0),
+                    **_chest_turn(25, 8),
+                    "RightArm": (0, 25, -45),
+                    "RightToeBase": (-35, 0, 0),
+                },
+                _stance((0.03, -0.04, 0.08)),
+                {
+                    "RightHand": _fist(-1.0, hook, across),
+                    **_boxing_feet(rear_turn_deg=35, rear_heel_deg=35),
+                },
+            ),
+            Key(
+                2.05,
+                {**back, "RightToeBase": (0, 0, 0)},
+                _stance(),
+                {"RightHand": _fist(-1.0, BOXING_GUARD), **_boxing_feet()},
+            ),
+            Key(2.45, {}, _stance((0.0, 0.01, 0.0))),
+        ],
+        "punch_hooks",
+    )
+
+
+def punch_uppercuts() -> Motion:
+    """Boxing: from the orthodox guard a right uppercut, then a left one: dip and turn
+    towards the punching side, the fist drops to the chest, then the legs drive up, the
+    body turns and the fist rises in front of the chin, palm towards the face."""
+    dropped = ((0.0, 0.3, 1.0), (0.0, 1.0, 0.0))
+    chin = (0.05, 0.2, 0.38)
+    return _animate(
+        [
+            *_into_boxing_guard(0.4),
+            Key(
+                0.75,
+                {"Hips": (0, STANCE_TURN_DEG - 10, 0), **_chest_turn(-25, 12)},
+                _stance((-0.03, -0.09, -0.02)),
+                {"RightHand": _fist(-1.0, (0.12, -0.04, 0.22), dropped)},
+            ),
+            Key(
+                0.97,
+                {"Hips": (0, 5, 0), **_chest_turn(15, 2), "RightToeBase": (-30, 0, 0)},
+                _stance((0.03, 0.0, 0.06)),
+                {
+                    "RightHand": _fist(-1.0, chin, FIST_UPPERCUT),
+                    **_boxing_feet(rear_turn_deg=30, rear_heel_deg=30),
+                },
+            ),
+            Key(
+                1.3,
+                {**BOXING_GUARD_BODY, "RightToeBase": (0, 0, 0)},
+                _stance(),
+                {"RightHand": _fist(-1.0, BOXING_GUARD), **_boxing_feet()},
+            ),
+            Key(
+                1.55,
+                {"Hips": (0, STANCE_TURN_DEG + 10, 0), **_chest_turn(5, 12)},
+                _stance((0.03, -0.09, 0.02)),
+                {"LeftHand": _fist(1.0, (0.14, -0.04, 0.22), dropped)},
+            ),
+            Key(
+                1.77,
+                {
+                    "Hips": (0, STANCE_TURN_DEG - 15, 0),
+                    **_chest_turn(-30, 2),
+                    "LeftToeBase": (-20, 0, 0),
+                },
+                _stance((0.0, 0.0, 0.03)),
+                {
+                    "LeftHand": _fist(1.0, chin, FIST_UPPERCUT),
+                    **_boxing_feet(lead_turn_deg=-30, lead_heel_deg=20),
+                },
+            ),
+            Key(
+                2.1,
+                {**BOXING_GUARD_BODY, "LeftToeBase": (0, 0, 0)},
+                _stance(),
+                {"LeftHand": _fist(1.0, BOXING_GUARD), **_boxing_feet()},
+            ),
+            Key(2.5, {}, _stance((0.0, 0.01, 0.0))),
+        ],
+        "punch_uppercuts",
+    )
+
+
+def punch_stepping_in() -> Motion:
+    """From standing, fists up, step forwards with the left foot and throw a straight
+    right as it lands, the rear heel coming up and the hips turning in; then the fist
+    comes back and the hands go down."""
+    rest = rest_positions_m(canonical_skeleton())
+    ankle = rest["LeftFoot"][[0, 2]]
+    rear_ball = tuple(rest["RightToeBase"][[0, 2]])
+
+    def lead(forward_m: float, heel_deg: float = 0.0, lift_m: float = 0.0) -> Target:
+        """The left foot ``forward_m`` on, turning its toes a little in as it goes."""
+        x, z = ankle[0] - 0.1 * forward_m, ankle[1] + forward_m
+        return foot_target("LeftFoot", (x, z), -25.0 * forward_m, heel_deg, lift_m)
+
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
+            Key(0.45, _guard_arms(), (0.0, -0.03, 0.0), _guard(RELAXED_GUARD)),
+            Key(0.6, {"LeftToeBase": (0, 0, 0)}, (0.01, -0.04, 0.02), {"LeftFoot": lead(0.0)}),
+            Key(
+                0.72,
+                {"LeftToeBase": (-25, 0, 0)},
+                (-0.01, -0.04, 0.07),
+                {"LeftFoot": lead(0.0, 25.0)},
+            ),
+            Key(
+                0.84,
+                {"LeftToeBase": (0, 0, 0), "Hips": (0, -5, 0), **_chest_turn(-10, 4)},
+                (-0.01, -0.04, 0.15),
+                {"LeftFoot": lead(0.22, 5.0, 0.07)},
+            ),
+            Key(
+                0.98,
+                {"Hips": (0, 18, 0), **_chest_turn(22, 12), "RightToeBase": (-30, 0, 0)},
+                (0.03, -0.08, 0.28),
+                {
+                    "LeftFoot": lead(0.45),
+                    "RightFoot": _foot_on_ball("RightFoot", rear_ball, 20.0, 30.0),
+                    **_straight(-1.0, (-0.15, 0.08, 1.0)),
+                },
+            ),
+            Key(1.1, {}, (0.03, -0.08, 0.29)),
+            Key(
+                1.4,
+                {"Hips": (0, 5, 0), **_chest_turn(0, 4), "RightToeBase": (0, 0, 0)},
+                (0.02, -0.06, 0.25),
+                {
+                    "RightHand": _fist(-1.0, RELAXED_GUARD),
+                    "RightFoot": _foot_on_ball("RightFoot", rear_ball, 20.0, 0.0),
+                },
+            ),
+            Key(
+                2.1,
+                {**ARMS_DOWN, "Hips": (0, 5, 0), **_chest_turn(0), **_fists(0.0)},
+                (0.02, -0.02, 0.24),
+                {"LeftHand": None, "RightHand": None},
+            ),
+            Key(2.4, {}, (0.02, -0.01, 0.24)),
+        ],
+        "punch_stepping_in",
+    )
+
+
 MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
     "lift_floor_to_waist_stoop": lift_floor_to_waist_stoop,
     "lift_suitcase_one_hand": lift_suitcase_one_hand,
+    "lift_table_to_shoulder": lift_table_to_shoulder,
+    "lift_clean_and_press": lift_clean_and_press,
     "sit_down_holding_stomach_slow": sit_down_holding_stomach_slow,
     "sit_down_holding_stomach_fast": sit_down_holding_stomach_fast,
     "sit_down_doubled_over": sit_down_doubled_over,
+    "sit_down_hands_on_knees": sit_down_hands_on_knees,
+    "sit_down_on_the_floor": sit_down_on_the_floor,
     "cover_head_standing": cover_head_standing,
     "cover_head_crouching": cover_head_crouching,
     "cover_head_stooping": cover_head_stooping,
+    "cover_head_stepping_back": cover_head_stepping_back,
+    "cover_head_one_arm": cover_head_one_arm,
     "fall_down_forwards": fall_down_forwards,
     "fall_down_backwards": fall_down_backwards,
     "fall_down_sideways": fall_down_sideways,
@@ -1353,6 +2077,11 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "pick_up_squatting": pick_up_squatting,
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
+    "punch_straight_alternating": punch_straight_alternating,
+    "punch_jab_cross": punch_jab_cross,
+    "punch_hooks": punch_hooks,
+    "punch_uppercuts": punch_uppercuts,
+    "punch_stepping_in": punch_stepping_in,
 }
 
 
