@@ -111,6 +111,11 @@ class MotionImageConfig:
     min_motion_frac : float
         A clip whose mean difference mass is below this fraction of its mean
         silhouette area is rejected as "no motion", in [0, 1).
+    phases : int
+        The clip cut into this many consecutive parts of equal length, each made
+        into its own ``size``×``size`` image the same way, side by side in the
+        vector (1–4): the order of what happens, which one after-image blurs (a
+        pick-up goes down then up, a sit-down only down).
     """
 
     size: int = 32
@@ -125,6 +130,7 @@ class MotionImageConfig:
     margin_frac: float = 0.05
     person_height_frac: float = 0.6
     min_motion_frac: float = 0.002
+    phases: int = 1
 
     def __post_init__(self):
         _check_int("size", self.size, 8, 512)
@@ -139,9 +145,11 @@ class MotionImageConfig:
         _check_real("margin_frac", self.margin_frac, 0.0, 0.45)
         _check_real("person_height_frac", self.person_height_frac, 0.1, 1.0)
         _check_real("min_motion_frac", self.min_motion_frac, 0.0, 1.0, hi_open=True)
+        _check_int("phases", self.phases, 1, 4)
         # Normalise numeric types so that to_dict() round-trips exactly.
         object.__setattr__(self, "size", int(self.size))
         object.__setattr__(self, "step", int(self.step))
+        object.__setattr__(self, "phases", int(self.phases))
         for name in (
             "sample_fps",
             "log_sigma_px",
@@ -155,8 +163,8 @@ class MotionImageConfig:
 
     @property
     def n_dims(self) -> int:
-        """Length of a motion-image vector, ``size * size``."""
-        return self.size * self.size
+        """Length of a motion-image vector, ``phases * size * size``."""
+        return self.phases * self.size * self.size
 
     def to_dict(self) -> dict:
         """Plain ``{name: int | float | str}`` for storing with a database."""
@@ -369,14 +377,15 @@ def motion_image_picture(vector: np.ndarray, config: MotionImageConfig) -> np.nd
 
     Returns
     -------
-    (size, size) uint8
-        Non-negative images scaled so their maximum is 255; signed ones (LoG) mapped
-        with 0 → 128 and the largest magnitude → 0 or 255.
+    (size, phases · size) uint8
+        The phases side by side; non-negative images scaled so their maximum is 255,
+        signed ones (LoG) mapped with 0 → 128 and the largest magnitude → 0 or 255.
     """
     v = np.asarray(vector)
     if v.ndim != 1 or v.shape[0] != config.n_dims:
         raise InvalidParameterError(
-            f"vector must have shape ({config.n_dims},) for size={config.size}, got {v.shape}"
+            f"vector must have shape ({config.n_dims},) for size={config.size}, "
+            f"phases={config.phases}, got {v.shape}"
         )
     v = v.astype(np.float64)
     if not np.all(np.isfinite(v)):
@@ -388,7 +397,8 @@ def motion_image_picture(vector: np.ndarray, config: MotionImageConfig) -> np.nd
         out = 127.5 + 127.5 * v / peak
     else:
         out = 255.0 * v / peak
-    return np.clip(np.rint(out), 0, 255).astype(np.uint8).reshape(config.size, config.size)
+    picture = np.clip(np.rint(out), 0, 255).astype(np.uint8)
+    return np.hstack(picture.reshape(config.phases, config.size, config.size))
 
 
 # -- stages ------------------------------------------------------------------------------
@@ -416,22 +426,43 @@ def _check_masks(masks) -> np.ndarray:
 
 
 def _image_from_aligned(aligned: np.ndarray, config: MotionImageConfig) -> np.ndarray:
-    """(F, S, S) aligned silhouettes → (S·S,) unit float32 motion image."""
+    """(F, S, S) aligned silhouettes → (phases·S·S,) unit float32 motion image."""
     s = config.step
     diffs = np.abs(aligned[s:] - aligned[:-s])  # (n, S, S)
     n = diffs.shape[0]
-    after = np.tensordot(_time_weights(n, config.weighting), diffs, axes=1)  # (S, S), [0, 1]
-
     mean_area = float(aligned.sum()) / aligned.shape[0]
     motion = float(diffs.sum()) / n
-    if motion <= config.min_motion_frac * mean_area or after.max() <= 0.0:
+    if motion <= config.min_motion_frac * mean_area or diffs.max() <= 0.0:
         raise VideoError(
             f"masks: no motion: the silhouettes barely change (mean change {motion:.3g} px "
             f"per difference vs a body of {mean_area:.3g} px at size {config.size}); "
             f"expected at least min_motion_frac={config.min_motion_frac:g} of the body"
         )
-    after[after < config.residual_floor * after.max()] = 0.0
-    image = after / after.max()
+    # Phase p takes the differences [cuts[p], cuts[p+1]) and the frames they join.
+    cuts = np.linspace(0, n, config.phases + 1).round().astype(int)
+    images = [
+        _phase_image(diffs[a:b], aligned[a : b + s], config)
+        for a, b in zip(cuts[:-1], cuts[1:], strict=True)
+    ]
+    vector = np.concatenate([image.reshape(-1) for image in images])
+    norm = float(np.linalg.norm(vector))
+    if norm <= 0.0:  # pragma: no cover - a non-zero image keeps energy under LoG/Sobel
+        raise VideoError("masks: no motion left after filtering")
+    return (vector / norm).astype(np.float32)
+
+
+def _phase_image(diffs: np.ndarray, aligned: np.ndarray, config: MotionImageConfig):
+    """(n, S, S) differences and the (n + step, S, S) frames they join → (S, S) float32
+    image of one phase (all zeros when nothing moves in it)."""
+    size = config.size
+    if len(diffs) == 0:
+        return np.zeros((size, size), np.float32)
+    after = np.tensordot(_time_weights(len(diffs), config.weighting), diffs, axes=1)
+    peak = float(after.max())
+    if peak <= 0.0:
+        return np.zeros((size, size), np.float32)
+    after[after < config.residual_floor * peak] = 0.0
+    image = after / peak
     if config.silhouette_weight > 0.0:
         # The silhouettes are averaged with the same kind of weights as the
         # differences, so under "recency" the pose the motion ends in dominates.
@@ -440,12 +471,7 @@ def _image_from_aligned(aligned: np.ndarray, config: MotionImageConfig) -> np.nd
         image = (1.0 - config.silhouette_weight) * image + config.silhouette_weight * (
             mean_sil / max(float(mean_sil.max()), 1e-12)
         )
-    image = _filter(image.astype(np.float32), config)
-    vector = image.reshape(-1)
-    norm = float(np.linalg.norm(vector))
-    if norm <= 0.0:  # pragma: no cover - a non-zero image keeps energy under LoG/Sobel
-        raise VideoError("masks: no motion left after filtering")
-    return (vector / norm).astype(np.float32)
+    return _filter(image.astype(np.float32), config)
 
 
 def _time_weights(n: int, weighting: str) -> np.ndarray:

@@ -159,7 +159,10 @@ def test_query_of_sampled_frames_equals_every_frame(db_path, library, other_body
     assert clip.fps == db.config.motion_image.sample_fps and whole.fps == 30.0
     assert len(clip.masks) < len(whole.masks) == whole.n_frames == clip.n_frames == len(masks)
     np.testing.assert_allclose(sampled.motion_image, every.motion_image, atol=1e-5)
-    assert sampled.best == every.best
+    # The same entry; its distance equal but for float32 rounding (BLAS sums depend
+    # on memory alignment).
+    assert sampled.best.distance == pytest.approx(every.best.distance, abs=1e-6)
+    assert replace(sampled.best, distance=0.0) == replace(every.best, distance=0.0)
     assert sampled.segments[0].start_frame == 0
     assert sampled.segments[-1].end_frame == len(masks)
     for before, after in zip(sampled.segments, sampled.segments[1:], strict=False):

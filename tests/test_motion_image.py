@@ -151,6 +151,20 @@ def test_recency_tells_a_motion_from_its_reverse(frame):
     assert d_recency > 0.05
 
 
+@pytest.mark.parametrize("phases", [2, 3])
+def test_phases_keep_the_order_of_the_motion(phases):
+    """Arms lifting vs. lowering again, with uniform weights: one image cannot tell them
+    apart, consecutive phases can."""
+    kwargs = dict(walk_speed_px_s=0.0, arm_swing_deg=0.0, leg_swing_deg=0.0, raise_arms_deg=80.0)
+    forward, backward = walk(**kwargs), walk(reverse=True, **kwargs)
+    config = MotionImageConfig(weighting="uniform", phases=phases)
+    vector = motion_image(forward, config, 30.0)
+    assert vector.shape == (config.n_dims,) == (phases * 32 * 32,)
+    assert np.linalg.norm(vector) == pytest.approx(1.0, abs=1e-5)
+    assert cosine_distance(vector, motion_image(backward, config, 30.0)) > 0.05
+    assert motion_image_picture(vector, config).shape == (32, phases * 32)
+
+
 # -- frame rates -----------------------------------------------------------------------------
 
 
@@ -283,6 +297,8 @@ def test_bad_clip_fps(clip_fps):
         ("margin_frac", -0.1),
         ("person_height_frac", 0.0),
         ("min_motion_frac", 1.0),
+        ("phases", 0),
+        ("phases", 5),
     ],
 )
 def test_config_rejects_bad_values(name, value):
