@@ -8,9 +8,11 @@ video) go through, so that both sides see exactly the same preprocessing::
         ──align: image frame (one crop for the clip) or person frame (each frame on
           its body centre, scaled by the body height)──▶ (F', S, S) in [0, 1]
         ──|m_t − m_{t−step}|──▶ (F'−step, S, S) differences
-        ──weighted sum (uniform or recency)──▶ one after-image (S, S)
-        ──drop faint residue (residual_floor), optional mean-silhouette term──▶
-        ──optional LoG or Sobel──▶ raster scan ──▶ x, ‖x‖ = 1, (S·S,) float32
+        ──cut into ``phases`` consecutive parts, each part:
+          weighted sum (uniform or recency)──▶ one after-image (S, S)
+          ──drop faint residue (residual_floor), optional mean-silhouette term──▶
+          ──optional LoG or Sobel──▶
+        ──side by side, raster scan──▶ x, ‖x‖ = 1, (phases·S·S,) float32
 
 ``S`` is :attr:`MotionImageConfig.size`.  The crop keeps the aspect ratio: the region
 of interest is scaled uniformly into the square and padded with zeros.
@@ -44,9 +46,10 @@ Weighting (``MotionImageConfig.weighting``):
 The optional silhouette term (``silhouette_weight``) blends in the mean aligned
 silhouette, weighted over time like the differences (so under "recency" it is
 dominated by the pose the motion ends in).  The defaults — person frame, recency,
-silhouette weight 0.5, Sobel, 32×32 — are the best of the configurations measured by
-nearest-neighbour retrieval over the motion library, on rendered masks and on masks
-cut out of composed video (``docs/motion-image.md``).
+silhouette weight 0.5, Sobel, 32×32, two phases — are the best of the configurations
+measured by nearest-neighbour retrieval over the motion library, on rendered masks
+and on masks cut out of composed video, and (the phases) on the holdout benchmark of
+new performers (``docs/motion-image.md``).
 """
 
 from __future__ import annotations
@@ -77,7 +80,7 @@ class MotionImageConfig:
     Parameters
     ----------
     size : int
-        Side of the square image, pixels; the vector has ``size * size`` elements.
+        Side of the square image, pixels; each phase has ``size * size`` elements.
         Valid range [8, 512].
     step : int
         Frame gap of the differences (1, 2 or 3 sampled frames apart).
@@ -130,7 +133,7 @@ class MotionImageConfig:
     margin_frac: float = 0.05
     person_height_frac: float = 0.6
     min_motion_frac: float = 0.002
-    phases: int = 1
+    phases: int = 2
 
     def __post_init__(self):
         _check_int("size", self.size, 8, 512)
@@ -172,7 +175,8 @@ class MotionImageConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> MotionImageConfig:
-        """The inverse of :meth:`to_dict`; missing keys take their defaults.
+        """The inverse of :meth:`to_dict`; missing keys take their defaults, except
+        ``phases``: a configuration stored before it existed made one image (1).
 
         Raises
         ------
@@ -189,7 +193,7 @@ class MotionImageConfig:
             raise InvalidParameterError(
                 f"motion image config: unknown key(s) {unknown}; expected some of {sorted(known)}"
             )
-        return cls(**data)
+        return cls(**{"phases": 1, **data})
 
 
 def _check_int(name: str, value, lo: int, hi: int) -> None:
@@ -235,7 +239,7 @@ def motion_image(
 
     Returns
     -------
-    (config.size ** 2,) float32
+    (config.n_dims,) float32
         The raster-scanned (row-major) motion image with Euclidean norm 1.
 
     Raises
@@ -290,7 +294,7 @@ class ClipMotionImages:
 
         Returns
         -------
-        (config.size ** 2,) float32
+        (config.n_dims,) float32
             Unit vector, as :func:`motion_image`.
 
         Raises
@@ -370,7 +374,7 @@ def motion_image_picture(vector: np.ndarray, config: MotionImageConfig) -> np.nd
 
     Parameters
     ----------
-    vector : (config.size ** 2,) float
+    vector : (config.n_dims,) float
         A vector from :func:`motion_image`.
     config : MotionImageConfig
         The configuration it was made with.

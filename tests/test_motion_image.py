@@ -59,7 +59,7 @@ ALL_OPTIONS = [
 def test_unit_norm_and_length(config):
     vector = motion_image(walk(), config, clip_fps=30.0)
     assert vector.dtype == np.float32
-    assert vector.shape == (config.size**2,)
+    assert vector.shape == (config.n_dims,) == (config.phases * config.size**2,)
     assert np.all(np.isfinite(vector))
     assert abs(float(np.linalg.norm(vector)) - 1.0) < 1e-5
 
@@ -69,7 +69,7 @@ def test_unit_norm_and_length(config):
 def test_sizes_and_steps(size, step):
     config = MotionImageConfig(size=size, step=step)
     vector = motion_image(walk(), config, clip_fps=30.0)
-    assert vector.shape == (size * size,)
+    assert vector.shape == (config.phases * size * size,)
     assert abs(float(np.linalg.norm(vector)) - 1.0) < 1e-5
 
 
@@ -90,7 +90,7 @@ def test_mask_dtypes_agree(dtype):
 def test_the_image_holds_the_motion_not_the_background():
     """Where nothing ever moved the image is zero (differences only, no silhouette)."""
     masks = walk(walk_speed_px_s=0.0)
-    config = MotionImageConfig(frame="image", filter="none", silhouette_weight=0.0)
+    config = MotionImageConfig(frame="image", filter="none", silhouette_weight=0.0, phases=1)
     picture = motion_image_picture(motion_image(masks, config, 30.0), config)
     aligned = align_frames(masks[sample_indices(len(masks), 30.0, 15.0)], config)
     never = aligned.max(axis=0) == 0.0
@@ -139,8 +139,8 @@ def test_recency_tells_a_motion_from_its_reverse(frame):
     forward = walk(**kwargs)
     backward = walk(reverse=True, **kwargs)
     np.testing.assert_array_equal(forward[::-1], backward)
-    uniform = MotionImageConfig(frame=frame, weighting="uniform")
-    recency = MotionImageConfig(frame=frame, weighting="recency")
+    uniform = MotionImageConfig(frame=frame, weighting="uniform", phases=1)
+    recency = MotionImageConfig(frame=frame, weighting="recency", phases=1)
     d_uniform = cosine_distance(
         motion_image(forward, uniform, 30.0), motion_image(backward, uniform, 30.0)
     )
@@ -307,11 +307,17 @@ def test_config_rejects_bad_values(name, value):
     assert repr(value) in str(info.value) or str(value) in str(info.value)
 
 
-@pytest.mark.parametrize("config", ALL_OPTIONS[:4] + [MotionImageConfig(size=48, step=3)])
+@pytest.mark.parametrize("config", ALL_OPTIONS[:4] + [MotionImageConfig(size=48, step=3, phases=3)])
 def test_config_round_trip(config):
     data = config.to_dict()
     assert all(isinstance(v, int | float | str) for v in data.values())
     assert MotionImageConfig.from_dict(data) == config
+
+
+def test_a_config_stored_before_phases_existed_made_one_image():
+    data = MotionImageConfig().to_dict()
+    del data["phases"]
+    assert MotionImageConfig.from_dict(data).phases == 1
 
 
 def test_config_from_dict_rejects_unknown_keys():
@@ -326,7 +332,8 @@ def test_config_from_dict_rejects_unknown_keys():
 def test_picture(filter_):
     config = MotionImageConfig(filter=filter_)
     picture = motion_image_picture(motion_image(walk(), config, 30.0), config)
-    assert picture.shape == (config.size, config.size) and picture.dtype == np.uint8
+    assert picture.shape == (config.size, config.phases * config.size)
+    assert picture.dtype == np.uint8
     if filter_ == "log":  # signed: 0 maps to mid-grey
         assert picture.min() == 0 or picture.max() == 255
         assert np.median(picture) in (127, 128)
@@ -335,7 +342,7 @@ def test_picture(filter_):
 
 
 def test_picture_rejects_a_vector_of_another_size():
-    with pytest.raises(InvalidParameterError, match=r"vector must have shape \(1024,\)"):
+    with pytest.raises(InvalidParameterError, match=r"vector must have shape \(2048,\)"):
         motion_image_picture(np.zeros(64 * 64, np.float32), MotionImageConfig(size=32))
 
 
