@@ -26,11 +26,14 @@ background): ``low = max(min_delta_e, low_factor × noise)``, ``high`` likewise.
 lossy codec removes the fine grain but adds blocky errors, so the raw noise level is
 never taken below :data:`RAW_PER_SMOOTHED_NOISE` times the smoothed one.
 
-Each stage runs once over the whole clip, not frame by frame: the frames are stacked
-one above the other in a single image, with empty separator rows wider than any filter
-reaches, so a colour conversion, a blur, a connected-component labelling or a
-morphology is one OpenCV call and the per-pixel tests are compiled loops (numba) over
-the stack; holes are looked for only inside each frame's person box.
+Each stage runs over chunks of :data:`CHUNK_FRAMES` frames, not frame by frame: the
+frames of a chunk are stacked one above the other in a single image, each with empty
+separator rows above and below it wider than any filter reaches, so a colour
+conversion, a blur, a connected-component labelling or a morphology is one OpenCV call
+and the per-pixel tests are compiled loops (numba) over the stack; holes are looked for
+only inside each frame's person box.  The chunks are worked on by one thread per CPU,
+and a video read by :func:`load_clip_masks` with a background is segmented chunk by
+chunk while it is still being decoded.
 
 Background estimation when none is given (``SilhouetteConfig.background``):
 
