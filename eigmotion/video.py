@@ -885,19 +885,19 @@ def _chunk_masks(
     kernels.component_boxes(labels.ravel(), w, boxes)
     boxes[1:, [2, 4]] -= sep  # rows of the frames' view, frame f from row f·tile
     keep = _person_components(boxes, tile, n, min_area, config.keep_piece_frac)
-    whole = np.empty((rows, w), np.bool_)
-    kernels.chosen(labels.ravel(), keep, whole.ravel())
+    person = np.empty((rows, w), np.bool_)
+    kernels.chosen(labels.ravel(), keep, person.ravel())
     reach = scene.reach
     _fill_holes(
-        whole[sep:], boxes[keep], (evidence.smoothed[sep:], levels.low, evidence.raw[sep:],
+        person[sep:], boxes[keep], (evidence.smoothed[sep:], levels.low, evidence.raw[sep:],
         levels.low_raw), shadow[sep:], tile, reach, config.small_hole_frac,
     )  # fmt: skip
-    person8 = whole.view(np.uint8)
-    if config.smooth_sigma_px > 0.0:  # the smoothing widened the mask: its rim must
-        # differ pixel by pixel
+    person8 = person.view(np.uint8)
+    if config.smooth_sigma_px > 0.0:
+        # The smoothing widened the mask: its rim must differ pixel by pixel.
         inner = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
         interior = cv2.erode(person8, inner).view(bool)
-        whole &= interior | ((evidence.raw > levels.low_raw) & ~shadow)
+        person &= interior | ((evidence.raw > levels.low_raw) & ~shadow)
     cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
     inside = cv2.erode(person8, cross)
     core = cv2.erode(inside, cross)
