@@ -18,6 +18,7 @@ The work is split over processes by (motion, view); the vectors then go to
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 import time
@@ -369,10 +370,31 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
     motion_index, shape_index, view_index = task
     library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
     vertices, faces, fitted = _posed(motion_index, shape_index)
-    camera = fitted[view_index]
-    masks = render_masks(vertices, faces, camera)
+    masks = render_masks(vertices, faces, fitted[view_index])
+    images = view_images(library[motion_index], masks, config)
+    return dataclasses.replace(
+        images, motion_index=motion_index, view_index=view_index, shape_index=shape_index
+    )
+
+
+def view_images(item: LibraryMotion, masks: np.ndarray, config: BuildConfig) -> ViewImages:
+    """The motion images of one rendered view of a library motion.
+
+    Parameters
+    ----------
+    item : LibraryMotion
+    masks : (F, H, W) bool
+        The silhouettes of ``item.motion`` resampled to ``config.render_fps``.
+    config : BuildConfig
+
+    Returns
+    -------
+    ViewImages
+        The whole motion and every sliding window that shows something (a window
+        labelled ``None`` by :func:`window_labels`, or where nothing moves, is left
+        out), windows in ``item.motion``'s own frames; the indices are 0.
+    """
     windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
-    item = library[motion_index]
     images = ClipMotionImages(masks, config.motion_image, clip_fps=config.render_fps)
     vectors, kept, labels = [], [], []
     for (start, stop), label in zip(
@@ -392,9 +414,9 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
     source_windows = np.minimum(source_windows, motion.n_frames)
     dims = config.motion_image.n_dims
     return ViewImages(
-        motion_index,
-        view_index,
-        shape_index,
+        0,
+        0,
+        0,
         source_windows.reshape(-1, 2),
         np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
         tuple(labels),

@@ -14,7 +14,7 @@ import contextlib
 import dataclasses
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -201,6 +201,7 @@ def build_database(
     config: BuildConfig | None = None,
     workers: int | None = None,
     progress: bool = True,
+    views: Iterable[ViewImages] | None = None,
 ) -> BuildReport:
     """Build a database from a motion library and a rig of virtual cameras.
 
@@ -221,6 +222,11 @@ def build_database(
         Processes for rendering.
     progress : bool
         Progress bars on stderr.
+    views : iterable of ViewImages, optional
+        The motion images of every (motion, body, view), as :func:`~eigmotion.build.
+        render_views` yields them for ``library``, ``rig`` and ``config`` (its
+        ``motion_index`` an index into ``library``), when they were made already —
+        e.g. from stored silhouettes; default: rendered here.
 
     Returns
     -------
@@ -234,7 +240,9 @@ def build_database(
     if len(set(names)) != len(names):
         raise InvalidParameterError("motion names in the library must be unique")
     collected = _Collected()
-    for view in render_views(library, rig, config, workers=workers, progress=progress):
+    if views is None:
+        views = render_views(library, rig, config, workers=workers, progress=progress)
+    for view in views:
         collected.add(view, rig)
     X, motion_of, az, el, start, stop, labels = collected.arrays()
     space = Eigenspace(config.n_components, config.explained_variance).fit(X)

@@ -89,3 +89,20 @@ def test_the_build_leaves_out_windows_outside_an_action_without_filler(views):
         turn_rows = [i for i, label in enumerate(full.labels) if label == "turn"]
         np.testing.assert_array_equal(kept.windows, full.windows[turn_rows])
         np.testing.assert_allclose(kept.vectors, full.vectors[turn_rows], atol=1e-6)
+
+
+def test_view_images_of_stored_masks_equal_the_render(turn, views):
+    """view_images, given the silhouettes a render makes, gives what the render gave."""
+    from eigmotion.build import build_body, pose_for_views, view_images
+    from eigmotion.silhouettes import render_masks
+
+    rig = virtual_rig([0.0, 90.0], [0.0], 64, 64)
+    (shape, outfit) = CONFIG.bodies[0]
+    body = build_body(shape, CONFIG.low_poly_faces, outfit)
+    vertices, fitted = pose_for_views(turn.motion, body, rig, CONFIG.render_fps)
+    masks = render_masks(vertices, body.faces, fitted[1])
+    made = view_images(turn, masks, CONFIG)
+    rendered = next(v for v in views if (v.motion_index, v.view_index) == (0, 1))
+    assert made.labels == rendered.labels
+    np.testing.assert_array_equal(made.windows, rendered.windows)
+    np.testing.assert_allclose(made.vectors, rendered.vectors, atol=1e-6)  # BLAS rounding

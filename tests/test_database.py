@@ -387,3 +387,31 @@ def test_bruteforce_reference_agrees_with_itself(db_path):
         arrays = db.store.arrays()
         res = BruteForceIndex.from_arrays(arrays.points, arrays.ids).search(arrays.points[:5], 1)
         np.testing.assert_array_equal(res.ids[:, 0], arrays.ids[:5])
+
+
+def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library):
+    """build_database(views=...) stores what a rendering build stores, from the images a
+    render made once (how the benchmarks build many fold databases from one render)."""
+    from eigmotion.build import render_views
+
+    rig = virtual_rig([0.0, 120.0, 240.0], [0.0], 64, 64)
+    config = replace(CONFIG, n_components=4, key_axes=2)
+    two = library[:2]
+    build_database(two, rig, tmp_path / "rendered.fs", config, workers=1, progress=False)
+    images = list(render_views(library, rig, config, workers=1, progress=False))
+    first_two = [v for v in images if v.motion_index < 2]
+    wave_only = [replace(v, motion_index=0) for v in images if v.motion_index == 2]
+    build_database(two, rig, tmp_path / "given.fs", config, progress=False, views=first_two)
+    build_database(library[2:3], rig, tmp_path / "one.fs", config, progress=False, views=wave_only)
+    with (
+        MotionDatabase.open(tmp_path / "rendered.fs") as rendered,
+        MotionDatabase.open(tmp_path / "given.fs") as given,
+        MotionDatabase.open(tmp_path / "one.fs") as one,
+    ):
+        a, b = rendered.store.arrays(), given.store.arrays()
+        np.testing.assert_allclose(a.points, b.points, atol=1e-5)
+        np.testing.assert_array_equal(a.motions, b.motions)
+        assert rendered.threshold == given.threshold
+        assert one.store.n_motions == 1
+        assert one.motion_record(0)["label"] == "wave"
+        assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
