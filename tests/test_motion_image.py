@@ -165,6 +165,26 @@ def test_phases_keep_the_order_of_the_motion(phases):
     assert motion_image_picture(vector, config).shape == (32, phases * 32)
 
 
+@pytest.mark.parametrize("phases", [2, 3])
+def test_phases_cut_by_motion_ignore_a_pause(phases):
+    """Arms lifting then lowering, once straight through and once with a pose held
+    halfway: with phases cut by motion the images are the same, by time they differ.
+    (Uniform weights and no silhouette term: the held frames add no difference.)"""
+    kwargs = dict(walk_speed_px_s=0.0, arm_swing_deg=0.0, leg_swing_deg=0.0, raise_arms_deg=80.0)
+    up, down = walk(**kwargs), walk(reverse=True, **kwargs)
+    straight = np.concatenate([up, down[1:]])
+    paused = np.concatenate([up[:15], np.repeat(up[15:16], 30, axis=0), up[16:], down[1:]])
+    for cuts, same in (("motion", True), ("time", False)):
+        config = MotionImageConfig(
+            weighting="uniform", silhouette_weight=0.0, filter="none", phases=phases,
+            phase_cuts=cuts,
+        )  # fmt: skip
+        d = cosine_distance(motion_image(straight, config), motion_image(paused, config))
+        assert (d < 1e-6) == same, (cuts, d)
+        if not same:
+            assert d > 0.02
+
+
 # -- frame rates -----------------------------------------------------------------------------
 
 
@@ -299,6 +319,7 @@ def test_bad_clip_fps(clip_fps):
         ("min_motion_frac", 1.0),
         ("phases", 0),
         ("phases", 5),
+        ("phase_cuts", "energy"),
     ],
 )
 def test_config_rejects_bad_values(name, value):
@@ -307,7 +328,10 @@ def test_config_rejects_bad_values(name, value):
     assert repr(value) in str(info.value) or str(value) in str(info.value)
 
 
-@pytest.mark.parametrize("config", ALL_OPTIONS[:4] + [MotionImageConfig(size=48, step=3, phases=3)])
+@pytest.mark.parametrize(
+    "config",
+    ALL_OPTIONS[:4] + [MotionImageConfig(size=48, step=3, phases=3, phase_cuts="time")],
+)
 def test_config_round_trip(config):
     data = config.to_dict()
     assert all(isinstance(v, int | float | str) for v in data.values())
@@ -316,8 +340,9 @@ def test_config_round_trip(config):
 
 def test_a_config_stored_before_phases_existed_made_one_image():
     data = MotionImageConfig().to_dict()
-    del data["phases"]
+    del data["phases"], data["phase_cuts"]
     assert MotionImageConfig.from_dict(data).phases == 1
+    assert MotionImageConfig.from_dict(data).phase_cuts == "time"
 
 
 def test_config_from_dict_rejects_unknown_keys():
