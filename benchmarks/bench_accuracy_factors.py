@@ -92,10 +92,16 @@ def true_masks(
 class QueryMasks:
     """The silhouettes of one clip spec under each condition of :data:`CONDITIONS`."""
 
-    def __init__(self, maker: ClipMaker, rig: CameraRig, items: dict[str, LibraryMotion]):
+    def __init__(
+        self,
+        maker: ClipMaker,
+        rig: CameraRig,
+        items: dict[str, LibraryMotion],
+        config: BuildConfig,
+    ):
         from eigmotion.avatar import load_default_avatar
 
-        self.maker, self.rig, self.items = maker, rig, items
+        self.maker, self.rig, self.items, self.config = maker, rig, items, config
         self.db_body = load_default_avatar()
 
     def masks(self, condition: str, spec: ClipSpec) -> tuple[np.ndarray, float]:
@@ -116,7 +122,8 @@ class QueryMasks:
 
         clip = self.maker.make(spec, item)
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
-        found = load_clip_masks(clip.video, clip.background, config, sample_fps=15.0)
+        sample_fps = self.config.motion_image.sample_fps  # as MotionDatabase.query_clip
+        found = load_clip_masks(clip.video, clip.background, config, sample_fps)
         return found.masks, found.fps
 
 
@@ -152,7 +159,7 @@ def run(args: argparse.Namespace) -> None:
              for name, held in folds}  # fmt: skip
     print(f"rendering the database images: {len(library)} motions on {rig.name}", file=sys.stderr)
     all_views = list(render_views(library, rig, config, workers=args.workers))
-    queries = QueryMasks(maker, rig, items)
+    queries = QueryMasks(maker, rig, items, config)
     masks: dict[tuple[str, str], tuple[np.ndarray, float]] = {}
     from tqdm import tqdm
 
