@@ -18,7 +18,6 @@ The work is split over processes by (motion, view); the vectors then go to
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import threading
 import time
@@ -371,13 +370,16 @@ def _render_task(task: tuple[int, int, int]) -> ViewImages:
     library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
     vertices, faces, fitted = _posed(motion_index, shape_index)
     masks = render_masks(vertices, faces, fitted[view_index])
-    images = view_images(library[motion_index], masks, config)
-    return dataclasses.replace(
-        images, motion_index=motion_index, view_index=view_index, shape_index=shape_index
-    )
+    indices = (motion_index, view_index, shape_index)
+    return view_images(library[motion_index], masks, config, indices)
 
 
-def view_images(item: LibraryMotion, masks: np.ndarray, config: BuildConfig) -> ViewImages:
+def view_images(
+    item: LibraryMotion,
+    masks: np.ndarray,
+    config: BuildConfig,
+    indices: tuple[int, int, int] = (0, 0, 0),
+) -> ViewImages:
     """The motion images of one rendered view of a library motion.
 
     Parameters
@@ -386,13 +388,15 @@ def view_images(item: LibraryMotion, masks: np.ndarray, config: BuildConfig) -> 
     masks : (F, H, W) bool
         The silhouettes of ``item.motion`` resampled to ``config.render_fps``.
     config : BuildConfig
+    indices : (int, int, int)
+        ``(motion_index, view_index, shape_index)`` to file the images under.
 
     Returns
     -------
     ViewImages
         The whole motion and every sliding window that shows something (a window
         labelled ``None`` by :func:`window_labels`, or where nothing moves, is left
-        out), windows in ``item.motion``'s own frames; the indices are 0.
+        out), windows in ``item.motion``'s own frames.
     """
     windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
     images = ClipMotionImages(masks, config.motion_image, clip_fps=config.render_fps)
@@ -414,9 +418,7 @@ def view_images(item: LibraryMotion, masks: np.ndarray, config: BuildConfig) -> 
     source_windows = np.minimum(source_windows, motion.n_frames)
     dims = config.motion_image.n_dims
     return ViewImages(
-        0,
-        0,
-        0,
+        *indices,
         source_windows.reshape(-1, 2),
         np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
         tuple(labels),
