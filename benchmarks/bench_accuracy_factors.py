@@ -160,13 +160,20 @@ def run(args: argparse.Namespace) -> None:
     print(f"rendering the database images: {len(library)} motions on {rig.name}", file=sys.stderr)
     all_views = list(render_views(library, rig, config, workers=args.workers))
     queries = QueryMasks(maker, rig, items, config)
-    masks: dict[tuple[str, str], tuple[np.ndarray, float]] = {}
     from tqdm import tqdm
 
+    # Kept bit-packed (each clip is answered by its fold's database and the whole
+    # library's): a few hundred MB instead of several GB.
+    packed: dict[tuple[str, str], tuple[np.ndarray, int, float]] = {}
     every_spec = [s for fold in specs.values() for s in fold]
     for spec in tqdm(every_spec, desc="query silhouettes", unit="clip"):
         for condition in CONDITIONS:
-            masks[condition, spec.stem] = queries.masks(condition, spec)
+            found, fps = queries.masks(condition, spec)
+            packed[condition, spec.stem] = (np.packbits(found, axis=-1), found.shape[-1], fps)
+
+    def masks(condition: str, spec: ClipSpec) -> tuple[np.ndarray, float]:
+        bits, width, fps = packed[condition, spec.stem]
+        return np.unpackbits(bits, axis=-1, count=width).astype(bool), fps
 
     # hits[database kind][condition] = list of (top-1, top-3) per in-library clip
     hits: dict[str, dict[str, list[tuple[bool, bool]]]] = {
@@ -180,7 +187,7 @@ def run(args: argparse.Namespace) -> None:
             if spec.label not in labels:
                 continue  # out of the library for this fold: scored by bench_accuracy
             for condition in CONDITIONS:
-                ranked = answer(db, *masks[condition, spec.stem])
+                ranked = answer(db, *masks(condition, spec))
                 hits[kind][condition].append(
                     (ranked[:1] == (spec.label,), spec.label in ranked[:3])
                 )
