@@ -74,8 +74,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.build import BuildConfig, hull_points  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig, virtual_rig  # noqa: E402
+from eigmotion.build import BuildConfig  # noqa: E402
+from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.clips import clip_camera  # noqa: E402
 from eigmotion.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation import (  # noqa: E402
@@ -258,9 +259,7 @@ class ClipMaker:
         cannot show its person bigger.
         """
         _, vertices = self.body(*shape, outfit).animate(item.motion.resample(CLIP_FPS))
-        camera = virtual_rig([azimuth_deg], [elevation_deg], WIDTH_PX, HEIGHT_PX).fitted(
-            hull_points(vertices), margin=SEEN_MARGIN
-        )[0]
+        camera = clip_camera(vertices, azimuth_deg, elevation_deg, WIDTH_PX, HEIGHT_PX, SEEN_MARGIN)
         pixels, _ = camera.project(vertices)
         full_px = float(np.median(np.ptp(pixels[..., 1], axis=1)))
         fill = (1.0 - 2.0 * SEEN_MARGIN) * person_px / max(full_px, 1e-9)

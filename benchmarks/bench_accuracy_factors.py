@@ -55,8 +55,9 @@ from bench_accuracy import (  # noqa: E402
     variation_folds,
 )
 
-from eigmotion.build import BuildConfig, ViewImages, hull_points, render_views  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig, virtual_rig  # noqa: E402
+from eigmotion.build import BuildConfig, ViewImages, render_views  # noqa: E402
+from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.clips import clip_camera  # noqa: E402
 from eigmotion.database import MotionDatabase, build_database  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
 from eigmotion.evaluation import markdown_table, ranked_labels  # noqa: E402
@@ -83,9 +84,7 @@ def true_masks(
     """(F, 240, 320) bool silhouettes of ``item`` on ``body``, filmed at 30 fps by a
     camera fitted as a query clip's is."""
     _, vertices = body.animate(item.motion.resample(CLIP_FPS))
-    camera = virtual_rig([azimuth_deg], [elevation_deg], WIDTH_PX, HEIGHT_PX).fitted(
-        hull_points(vertices), margin=margin
-    )[0]
+    camera = clip_camera(vertices, azimuth_deg, elevation_deg, WIDTH_PX, HEIGHT_PX, margin)
     return render_masks(vertices, body.faces, camera)
 
 

@@ -43,6 +43,36 @@ class SyntheticClip:
     camera: Camera
 
 
+def clip_camera(
+    vertices: np.ndarray,
+    azimuth_deg: float,
+    elevation_deg: float,
+    width: int = 320,
+    height: int = 240,
+    margin: float = 0.08,
+) -> Camera:
+    """The still camera of a query clip: looking from a direction, fitted to the motion.
+
+    Parameters
+    ----------
+    vertices : (F, V, 3) float
+        The posed body over the whole clip, world metres.
+    azimuth_deg, elevation_deg : float
+        Camera direction (see :mod:`eigmotion.cameras`).
+    width, height : int
+        Image size, pixels.
+    margin : float
+        Fraction of the frame kept free around the whole motion.
+
+    Returns
+    -------
+    Camera
+        Aimed and placed so that every frame of the body stays in view.
+    """
+    rig = virtual_rig([azimuth_deg], [elevation_deg], width, height)
+    return rig.fitted(hull_points(vertices), margin=margin)[0]
+
+
 def render_clip(
     motion: Motion,
     avatar: Avatar,
@@ -90,9 +120,7 @@ def render_clip(
 
     body = avatar.dressed(garments)
     _, vertices = body.animate(motion.resample(fps))
-    camera = virtual_rig([azimuth_deg], [elevation_deg], width, height).fitted(
-        hull_points(vertices), margin=margin
-    )[0]
+    camera = clip_camera(vertices, azimuth_deg, elevation_deg, width, height, margin)
     colours = body.vertex_rgb(BODY_RGB) if isinstance(body, DressedAvatar) else None
     shaded = render_shaded(vertices, body.faces, camera, floor=False, vertex_rgb=colours)
     masks = render_masks(vertices, body.faces, camera)
