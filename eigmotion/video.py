@@ -13,13 +13,15 @@ Per frame, against a background image (given, or estimated from the clip)::
     rises above the noise ──▶ cast-shadow test on lightly smoothed RGB: darker
     than the background by a factor in ``shadow_ratio`` with the same
     chromaticity (brightness and chromaticity distortion, Horprasert et al.
-    1999) ──▶ not foreground ──▶ hysteresis: weak pixels (ΔE > low) kept when
-    connected to strong ones (ΔE > high) ──▶ drop specks, close small gaps
-    ──▶ the largest blob, plus big pieces above or below it (a head or legs cut
-    off by camouflage) ──▶ fill holes that are small or differ from the
-    background (not a shadow between the feet) ──▶ the rim the smoothing added
-    is kept only where each pixel differs by itself ──▶ boundary pixels whose
-    colour is nearer the background than the body (matting alpha < 0.5) dropped.
+    1999) ──▶ not foreground, except beside the upper body when the background
+    is given, where a second pass takes the test back (``upper_body_frac``)
+    ──▶ hysteresis: weak pixels (ΔE > low) kept when connected to strong ones
+    (ΔE > high) ──▶ drop specks, close small gaps ──▶ the largest blob, plus
+    big pieces above or below it (a head or legs cut off by camouflage) ──▶ fill
+    holes that are small or differ from the background (not a shadow between
+    the feet) ──▶ the rim the smoothing added is kept only where each pixel
+    differs by itself ──▶ boundary pixels whose colour is nearer the background
+    than the body (matting alpha < 0.5) dropped.
 
 Thresholds follow the clip's noise level, the median ΔE over all pixels (most are
 background): ``low = max(min_delta_e, low_factor × noise)``, ``high`` likewise.  A
@@ -66,7 +68,7 @@ import math
 import os
 from collections.abc import Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -78,6 +80,10 @@ BACKGROUND_METHODS = ("median", "grabcut", "mog2")
 
 #: Gaussian sigma, pixels, of the smoothing before the shadow test.
 SHADOW_SIGMA_PX = 1.0
+
+#: How far beside the person's box (a share of its height, each side) the shadow test
+#: is taken back over the upper body (``SilhouetteConfig.upper_body_frac``).
+UPPER_BODY_SIDE_FRAC = 0.15
 
 #: Ratio of the raw to the smoothed median ΔE of sensor noise (white noise blurred
 #: by the optics, smoothed with sigma 1 px; measured 2.7–2.8 on composed scenes).
@@ -136,6 +142,12 @@ class SilhouetteConfig:
     small_hole_frac : float
         Holes inside the person smaller than this fraction of its area are always
         filled; bigger ones only when they differ from the background, in [0, 1].
+    upper_body_frac : float
+        Cast shadows lie on the floor: beside the top ``upper_body_frac`` of the
+        person's height (its box in a first segmentation) the shadow test is taken
+        back and the frame segmented again, so that clothing darker than the wall
+        behind it, with the wall's hue, stays body; in [0, 1], 0 turns it off.
+        Used against a given background image only (see :func:`extract_silhouettes`).
     work_max_side_px : int
         Frames (and the background) larger than this on their longer side are
         shrunk by the smallest whole factor that brings them to it (area averaging)
@@ -156,6 +168,7 @@ class SilhouetteConfig:
     min_person_frac: float = 0.002
     keep_piece_frac: float = 0.05
     small_hole_frac: float = 0.01
+    upper_body_frac: float = 0.6
     work_max_side_px: int = 4096
 
     def __post_init__(self):
@@ -183,6 +196,7 @@ class SilhouetteConfig:
         _check_real("min_person_frac", self.min_person_frac, 1e-6, 0.5)
         _check_real("keep_piece_frac", self.keep_piece_frac, 0.0, 1.0)
         _check_real("small_hole_frac", self.small_hole_frac, 0.0, 1.0)
+        _check_real("upper_body_frac", self.upper_body_frac, 0.0, 1.0)
         _check_int("work_max_side_px", self.work_max_side_px, 64, 4096)
 
     def to_dict(self) -> dict:
@@ -253,6 +267,10 @@ def extract_silhouettes(
     """
     frames = _check_frames(frames)
     if background is None:
+        # Beside a body that stays in place, an estimated background holds what the
+        # body hid, inpainted: darker-than-scene pixels there are estimation residue
+        # more often than clothing, so the shadow test stands everywhere.
+        config = replace(config, upper_body_frac=0.0)
         frames = _shrink(frames, config)
         masks = _segment(_chunks(frames), estimate_background(frames, config), config)
         if config.background == "median":
@@ -851,9 +869,10 @@ def _levels(evidence: list[_Evidence], config: SilhouetteConfig) -> _Levels:
 def _chunk_masks(
     evidence: _Evidence, scene: _Scene, levels: _Levels, config: SilhouetteConfig
 ) -> np.ndarray:
-    """The second pass over a chunk: its masks (n, H, W) bool from its evidence."""
-    import cv2
+    """The second pass over a chunk: its masks (n, H, W) bool from its evidence.
 
+    The shadow test runs once; the person is segmented, and segmented again when
+    :func:`_clear_upper_body_shadow` takes the test back anywhere."""
     kernels = _kernels()
     n, (h, w), sep, tile = evidence.n, scene.shape, scene.sep, scene.tile
     rows = sep + n * tile
@@ -864,7 +883,69 @@ def _chunk_masks(
         np.float32(config.shadow_chroma), np.float32(levels.rgb_noise),
         _frames_of(shadow, scene, n).reshape(n, -1),
     )  # fmt: skip
+    person = _person_given_shadow(evidence, scene, levels, config, shadow)
+    if config.upper_body_frac > 0.0 and _clear_upper_body_shadow(
+        person, shadow, scene, n, config.upper_body_frac
+    ):
+        person = _person_given_shadow(evidence, scene, levels, config, shadow)
+    return _frames_of(person, scene, n)[:, :h].copy()
 
+
+def _clear_upper_body_shadow(
+    person: np.ndarray, shadow: np.ndarray, scene: _Scene, n: int, upper_frac: float
+) -> bool:
+    """Take back the shadow test where a cast shadow cannot be: beside the upper body.
+
+    A cast shadow lies on the floor, around and behind the feet; clothing darker
+    than the wall behind it with the wall's hue passes the same test.  In each frame,
+    ``shadow`` is cleared over the top ``upper_frac`` of ``person``'s box, in its
+    columns widened by :data:`UPPER_BODY_SIDE_FRAC` of its height on each side.
+
+    Parameters
+    ----------
+    person, shadow : (S, W) bool
+        The stacked frames' masks and shadow pixels (``shadow`` is changed in place).
+    scene : _Scene
+    n : int
+        Frames in the stack.
+    upper_frac : float
+        Share of the box height, from its top, in (0, 1].
+
+    Returns
+    -------
+    bool
+        Whether any shadow pixel was cleared.
+    """
+    h = scene.shape[0]
+    masks = _frames_of(person, scene, n)[:, :h]
+    shadows = _frames_of(shadow, scene, n)[:, :h]
+    rows_hit, cols_hit = masks.any(axis=2), masks.any(axis=1)
+    cleared = False
+    for f in range(n):
+        rows, cols = np.flatnonzero(rows_hit[f]), np.flatnonzero(cols_hit[f])
+        if len(rows) == 0:
+            continue
+        height = rows[-1] - rows[0] + 1
+        side = int(round(UPPER_BODY_SIDE_FRAC * height))
+        region = shadows[f, rows[0] : rows[0] + int(round(upper_frac * height)),
+                         max(0, cols[0] - side) : cols[-1] + side + 1]  # fmt: skip
+        if region.any():
+            region[:] = False
+            cleared = True
+    return cleared
+
+
+def _person_given_shadow(
+    evidence: _Evidence, scene: _Scene, levels: _Levels, config: SilhouetteConfig,
+    shadow: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The person (S, W) bool in a chunk's stacked frames, ``shadow`` (S, W) bool
+    being the pixels taken as cast shadow (never foreground)."""
+    import cv2
+
+    kernels = _kernels()
+    n, (h, w), sep, tile = evidence.n, scene.shape, scene.sep, scene.tile
+    rows = sep + n * tile
     # Hysteresis: weak pixels connected to strong ones, specks dropped.
     min_area = config.min_person_frac * h * w
     weak = np.empty((rows, w), np.uint8)
@@ -906,7 +987,7 @@ def _chunk_masks(
         person8, inside, core, evidence.corrected, scene.rgb, sep, tile,
         np.float32((4.0 * levels.rgb_noise) ** 2), out,
     )  # fmt: skip
-    return _frames_of(out.view(bool), scene, n)[:, :h].copy()
+    return out.view(bool)
 
 
 def _person_components(

@@ -198,6 +198,24 @@ def test_camouflaged_clothing_stays_attached(stick_scene):
     assert iou(found, masks).mean() > 0.85
 
 
+def test_clothing_dark_like_a_shadow_of_the_wall_stays_body(stick_scene):
+    """A shirt darker than the wall behind it, with the wall's hue, passes the cast-shadow
+    test; beside the upper body (the head above it) it is body, while the floor shadow
+    stays excluded."""
+    masks, frames, background, layout = stick_scene
+    rows = np.arange(masks.shape[1])[None, :, None]
+    tops = np.argmax(masks.any(axis=2), axis=1)[:, None, None]
+    bottoms = masks.shape[1] - np.argmax(masks.any(axis=2)[:, ::-1], axis=1)[:, None, None]
+    shirt = masks & (rows > tops + 0.2 * (bottoms - tops)) & (rows < tops + 0.5 * (bottoms - tops))
+    dressed = frames.copy()
+    dressed[shirt] = np.broadcast_to(0.75 * background.astype(np.float32), frames.shape)[shirt]
+    found = extract_silhouettes(dressed, background)
+    assert (found & shirt).sum() > 0.8 * shirt.sum()
+    assert (found & layout.shadow_masks).sum() < 0.05 * layout.shadow_masks.sum()
+    shadow_only = extract_silhouettes(dressed, background, SilhouetteConfig(upper_body_frac=0.0))
+    assert (shadow_only & shirt).sum() < 0.5 * shirt.sum()  # the test can fail
+
+
 @pytest.mark.parametrize("gain", [0.75, 1.1])
 def test_exposure_change_against_a_given_background(stick_scene, gain):
     masks, frames, background, _ = stick_scene
@@ -293,6 +311,7 @@ def test_bad_background_type(stick_scene):
         ("shadow_ratio", (0.9, 0.5)),
         ("shadow_ratio", (0.5,)),
         ("shadow_chroma", 0.8),
+        ("upper_body_frac", 1.5),
         ("smooth_sigma_px", -1.0),
         ("close_px", 40),
         ("min_person_frac", 0.0),
