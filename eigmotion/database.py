@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import os
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,7 +30,7 @@ from .keys import Quantizer
 from .library import FILLER_LABELS, LibraryMotion
 from .motion import Motion
 from .motion_image import ClipMotionImages
-from .search import BruteForceIndex, TreeIndex
+from .search import NO_ENTRY, BruteForceIndex, TreeIndex
 from .store import Store, parse_uri
 from .video import ClipMasks, SilhouetteConfig, load_clip_masks
 
@@ -49,6 +50,13 @@ WINDOW_CANDIDATES = 8
 #: Windows that must show the same specific action for it to override filler: one
 #: window alone is as often a walk's stride matched to a walking turn's.
 MIN_SPECIFIC_WINDOWS = 2
+#: How a label is scored from the whole clip's nearest entries: the distance of its
+#: second-nearest motion, or this factor times that of its nearest motion when that is
+#: smaller.  A label two library motions agree on wins over one matched by a single
+#: motion up to this factor nearer; a label matched very closely by one motion (the
+#: same performance) still wins.  Only entries within this factor of the nearest
+#: distance can change the answer; the whole clip's search finds every one, exactly.
+LABEL_AGREEMENT = 1.1
 
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
@@ -568,8 +576,16 @@ class MotionDatabase:
         t1 = time.perf_counter()
         timing["motion_images"] = (t1 - t0) * 1e3
         points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
-        n_candidates = min(self.n_entries, max(top_k * 8, 16))
+        n_candidates = min(self.n_entries, max(top_k * 8, 32))
         whole = self.index.search(points[:1], top_k=n_candidates)
+        examined = int(whole.examined[0])
+        reach = LABEL_AGREEMENT * float(whole.distances[0, 0])
+        agreeing = whole
+        if n_candidates < self.n_entries and whole.distances[0, -1] <= reach:
+            # More entries may lie within reach than were asked for (rare: a handful
+            # usually do): every one of them, exactly.
+            agreeing = self.index.search(points[:1], self.n_entries, reach)
+            examined += int(agreeing.examined[0])
         windowed = (
             self.index.search(points[1:], top_k=min(WINDOW_CANDIDATES, self.n_entries))
             if len(points) > 1
@@ -587,6 +603,15 @@ class MotionDatabase:
             top.append(self._match(int(entry_id), float(dist)))
             if len(top) == top_k:
                 break
+        within = agreeing.distances[0] <= reach
+        agreed = self._match(
+            *agreed_entry(
+                agreeing.ids[0][within], agreeing.distances[0][within],
+                self._motion_of.__getitem__, self._label_of,
+            )
+        )  # fmt: skip
+        if agreed.motion_id != top[0].motion_id:
+            top = [agreed] + [m for m in top if m.motion_id != agreed.motion_id][: top_k - 1]
         segments = self._segments(kept, windowed, len(masks), top[0])
         best = self._most_specific(top[0], windowed)
         if best is not top[0]:
@@ -598,7 +623,7 @@ class MotionDatabase:
             bool(best.distance <= self.threshold),
             top,
             segments,
-            int(whole.examined[0]),
+            examined,
             examined_windows,
             self.n_entries,
             timing,
@@ -788,6 +813,52 @@ class IndexReport:
     reconstruction_error: float
     reference_error: float
     badly_represented: bool
+
+
+def agreed_entry(
+    entry_ids: np.ndarray,
+    distances: np.ndarray,
+    motion_of: Callable[[int], int],
+    label_of: Callable[[int], str],
+) -> tuple[int, float]:
+    """The entry that answers a clip: the nearest of the label scored best.
+
+    A label's score is the distance of its second-nearest motion, or
+    :data:`LABEL_AGREEMENT` times that of its nearest motion when that is smaller.
+
+    Parameters
+    ----------
+    entry_ids, distances : (n,) int64, float64
+        The entries near the clip, nearest first; ``NO_ENTRY`` slots at the end are
+        skipped.  Every entry within ``LABEL_AGREEMENT`` times the nearest distance
+        must be there for the answer to be exact.
+    motion_of, label_of : callable
+        An entry id's motion id and label.  A motion counts once, with the label of
+        its nearest entry.
+
+    Returns
+    -------
+    (entry_id, distance)
+    """
+    by_label: dict[str, list[tuple[float, int]]] = {}
+    motions: set[int] = set()
+    for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
+        if entry_id == NO_ENTRY:
+            break
+        motion = motion_of(entry_id)
+        if motion in motions:
+            continue
+        motions.add(motion)
+        by_label.setdefault(label_of(entry_id), []).append((dist, entry_id))
+    if not by_label:
+        raise InvalidParameterError("agreed_entry needs at least one entry")
+
+    def score(hits: list[tuple[float, int]]) -> float:
+        second = hits[1][0] if len(hits) > 1 else math.inf
+        return min(LABEL_AGREEMENT * hits[0][0], second)
+
+    dist, entry_id = by_label[min(by_label, key=lambda label: score(by_label[label]))][0]
+    return entry_id, dist
 
 
 def brute_force_check(db: MotionDatabase, queries: np.ndarray, top_k: int = 1) -> bool:
