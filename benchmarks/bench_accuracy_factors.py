@@ -231,28 +231,42 @@ def run(args: argparse.Namespace) -> None:
     print(f"\nwall time {time.perf_counter() - t0:.0f} s")
 
 
-def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def holdout_parser(description: str) -> argparse.ArgumentParser:
+    """The options of a script that answers the ``holdout`` clips offline: ``--rig``,
+    ``--clips-dir``, ``--clips-per-motion``, ``--seed``, ``--workers``."""
+    p = argparse.ArgumentParser(description=description)
     p.add_argument("--rig", type=Path, default=DEFAULT_RIG, help="rig of the databases")
     p.add_argument("--clips-dir", type=Path, help="render the clips here and reuse them")
     p.add_argument("--clips-per-motion", type=int, default=2)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--workers", type=int, default=None, help="rendering processes")
+    return p
+
+
+def parse_holdout_args(
+    p: argparse.ArgumentParser, argv: Sequence[str] | None = None
+) -> argparse.Namespace:
+    """Parse ``argv`` with a :func:`holdout_parser`, check it, and set what the fold
+    helpers of ``bench_accuracy`` read."""
     args = p.parse_args(argv)
     if args.clips_per_motion < 1:
         p.error(f"--clips-per-motion must be >= 1, got {args.clips_per_motion}")
-    args.quick, args.subjects = False, None  # what the fold helpers of bench_accuracy read
+    args.quick, args.subjects = False, None
     return args
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = parse_args(argv)
-    if args.clips_dir is None:
-        with tempfile.TemporaryDirectory(prefix="eigmotion-clips-") as clips:
-            args.clips_dir = Path(clips)
-            run(args)
-    else:
+def run_with_clips(run: Callable[[argparse.Namespace], None], args: argparse.Namespace) -> None:
+    """``run(args)``, with the clips in a temporary folder when no ``--clips-dir`` is given."""
+    if args.clips_dir is not None:
         run(args)
+        return
+    with tempfile.TemporaryDirectory(prefix="eigmotion-clips-") as clips:
+        args.clips_dir = Path(clips)
+        run(args)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    run_with_clips(run, parse_holdout_args(holdout_parser(__doc__.splitlines()[0]), argv))
     return 0
 
 

@@ -40,21 +40,23 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from functools import lru_cache  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_accuracy import (  # noqa: E402
-    DEFAULT_RIG,
     ClipMaker,
     random_specs,
     subject_folds,
     variation_folds,
+)
+from bench_accuracy_factors import (  # noqa: E402
+    holdout_parser,
+    parse_holdout_args,
+    run_with_clips,
 )
 
 from eigmotion.build import BuildConfig, build_body, pose_for_views, view_images  # noqa: E402
@@ -256,30 +258,16 @@ def run(args: argparse.Namespace) -> None:
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--rig", type=Path, default=DEFAULT_RIG, help="rig of the databases")
-    p.add_argument("--clips-dir", type=Path, help="render the clips here and reuse them")
+    p = holdout_parser(__doc__.splitlines()[0])
     p.add_argument("--weight", type=float, default=1.0, help="weight of the sequence distance")
-    p.add_argument("--clips-per-motion", type=int, default=2)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--workers", type=int, default=None, help="rendering processes")
-    args = p.parse_args(argv)
-    if args.clips_per_motion < 1:
-        p.error(f"--clips-per-motion must be >= 1, got {args.clips_per_motion}")
+    args = parse_holdout_args(p, argv)
     if not (np.isfinite(args.weight) and args.weight >= 0):
         p.error(f"--weight must be a number >= 0, got {args.weight}")
-    args.quick, args.subjects = False, None  # what the fold helpers of bench_accuracy read
     return args
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = parse_args(argv)
-    if args.clips_dir is None:
-        with tempfile.TemporaryDirectory(prefix="eigmotion-clips-") as clips:
-            args.clips_dir = Path(clips)
-            run(args)
-    else:
-        run(args)
+    run_with_clips(run, parse_args(argv))
     return 0
 
 
