@@ -3,31 +3,14 @@ nearest, ranked labels, and the person-frame silhouette sequence."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-
 
 @pytest.fixture(scope="module")
-def bench():
-    sys.path.insert(0, str(REPO / "benchmarks"))  # it imports bench_accuracy
-    spec = importlib.util.spec_from_file_location(
-        "bench_sequence_matching", REPO / "benchmarks" / "bench_sequence_matching.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
+def bench(benchmark_script):
+    with benchmark_script("bench_sequence_matching") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
-        sys.modules.pop("bench_accuracy", None)
-        sys.path.remove(str(REPO / "benchmarks"))
 
 
 def _poses(n: int, rng) -> np.ndarray:

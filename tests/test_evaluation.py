@@ -3,10 +3,8 @@ benchmark's ``seen`` suite."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -285,17 +283,9 @@ def test_markdown_table_pads_columns_and_checks_rows():
 
 
 @pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_accuracy", REPO / "benchmarks" / "bench_accuracy.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    try:
-        spec.loader.exec_module(module)
+def bench(benchmark_script):
+    with benchmark_script("bench_accuracy") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
 
 
 @pytest.mark.parametrize(

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -426,18 +424,10 @@ def test_action_spans_show_the_action_and_the_rest_does_not(library, poses):
 
 
 @pytest.fixture(scope="module")
-def spans_script():
+def spans_script(benchmark_script):
     """benchmarks/plot_action_spans.py, the measuring behind the manifest's spans."""
-    spec = importlib.util.spec_from_file_location(
-        "plot_action_spans", REPO / "benchmarks" / "plot_action_spans.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
+    with benchmark_script("plot_action_spans") as module:
         yield module
-    finally:
-        sys.modules.pop(spec.name, None)
 
 
 def test_action_spans_are_the_measured_ones(library, spans_script):
