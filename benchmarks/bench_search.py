@@ -257,7 +257,7 @@ def bench_store(n: int, n_dims: int, rng) -> None:
         path = Path(folder) / "db.fs"
         start = time.perf_counter()
         with Store.create(path) as store, store.transaction():
-            store.initialise({"n_dims": n_dims}, space, quantizer)
+            store.initialise({"n_dims": n_dims}, space, quantizer, space)
             motion = store.add_motion("walk", "walk.bvh", "HIERARCHY\n" * 1000)
             zeros = np.zeros(n)
             store.add_entries(np.full(n, motion), points, keys, zeros, zeros, zeros.astype(int),

@@ -14,14 +14,17 @@ with every motion left in the fold three ways:
     motion's distance its nearest entry's (whole motion or window, any view and body):
     plain nearest motion, as the retrieval engine finds it before its decision rule.
 ``sequence``
-    Dynamic time warping between the clip's silhouettes and each rendering of the
-    motion (every body and view), each silhouette in the person frame of the motion
-    image (``MotionImageConfig(size=SEQUENCE_SIZE)``), frame cost the Euclidean
-    distance, path cost over the two lengths; the motion's distance its nearest
-    rendering's.
+    Dynamic time warping (:func:`eigmotion.sequences.sequence_distances`) between the
+    clip's silhouette sequence and each rendering's (every body and view) as
+    :func:`eigmotion.sequences.sequence_frames` makes them, on the 16 × 16 pixels
+    themselves; the motion's distance its nearest rendering's.
 ``fused``
     Each distance over the smallest of its kind for the clip, summed, the sequence's
     weighted by ``--weight``.
+
+Every motion of the fold and every view is compared: the upper bound of what the
+engine's cheaper form of the same ranking gets (pose coordinates, the motion image's
+10 nearest motions, views near the retrieved one; :mod:`eigmotion.sequences`).
 
 It prints top-1 and top-3 label accuracy of each (top-3: the true label among the
 first three distinct labels) and each one's ratio to the motion image's, from the same
@@ -45,7 +48,6 @@ from collections.abc import Sequence  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from functools import lru_cache  # noqa: E402
 
-import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_accuracy import (  # noqa: E402
     ClipMaker,
@@ -66,41 +68,11 @@ from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
 from eigmotion.evaluation import markdown_table  # noqa: E402
 from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.library import LibraryMotion, load_library  # noqa: E402
-from eigmotion.media import sample_indices  # noqa: E402
-from eigmotion.motion_image import ClipMotionImages, MotionImageConfig, align_frames  # noqa: E402
+from eigmotion.motion_image import ClipMotionImages  # noqa: E402
+from eigmotion.sequences import sequence_distances, sequence_frames  # noqa: E402
 from eigmotion.silhouettes import render_masks  # noqa: E402
 
-#: Side of the person-frame silhouettes compared frame by frame, pixels.
-SEQUENCE_SIZE = 16
 METHODS = ("motion image", "sequence", "fused")
-
-
-def silhouette_sequence(masks: np.ndarray, fps: float, config: BuildConfig) -> np.ndarray:
-    """``(F', SEQUENCE_SIZE**2) float32``: the silhouettes sampled at the motion image's
-    rate and aligned in its person frame at :data:`SEQUENCE_SIZE` pixels."""
-    image_config = config.motion_image
-    frames = sample_indices(len(masks), float(fps), image_config.sample_fps)
-    small = MotionImageConfig(**{**image_config.to_dict(), "size": SEQUENCE_SIZE})
-    aligned = align_frames(masks[frames], small)
-    return np.ascontiguousarray(aligned.reshape(len(aligned), -1), dtype=np.float32)
-
-
-@numba.njit(cache=True)
-def dtw_distance(a: np.ndarray, b: np.ndarray) -> float:
-    """Dynamic time warping of ``a (n, d)`` against ``b (m, d)``: the cheapest monotone
-    path's summed Euclidean frame distances over ``n + m``."""
-    n, m = a.shape[0], b.shape[0]
-    cost = np.full((n + 1, m + 1), np.inf)
-    cost[0, 0] = 0.0
-    for i in range(1, n + 1):
-        for j in range(1, m + 1):
-            sq = 0.0
-            for k in range(a.shape[1]):
-                diff = a[i - 1, k] - b[j - 1, k]
-                sq += diff * diff
-            step = min(cost[i - 1, j], cost[i, j - 1], cost[i - 1, j - 1])
-            cost[i, j] = np.sqrt(sq) + step
-    return cost[n, m] / (n + m)
 
 
 _WORKER: dict = {}
@@ -127,7 +99,7 @@ def _render(task: tuple[int, int, int]):
     vertices, faces, fitted = _posed(motion_index, shape_index)
     masks = render_masks(vertices, faces, fitted[view_index])
     images = view_images(_WORKER["library"][motion_index], masks, config, task)
-    return images.vectors, silhouette_sequence(masks, config.render_fps, config)
+    return images.vectors, images.sequence
 
 
 def render_library(library, rig: CameraRig, config: BuildConfig, workers: int | None):
@@ -140,6 +112,8 @@ def render_library(library, rig: CameraRig, config: BuildConfig, workers: int | 
     vector_motion : (N,) int64
         Library index of each image's motion.
     sequences : list of (F, SEQUENCE_SIZE**2) float32
+        Each rendering's whole-motion silhouette sequence (none for a rendering
+        without a person).
     sequence_motion : (S,) int64
     """
     from tqdm import tqdm
@@ -156,8 +130,9 @@ def render_library(library, rig: CameraRig, config: BuildConfig, workers: int | 
         ):
             vectors.append(images)
             vector_motion += [m] * len(images)
-            sequences.append(sequence)
-            sequence_motion.append(m)
+            if len(sequence):
+                sequences.append(sequence)
+                sequence_motion.append(m)
     return (np.concatenate(vectors), np.asarray(vector_motion), sequences,
             np.asarray(sequence_motion))  # fmt: skip
 
@@ -211,8 +186,10 @@ def run(args: argparse.Namespace) -> None:
         in_fold = np.isin(vector_motion, kept)
         space = Eigenspace(config.n_components, config.explained_variance)
         points = space.fit(vectors[in_fold]).transform(vectors[in_fold]).astype(np.float64)
-        fold_sequences = [(int(m), s) for m, s in zip(sequence_motion, sequences, strict=True)
-                          if m in kept]  # fmt: skip
+        in_fold_sequences = np.flatnonzero(np.isin(sequence_motion, kept))
+        fold_motion = sequence_motion[in_fold_sequences]
+        fold_frames = np.concatenate([sequences[i] for i in in_fold_sequences])
+        fold_lengths = np.array([len(sequences[i]) for i in in_fold_sequences])
         for item in held:
             for spec in random_specs(item, args, maker, outfits):
                 if spec.label not in kept_labels:
@@ -224,7 +201,7 @@ def run(args: argparse.Namespace) -> None:
                 try:
                     whole = ClipMotionImages(found.masks, config.motion_image, found.fps)
                     query = whole.window(0, len(found.masks))
-                    sequence = silhouette_sequence(found.masks, found.fps, config)
+                    sequence = sequence_frames(found.masks, found.fps, config.motion_image)
                 except VideoError:
                     for method in METHODS:
                         hits[method].append((False, False))
@@ -234,8 +211,11 @@ def run(args: argparse.Namespace) -> None:
                     np.linalg.norm(points - point, axis=1), vector_motion[in_fold], len(library)
                 )
                 sequence_d = np.full(len(library), np.inf)
-                for m, candidate in fold_sequences:
-                    sequence_d[m] = min(sequence_d[m], dtw_distance(sequence, candidate))
+                np.minimum.at(
+                    sequence_d,
+                    fold_motion,
+                    sequence_distances(sequence, fold_frames, fold_lengths),
+                )
                 fused = image_d / image_d.min() + args.weight * sequence_d / sequence_d.min()
                 for method, d in zip(METHODS, (image_d, sequence_d, fused), strict=True):
                     ranked = ranked_labels_of(d, labels)

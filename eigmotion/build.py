@@ -32,6 +32,7 @@ from .cameras import CameraRig
 from .errors import InvalidParameterError, VideoError
 from .library import LibraryMotion
 from .motion_image import ClipMotionImages, MotionImageConfig
+from .sequences import SEQUENCE_SIZE, sequence_frames
 
 #: Body shapes of the default build: (height in metres or None for the avatar's own,
 #: girth factor).  Several shapes stand in for several people.
@@ -168,6 +169,9 @@ class ViewImages:
         Unit motion-image vectors, one per window.
     labels : tuple of W str
         Each image's label (:func:`window_labels`); the whole motion's is the motion's.
+    sequence : (F, SEQUENCE_SIZE**2) float32
+        The whole motion's aligned silhouettes
+        (:func:`~eigmotion.sequences.sequence_frames`).
     """
 
     motion_index: int
@@ -176,6 +180,7 @@ class ViewImages:
     windows: np.ndarray
     vectors: np.ndarray
     labels: tuple[str, ...]
+    sequence: np.ndarray
 
 
 def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> np.ndarray:
@@ -396,7 +401,8 @@ def view_images(
     ViewImages
         The whole motion and every sliding window that shows something (a window
         labelled ``None`` by :func:`window_labels`, or where nothing moves, is left
-        out), windows in ``item.motion``'s own frames.
+        out), windows in ``item.motion``'s own frames; and the whole motion's
+        silhouette sequence.
     """
     windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
     images = ClipMotionImages(masks, config.motion_image, clip_fps=config.render_fps)
@@ -422,7 +428,17 @@ def view_images(
         source_windows.reshape(-1, 2),
         np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
         tuple(labels),
+        _whole_sequence(masks, config),
     )
+
+
+def _whole_sequence(masks: np.ndarray, config: BuildConfig) -> np.ndarray:
+    """(F, SEQUENCE_SIZE**2) float32: the rendering's silhouette sequence, no frames when
+    the person is missing from too many of them."""
+    try:
+        return sequence_frames(masks, config.render_fps, config.motion_image)
+    except VideoError:
+        return np.zeros((0, SEQUENCE_SIZE**2), dtype=np.float32)
 
 
 def render_views(

@@ -12,10 +12,9 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import math
 import os
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,6 +30,14 @@ from .library import FILLER_LABELS, LibraryMotion
 from .motion import Motion
 from .motion_image import ClipMotionImages
 from .search import NO_ENTRY, BruteForceIndex, TreeIndex
+from .sequences import (
+    CANDIDATE_MOTIONS,
+    fit_pose_space,
+    fused_scores,
+    sequence_distances,
+    sequence_frames,
+    view_reach,
+)
 from .store import Store, parse_uri
 from .video import ClipMasks, SilhouetteConfig, load_clip_masks
 
@@ -50,13 +57,11 @@ WINDOW_CANDIDATES = 8
 #: Windows that must show the same specific action for it to override filler: one
 #: window alone is as often a walk's stride matched to a walking turn's.
 MIN_SPECIFIC_WINDOWS = 2
-#: How a label is scored from the whole clip's nearest entries: the distance of its
-#: second-nearest motion, or this factor times that of its nearest motion when that is
-#: smaller.  A label two library motions agree on wins over one matched by a single
-#: motion up to this factor nearer; a label matched very closely by one motion (the
-#: same performance) still wins.  Only entries within this factor of the nearest
-#: distance can change the answer; the whole clip's search finds every one, exactly.
-LABEL_AGREEMENT = 1.1
+#: Nearest entries the whole clip's search returns: enough to hold the
+#: :data:`~eigmotion.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
+#: ranked again by their silhouette sequences (a motion's renderings from neighbouring
+#: views and bodies crowd its nearest entries).
+CANDIDATE_ENTRIES = 256
 
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
@@ -139,10 +144,16 @@ class _Collected:
     start: list = field(default_factory=list)
     stop: list = field(default_factory=list)
     labels: list = field(default_factory=list)
+    #: (motion index, azimuth, elevation, (F, SEQUENCE_SIZE**2) frames) per rendering
+    sequences: list = field(default_factory=list)
 
     def add(self, view: ViewImages, rig: CameraRig) -> None:
         n = len(view.vectors)
         cam = rig[view.view_index]
+        if len(view.sequence):
+            self.sequences.append(
+                (view.motion_index, cam.azimuth_deg, cam.elevation_deg, view.sequence)
+            )
         self.vectors.append(view.vectors)
         self.motion += [view.motion_index] * n
         self.azimuth += [cam.azimuth_deg] * n
@@ -253,7 +264,10 @@ def build_database(
     for view in views:
         collected.add(view, rig)
     X, motion_of, az, el, start, stop, labels = collected.arrays()
+    if not collected.sequences:
+        raise InvalidParameterError("no rendering of the library shows a person: nothing to build")
     space = Eigenspace(config.n_components, config.explained_variance).fit(X)
+    pose_space = fit_pose_space(np.concatenate([seq for *_, seq in collected.sequences]))
     points = space.transform(X).astype(np.float32)
     n_axes = min(config.key_axes, space.n_components_)
     quantizer = Quantizer(n_axes, config.key_sections, config.key_method).fit(points)
@@ -274,11 +288,12 @@ def build_database(
         store = Store.create(target, overwrite=True)
         try:
             with store.transaction():
-                store.initialise(stored_config, space, quantizer)
+                store.initialise(stored_config, space, quantizer, pose_space)
                 motion_ids = [_add_motion(store, m) for m in library]
                 store.add_entries(
                     np.asarray(motion_ids)[motion_of], points, keys, az, el, start, stop, labels
                 )
+                _add_sequences(store, motion_ids, collected.sequences, pose_space)
         finally:
             store.close()
     return BuildReport(
@@ -311,6 +326,19 @@ def _add_motion(store: Store, item: LibraryMotion) -> int:
             "length_unit_m": -1.0 if motion.length_unit_m is None else motion.length_unit_m,
         },
     )
+
+
+def _add_sequences(store: Store, motion_ids: Sequence[int], sequences: list, pose_space) -> None:
+    """Store every rendering's silhouette sequence in the pose eigenspace, motion by
+    motion (``sequences`` as :class:`_Collected` holds them, motion indices into
+    ``motion_ids``)."""
+    by_motion: dict[int, list] = {}
+    for motion_index, azimuth, elevation, frames in sequences:
+        by_motion.setdefault(motion_index, []).append((azimuth, elevation, frames))
+    for motion_index, rows in by_motion.items():
+        azimuth, elevation, frames = zip(*rows, strict=True)
+        coordinates = [pose_space.transform(f).astype(np.float32) for f in frames]
+        store.add_sequences(motion_ids[motion_index], azimuth, elevation, coordinates)
 
 
 @contextlib.contextmanager
@@ -367,6 +395,10 @@ class Match:
         The matching virtual camera.
     window : (int, int)
         ``[start, stop)`` frames of the basic motion.
+    sequence_distance : float or None
+        Time-warped distance between the clip's silhouette sequence and the motion's
+        nearest rendering (pose-eigenspace units, :mod:`eigmotion.sequences`); None
+        when the motion was not compared that way.
     """
 
     label: str
@@ -377,14 +409,18 @@ class Match:
     azimuth_deg: float
     elevation_deg: float
     window: tuple[int, int]
+    sequence_distance: float | None = None
 
     def to_json(self) -> dict:
-        return {
+        out = {
             "label": self.label,
             "motion": self.motion,
             "distance": round(self.distance, 6),
             "view": {"azimuth_deg": self.azimuth_deg, "elevation_deg": self.elevation_deg},
         }
+        if self.sequence_distance is not None:
+            out["sequence_distance"] = round(self.sequence_distance, 6)
+        return out
 
 
 @dataclass(frozen=True)
@@ -414,13 +450,19 @@ class QueryResult:
     Attributes
     ----------
     best : Match
-        The clip's answer: the nearest entry to the whole clip's motion image, unless
-        that is filler (:data:`FILLER_LABELS`: walking into a turn) and a window of the
-        clip shows a specific action — then that window's nearest entry.
+        The clip's answer: the whole clip's nearest motion by motion image and
+        silhouette sequence together (:func:`~eigmotion.sequences.fused_scores`) —
+        its nearest entry — unless that is filler (:data:`FILLER_LABELS`: walking
+        into a turn) and a window of the clip shows a specific action — then that
+        window's nearest entry.
     accepted : bool
-        ``best.distance <= threshold``; otherwise the motion is unknown.
+        The whole clip's nearest entry (or the window that answers) lies within the
+        threshold — as near as the database's own motions come to one another's
+        performances, which is what the threshold is calibrated on; otherwise the
+        motion is unknown.  The answer itself may be a motion whose nearest entry is
+        farther: it was ranked first by both distances together.
     top : list of Match
-        Nearest entries of distinct motions, ``best`` first.
+        Distinct motions in that order, ``best`` first.
     segments : list of Segment
     examined : int
         Entries whose distance was computed by the whole-clip search.
@@ -475,6 +517,7 @@ class MotionDatabase:
         self.threshold = float(stored["threshold"])
         self.reconstruction_error_p95 = float(stored["reconstruction_error_p95"])
         self.eigenspace = store.eigenspace()
+        self.pose_space = store.pose_space()
         self._load_index()
 
     def _load_index(self) -> None:
@@ -483,6 +526,7 @@ class MotionDatabase:
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
         self._motions = {int(mid): self.store.motion(int(mid)) for mid in self.store.motion_ids()}
+        self._sequences: dict = {}  # motion id → (MotionSequences, starts), read on first use
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
@@ -576,16 +620,7 @@ class MotionDatabase:
         t1 = time.perf_counter()
         timing["motion_images"] = (t1 - t0) * 1e3
         points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
-        n_candidates = min(self.n_entries, max(top_k * 8, 32))
-        whole = self.index.search(points[:1], top_k=n_candidates)
-        examined = int(whole.examined[0])
-        reach = LABEL_AGREEMENT * float(whole.distances[0, 0])
-        agreeing = whole
-        if n_candidates < self.n_entries and whole.distances[0, -1] <= reach:
-            # More entries may lie within reach than were asked for (rare: a handful
-            # usually do): every one of them, exactly.
-            agreeing = self.index.search(points[:1], self.n_entries, reach)
-            examined += int(agreeing.examined[0])
+        whole = self.index.search(points[:1], top_k=min(CANDIDATE_ENTRIES, self.n_entries))
         windowed = (
             self.index.search(points[1:], top_k=min(WINDOW_CANDIDATES, self.n_entries))
             if len(points) > 1
@@ -593,42 +628,97 @@ class MotionDatabase:
         )
         t2 = time.perf_counter()
         timing["search"] = (t2 - t1) * 1e3
-        top: list[Match] = []
-        seen: set[int] = set()
-        for entry_id, dist in zip(whole.ids[0], whole.distances[0], strict=True):
-            mid = self._motion_of[int(entry_id)]
-            if mid in seen:
-                continue
-            seen.add(mid)
-            top.append(self._match(int(entry_id), float(dist)))
-            if len(top) == top_k:
-                break
-        within = agreeing.distances[0] <= reach
-        agreed = self._match(
-            *agreed_entry(
-                agreeing.ids[0][within], agreeing.distances[0][within],
-                self._motion_of.__getitem__, self._label_of,
-            )
-        )  # fmt: skip
-        if agreed.motion_id != top[0].motion_id:
-            top = [agreed] + [m for m in top if m.motion_id != agreed.motion_id][: top_k - 1]
+        nearest = self._nearest_motions(whole.ids[0], whole.distances[0])
+        ranked = self._ranked_by_sequence(sequence_frames(masks, fps, cfg.motion_image), nearest)
+        timing["sequences"] = (time.perf_counter() - t2) * 1e3
+        top = ranked[:top_k]
         segments = self._segments(kept, windowed, len(masks), top[0])
         best = self._most_specific(top[0], windowed)
         if best is not top[0]:
             top = [best] + [m for m in top if m.motion_id != best.motion_id][: top_k - 1]
         examined_windows = 0 if windowed is None else int(windowed.examined.sum())
         timing["total"] = (time.perf_counter() - t0) * 1e3
+        nearest_distance = min(float(whole.distances[0, 0]), best.distance)
         return QueryResult(
             best,
-            bool(best.distance <= self.threshold),
+            bool(nearest_distance <= self.threshold),
             top,
             segments,
-            examined,
+            int(whole.examined[0]),
             examined_windows,
             self.n_entries,
             timing,
             np.asarray(vectors[0]),
         )
+
+    def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
+        """The nearest entry of each of the first :data:`~eigmotion.sequences.
+        CANDIDATE_MOTIONS` distinct motions among ``entry_ids`` (nearest first;
+        ``NO_ENTRY`` slots at the end are skipped)."""
+        nearest: list[Match] = []
+        seen: set[int] = set()
+        for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
+            if entry_id == NO_ENTRY:
+                break
+            motion_id = self._motion_of[entry_id]
+            if motion_id in seen:
+                continue
+            seen.add(motion_id)
+            nearest.append(self._match(entry_id, dist))
+            if len(nearest) == CANDIDATE_MOTIONS:
+                break
+        return nearest
+
+    def _ranked_by_sequence(self, frames: np.ndarray, nearest: list[Match]) -> list[Match]:
+        """The candidate motions ranked by motion image and silhouette sequence together.
+
+        Parameters
+        ----------
+        frames : (F, SEQUENCE_SIZE**2) float32
+            The clip's silhouette sequence (:func:`~eigmotion.sequences.sequence_frames`).
+        nearest : list of Match
+            Each candidate motion's nearest entry, nearest first.
+
+        Returns
+        -------
+        list of Match
+            The same motions, each with its ``sequence_distance`` — to its nearest
+            rendering seen from within :data:`~eigmotion.sequences.VIEW_REACH_DEG` of
+            its entry's view — in order of :func:`~eigmotion.sequences.fused_scores`.
+        """
+        query = self.pose_space.transform(frames).astype(np.float32)
+        parts, lengths, owners = [], [], []
+        for candidate, match in enumerate(nearest):
+            stored, starts = self._stored_sequences(match.motion_id)
+            for r in np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg)):
+                parts.append(stored.frames[starts[r] : starts[r + 1]])
+                lengths.append(stored.lengths[r])
+                owners.append(candidate)
+        compared = np.full(len(nearest), np.inf)
+        if parts:
+            found = sequence_distances(query, np.concatenate(parts), np.asarray(lengths))
+            np.minimum.at(compared, np.asarray(owners), found)
+        order = np.argsort(
+            fused_scores(np.array([m.distance for m in nearest]), np.array(compared)),
+            kind="stable",
+        )
+        return [
+            dataclasses.replace(
+                nearest[i],
+                sequence_distance=float(compared[i]) if np.isfinite(compared[i]) else None,
+            )
+            for i in order
+        ]
+
+    def _stored_sequences(self, motion_id: int):
+        """A motion's :class:`~eigmotion.store.MotionSequences` and the (R + 1,) first
+        frame of each rendering, read from the store once, then kept."""
+        found = self._sequences.get(motion_id)
+        if found is None:
+            stored = self.store.sequences(motion_id)
+            starts = np.concatenate([[0], np.cumsum(stored.lengths)])
+            found = self._sequences[motion_id] = (stored, starts)
+        return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:
         """The clip's answer: the whole clip's nearest entry, unless that is filler
@@ -727,8 +817,9 @@ class MotionDatabase:
         """Add a motion to this (writable) database without changing the eigenspace.
 
         Its motion images are rendered with the stored build configuration and rig,
-        projected into the stored eigenspace and inserted under their keys in one
-        transaction; it is queryable at once.
+        projected into the stored eigenspace and inserted under their keys, and its
+        silhouette sequences into the stored pose eigenspace, in one transaction; it
+        is queryable at once.
 
         Returns
         -------
@@ -754,6 +845,7 @@ class MotionDatabase:
             self.store.add_entries(
                 np.full(len(points), motion_id), points, keys, az, el, start, stop, labels
             )
+            _add_sequences(self.store, [motion_id], collected.sequences, self.pose_space)
         self._load_index()
         return IndexReport(
             item.name,
@@ -813,52 +905,6 @@ class IndexReport:
     reconstruction_error: float
     reference_error: float
     badly_represented: bool
-
-
-def agreed_entry(
-    entry_ids: np.ndarray,
-    distances: np.ndarray,
-    motion_of: Callable[[int], int],
-    label_of: Callable[[int], str],
-) -> tuple[int, float]:
-    """The entry that answers a clip: the nearest of the label scored best.
-
-    A label's score is the distance of its second-nearest motion, or
-    :data:`LABEL_AGREEMENT` times that of its nearest motion when that is smaller.
-
-    Parameters
-    ----------
-    entry_ids, distances : (n,) int64, float64
-        The entries near the clip, nearest first; ``NO_ENTRY`` slots at the end are
-        skipped.  Every entry within ``LABEL_AGREEMENT`` times the nearest distance
-        must be there for the answer to be exact.
-    motion_of, label_of : callable
-        An entry id's motion id and label.  A motion counts once, with the label of
-        its nearest entry.
-
-    Returns
-    -------
-    (entry_id, distance)
-    """
-    by_label: dict[str, list[tuple[float, int]]] = {}
-    motions: set[int] = set()
-    for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
-        if entry_id == NO_ENTRY:
-            break
-        motion = motion_of(entry_id)
-        if motion in motions:
-            continue
-        motions.add(motion)
-        by_label.setdefault(label_of(entry_id), []).append((dist, entry_id))
-    if not by_label:
-        raise InvalidParameterError("agreed_entry needs at least one entry")
-
-    def score(hits: list[tuple[float, int]]) -> float:
-        second = hits[1][0] if len(hits) > 1 else math.inf
-        return min(LABEL_AGREEMENT * hits[0][0], second)
-
-    dist, entry_id = by_label[min(by_label, key=lambda label: score(by_label[label]))][0]
-    return entry_id, dist
 
 
 def brute_force_check(db: MotionDatabase, queries: np.ndarray, top_k: int = 1) -> bool:

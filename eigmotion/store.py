@@ -23,6 +23,10 @@ breaks a stored database)::
     motions         LOBTree  id  → PersistentMapping  label, source, BVH text, metadata
     columns         LOBTree  chunk → PersistentMapping  ids, keys, points, motions
                                               of 65,536 entries each, as bytes
+    pose_space      PersistentMapping         the pose eigenspace of the sequences'
+                                              frames, Eigenspace.to_state()
+    sequences       LOBTree  motion id → PersistentMapping  the silhouette sequences
+                                              of the motion's renderings, as bytes
     counters        PersistentMapping         next_entry, next_motion
 
 An entry record is ``{"motion": int, "label": str, "view_azimuth_deg": float,
@@ -30,7 +34,11 @@ An entry record is ``{"motion": int, "label": str, "view_azimuth_deg": float,
 "point": bytes (k float32, little-endian)}``.  Entry ids count up from 0, so the
 columns are in id order; they repeat the records' ids, keys and points in packed form
 so that opening a database of a million entries reads a few dozen objects instead of
-unpickling a million records.  :meth:`Store.check` verifies that the B-tree, the
+unpickling a million records.  A motion's sequences record is ``{"azimuth": bytes (R
+float64), "elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
+(sum of lengths × p float16)}``: one row per rendering (body × view) of the whole
+motion, its frames in the pose eigenspace (:mod:`eigmotion.sequences`); it is read
+only when a query compares the motion.  :meth:`Store.check` verifies that the B-tree, the
 records and the columns agree.
 
 Writes happen inside :meth:`Store.transaction` (one ``transaction.TransactionManager``
@@ -55,8 +63,9 @@ from .eigenspace import Eigenspace
 from .errors import DatabaseError, InvalidParameterError
 from .keys import Quantizer
 
-#: Version of the root layout; a database of another version is refused.
-SCHEMA_VERSION = 1
+#: Version of the root layout; a database of another version is refused.  Version 2
+#: added the silhouette sequences.
+SCHEMA_VERSION = 2
 
 #: Entries per packed column chunk.
 CHUNK_ENTRIES = 65536
@@ -66,6 +75,26 @@ ZEO_WAIT_S = 10.0
 
 _FILE_SUFFIXES = ("", ".index", ".lock", ".tmp", ".old")
 _PLAIN_SCALARS = (bool, int, float, str, bytes, type(None))
+
+
+@dataclass(frozen=True)
+class MotionSequences:
+    """The silhouette sequences of one motion's renderings.
+
+    Attributes
+    ----------
+    azimuth_deg, elevation_deg : (R,) float64
+        The virtual camera of each rendering, degrees.
+    lengths : (R,) int64
+        Frames of each sequence, each >= 1.
+    frames : (sum of lengths, p) float32
+        The sequences' frames in the pose eigenspace, one after the other.
+    """
+
+    azimuth_deg: np.ndarray
+    elevation_deg: np.ndarray
+    lengths: np.ndarray
+    frames: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -397,8 +426,10 @@ class Store:
         self._load_arrays()
 
     # -- building --------------------------------------------------------------------
-    def initialise(self, config: dict, eigenspace: Eigenspace, quantizer: Quantizer) -> None:
-        """Write the schema version, build configuration, eigenspace and quantizer.
+    def initialise(
+        self, config: dict, eigenspace: Eigenspace, quantizer: Quantizer, pose_space: Eigenspace
+    ) -> None:
+        """Write the schema version, build configuration, eigenspaces and quantizer.
 
         Parameters
         ----------
@@ -409,6 +440,8 @@ class Store:
             Fitted.
         quantizer : Quantizer
             Fitted, with ``n_axes <= eigenspace.n_components_``.
+        pose_space : Eigenspace
+            Fitted on the frames of the silhouette sequences.
         """
         from BTrees.LOBTree import LOBTree
         from persistent.mapping import PersistentMapping
@@ -422,6 +455,7 @@ class Store:
         config = _plain(config, "config")
         space_state = eigenspace.to_state()
         quant_state = quantizer.to_state()
+        pose_state = pose_space.to_state()
         if quantizer.n_axes > eigenspace.n_components_:
             raise InvalidParameterError(
                 f"the quantizer keys K={quantizer.n_axes} axes but the eigenspace has only "
@@ -436,6 +470,8 @@ class Store:
         root["entries"] = LOBTree()
         root["motions"] = LOBTree()
         root["columns"] = LOBTree()
+        root["pose_space"] = PersistentMapping(pose_state)
+        root["sequences"] = LOBTree()
         root["counters"] = PersistentMapping({"next_entry": 0, "next_motion": 0})
         self._overwrite = False
 
@@ -619,6 +655,59 @@ class Store:
         counters["next_entry"] = first + n
         return ids
 
+    def add_sequences(
+        self, motion_id: int, view_azimuth_deg, view_elevation_deg, sequences
+    ) -> None:
+        """Store the silhouette sequences of R renderings of one motion.
+
+        Parameters
+        ----------
+        motion_id : int
+            From :meth:`add_motion`.
+        view_azimuth_deg, view_elevation_deg : (R,) float
+            Each rendering's virtual camera, degrees.
+        sequences : sequence of R (F_r, p) float
+            Each rendering's frames in the stored pose eigenspace (``p`` its axes),
+            ``F_r >= 1``; kept as float16.
+        """
+        from persistent.mapping import PersistentMapping
+
+        self._require_writing("add_sequences()")
+        root = self._require_initialised()
+        if int(motion_id) not in root["motions"]:
+            raise InvalidParameterError(f"motion id {motion_id} was never added (add_motion first)")
+        p = int(root["pose_space"]["components"]["shape"][0])
+        sequences = [np.asarray(seq) for seq in sequences]
+        azimuth = np.asarray(view_azimuth_deg, dtype=np.float64)
+        elevation = np.asarray(view_elevation_deg, dtype=np.float64)
+        r = len(sequences)
+        if azimuth.shape != (r,) or elevation.shape != (r,):
+            raise InvalidParameterError(
+                f"view_azimuth_deg and view_elevation_deg must have shape ({r},), got "
+                f"{azimuth.shape} and {elevation.shape}"
+            )
+        for i, seq in enumerate(sequences):
+            if seq.ndim != 2 or seq.shape[0] < 1 or seq.shape[1] != p:
+                raise InvalidParameterError(
+                    f"sequence {i} must be (F >= 1, {p}) pose coordinates, got {seq.shape}"
+                )
+            if not np.all(np.isfinite(seq)):
+                raise InvalidParameterError(f"sequence {i} holds NaN or infinity")
+            if np.any(np.abs(seq) > np.finfo(np.float16).max):
+                raise InvalidParameterError(f"sequence {i} holds values beyond float16")
+        if not (np.all(np.isfinite(azimuth)) and np.all(np.isfinite(elevation))):
+            raise InvalidParameterError("view directions hold NaN or infinity")
+        record = root["sequences"].get(int(motion_id))
+        if record is None:
+            record = root["sequences"][int(motion_id)] = PersistentMapping(
+                {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+            )
+        record["azimuth"] += azimuth.astype("<f8").tobytes()
+        record["elevation"] += elevation.astype("<f8").tobytes()
+        record["lengths"] += np.array([len(s) for s in sequences], dtype="<i8").tobytes()
+        if sequences:
+            record["frames"] += np.concatenate(sequences).astype("<f2").tobytes()
+
     # -- reading ---------------------------------------------------------------------
     @property
     def schema_version(self) -> int:
@@ -644,6 +733,35 @@ class Store:
             return Quantizer.from_state(dict(root["quantizer"]))
         except InvalidParameterError as exc:
             raise DatabaseError(f"{self.uri}: stored quantizer is damaged: {exc}") from exc
+
+    def pose_space(self) -> Eigenspace:
+        """The stored pose eigenspace of the silhouette sequences, fitted."""
+        root = self._require_initialised()
+        try:
+            return Eigenspace.from_state(dict(root["pose_space"]))
+        except InvalidParameterError as exc:
+            raise DatabaseError(f"{self.uri}: stored pose eigenspace is damaged: {exc}") from exc
+
+    def sequences(self, motion_id: int) -> MotionSequences:
+        """The silhouette sequences of one motion's renderings (none for a motion
+        stored without them)."""
+        root = self._require_initialised()
+        p = int(root["pose_space"]["components"]["shape"][0])
+        record = root["sequences"].get(int(motion_id))
+        if record is None:
+            if int(motion_id) not in root["motions"]:
+                raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
+            record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+        lengths = np.frombuffer(record["lengths"], dtype="<i8").astype(np.int64)
+        frames = np.frombuffer(record["frames"], dtype="<f2").astype(np.float32)
+        if frames.size != int(lengths.sum()) * p:
+            raise DatabaseError(f"{self.uri}: the sequences of motion {motion_id} are damaged")
+        return MotionSequences(
+            np.frombuffer(record["azimuth"], dtype="<f8").astype(np.float64),
+            np.frombuffer(record["elevation"], dtype="<f8").astype(np.float64),
+            lengths,
+            frames.reshape(-1, p),
+        )
 
     @property
     def n_entries(self) -> int:
@@ -761,3 +879,7 @@ class Store:
                 raise DatabaseError(f"{self.uri}: entry {entry_id} disagrees with the columns")
         if len(root["entries"]) != n:
             raise DatabaseError(f"{self.uri}: {len(root['entries'])} records for {n} entries")
+        for motion_id in root["sequences"].keys():
+            found = self.sequences(motion_id)
+            if not (len(found.azimuth_deg) == len(found.elevation_deg) == len(found.lengths)):
+                raise DatabaseError(f"{self.uri}: the sequences of motion {motion_id} are damaged")

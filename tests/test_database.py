@@ -24,16 +24,15 @@ from eigmotion.bvh import read_bvh
 from eigmotion.cameras import load_rig, virtual_rig
 from eigmotion.cli import main
 from eigmotion.database import (
-    LABEL_AGREEMENT,
     MotionDatabase,
-    agreed_entry,
     brute_force_check,
     build_database,
 )
 from eigmotion.errors import DatabaseError
 from eigmotion.kinematics import forward_kinematics
 from eigmotion.library import load_library
-from eigmotion.search import NO_ENTRY, BruteForceIndex
+from eigmotion.search import BruteForceIndex
+from eigmotion.sequences import POSE_COMPONENTS
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -91,6 +90,11 @@ def test_database_holds_what_was_built(db_path, library):
         for mid, item in enumerate(library):
             back = db.motion(mid)
             np.testing.assert_allclose(back.values, item.motion.values, atol=1e-5)
+            # one silhouette sequence per (body, view) of the whole motion
+            sequences = db.store.sequences(mid)
+            assert len(sequences.lengths) == len(CONFIG.bodies) * len(db.rig)
+            assert sorted(set(sequences.azimuth_deg)) == sorted({c.azimuth_deg for c in db.rig})
+            assert sequences.frames.shape == (sequences.lengths.sum(), POSE_COMPONENTS)
 
 
 def test_stored_library_keeps_what_the_build_needs(tmp_path):
@@ -221,6 +225,7 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
     ):
         assert key in answer
     assert answer["label"] == "kick" and len(answer["top"]) == 2
+    assert answer["sequence_distance"] > 0 and "sequences" in answer["timing_ms"]
     assert set(answer["view"]) == {"azimuth_deg", "elevation_deg"}
     replayed = read_bvh(bvh)
     assert replayed.n_frames == len(masks)
@@ -247,6 +252,7 @@ def test_index_makes_a_motion_queryable_at_once(db_path, tmp_path, other_body):
     with MotionDatabase.open(work, read_only=False) as db:
         report = db.index_motion(replace(jump, name="new_jump"), progress=False)
         assert db.n_entries == n_before + report.n_entries
+        assert len(db.store.sequences(report.motion_id).lengths) == len(db.rig)
         after = db.query_masks(masks, 30.0)
     assert after.best.label == "jump"
     with MotionDatabase.open(work) as db:  # and it is on disk
@@ -433,31 +439,3 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         assert one.store.n_motions == 1
         assert one.motion_record(0)["label"] == "wave"
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
-
-
-@pytest.mark.parametrize(
-    ("second_punch", "punch_motion", "answer"),
-    [
-        (1.05, 2, 1),  # two punches near: punch, though a wave is nearer
-        (1.0 * LABEL_AGREEMENT + 0.02, 2, 0),  # the second punch too far: the wave
-        (1.05, 1, 0),  # two entries of one punch motion count once: the wave
-    ],
-    ids=["two-motions-agree", "second-too-far", "one-motion-twice"],
-)
-def test_a_label_two_motions_agree_on_wins(second_punch, punch_motion, answer):
-    # entry 0: wave motion 0 at 1.0; entry 1: punch motion 1 at 1.02; entry 2: a punch
-    # (motion 1 again, or motion 2) farther; then an empty slot.
-    ids = np.array([0, 1, 2, NO_ENTRY])
-    distances = np.array([1.0, 1.02, second_punch, np.inf])
-    motions = {0: 0, 1: 1, 2: punch_motion}
-    labels = {0: "wave", 1: "punch", 2: "punch"}
-    entry, dist = agreed_entry(ids, distances, motions.__getitem__, labels.__getitem__)
-    assert entry == answer
-    assert dist == distances[answer]
-
-
-def test_one_close_match_still_wins():
-    # The same performance: one wave far nearer than two agreeing punches.
-    ids, distances = np.array([0, 1, 2]), np.array([0.5, 1.0, 1.01])
-    motions, labels = {0: 0, 1: 1, 2: 2}, {0: "wave", 1: "punch", 2: "punch"}
-    assert agreed_entry(ids, distances, motions.__getitem__, labels.__getitem__) == (0, 0.5)

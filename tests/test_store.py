@@ -17,20 +17,22 @@ BVH_TEXT = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 0\nFrame
 
 @pytest.fixture(scope="module")
 def fitted():
-    """A fitted eigenspace (k = 6) and quantizer (K = 3, R = 4), and 120 points."""
+    """A fitted eigenspace (k = 6) and quantizer (K = 3, R = 4), 120 points, and a pose
+    eigenspace (p = 5) of 256-pixel frames."""
     rng = np.random.default_rng(11)
     images = rng.standard_normal((120, 300)).astype(np.float32)
     images /= np.linalg.norm(images, axis=1, keepdims=True)
     space = Eigenspace(n_components=6).fit(images)
     points = space.transform(images)
     quantizer = Quantizer(3, 4).fit(points)
-    return space, quantizer, points
+    pose = Eigenspace(n_components=5).fit(rng.random((200, 256)).astype(np.float32))
+    return space, quantizer, points, pose
 
 
 def fill(store: Store, fitted, n_motions: int = 2) -> np.ndarray:
     """Initialise and add ``n_motions`` motions sharing the fixture's points."""
-    space, quantizer, points = fitted
-    store.initialise({"fps": 30, "views": [0.0, 45.0], "name": "test"}, space, quantizer)
+    space, quantizer, points, pose = fitted
+    store.initialise({"fps": 30, "views": [0.0, 45.0], "name": "test"}, space, quantizer, pose)
     per = len(points) // n_motions
     ids = []
     for m in range(n_motions):
@@ -47,13 +49,30 @@ def fill(store: Store, fitted, n_motions: int = 2) -> np.ndarray:
                 np.arange(per) + 8,
             )
         )
+    store.add_sequences(0, [0.0, 30.0], [0.0, 20.0], sequences_of(pose))
     return np.concatenate(ids)
 
 
+def sequences_of(pose: Eigenspace) -> list[np.ndarray]:
+    """Two renderings' sequences (7 and 3 frames) in the pose eigenspace."""
+    rng = np.random.default_rng(5)
+    return [pose.transform(rng.random((n, 256)).astype(np.float32)) for n in (7, 3)]
+
+
 def assert_holds(store: Store, fitted, n_motions: int = 2):
-    space, quantizer, points = fitted
+    space, quantizer, points, pose = fitted
     store.check()
     assert store.schema_version == SCHEMA_VERSION
+    np.testing.assert_array_equal(store.pose_space().components_, pose.components_)
+    found = store.sequences(0)
+    np.testing.assert_array_equal(found.azimuth_deg, [0.0, 30.0])
+    np.testing.assert_array_equal(found.elevation_deg, [0.0, 20.0])
+    np.testing.assert_array_equal(found.lengths, [7, 3])
+    assert found.frames.dtype == np.float32 and found.frames.shape == (10, 5)
+    np.testing.assert_allclose(
+        found.frames, np.concatenate(sequences_of(pose)), rtol=2e-3, atol=2e-3
+    )
+    assert store.sequences(1).lengths.size == 0  # stored without sequences
     assert store.config == {"fps": 30, "views": [0.0, 45.0], "name": "test"}
     assert store.n_motions == n_motions and store.n_entries == len(points)
     np.testing.assert_array_equal(store.eigenspace().components_, space.components_)
@@ -110,7 +129,7 @@ def test_memory_round_trip(fitted):
 
 def test_index_appends_across_column_chunks(tmp_path, fitted, monkeypatch):
     monkeypatch.setattr(store_module, "CHUNK_ENTRIES", 7)
-    space, quantizer, points = fitted
+    space, quantizer, points, pose = fitted
     path = tmp_path / "db.fs"
     with Store.create(path) as store, store.transaction():
         fill(store, fitted)
@@ -232,7 +251,7 @@ def test_read_only_and_transaction_rules(tmp_path, fitted):
     ],
 )
 def test_add_entries_validates(fitted, change, match):
-    space, quantizer, points = fitted
+    space, quantizer, points, pose = fitted
     args = {
         "motion_ids": [0] * 4,
         "points": points[:4],
@@ -250,7 +269,7 @@ def test_add_entries_validates(fitted, change, match):
         else:
             args[name] = np.full(4, value)
     with Store.create("memory://") as store, store.transaction():
-        store.initialise({}, space, quantizer)
+        store.initialise({}, space, quantizer, pose)
         store.add_motion("m", "s", BVH_TEXT)
         with pytest.raises(InvalidParameterError, match=match):
             store.add_entries(**args)
@@ -261,17 +280,17 @@ def test_add_entries_validates(fitted, change, match):
     [({"a": np.zeros(3)}, "ndarray"), ({"a": float("nan")}, "finite"), ({1: 2}, "not a string")],
 )
 def test_config_must_be_plain(fitted, config, match):
-    space, quantizer, _ = fitted
+    space, quantizer, _, pose = fitted
     with Store.create("memory://") as store, store.transaction():
         with pytest.raises(InvalidParameterError, match=match):
-            store.initialise(config, space, quantizer)
+            store.initialise(config, space, quantizer, pose)
 
 
 def test_numpy_scalars_are_stored_as_plain_numbers(fitted):
-    space, quantizer, _ = fitted
+    space, quantizer, _, pose = fitted
     with Store.create("memory://") as store:
         with store.transaction():
-            store.initialise({"k": np.int64(6), "ratio": np.float32(0.5)}, space, quantizer)
+            store.initialise({"k": np.int64(6), "ratio": np.float32(0.5)}, space, quantizer, pose)
         assert store.config == {"k": 6, "ratio": 0.5}
         assert type(store.config["k"]) is int
 
@@ -299,7 +318,7 @@ def test_parse_uri_errors(uri, match):
 def test_zeo_clients_see_each_others_commits(tmp_path, fitted):
     import ZEO
 
-    space, quantizer, points = fitted
+    space, quantizer, points, pose = fitted
     address, stop = ZEO.server(path=str(tmp_path / "shared.fs"), port=0)
     uri = f"zeo://{address[0]}:{address[1]}"
     try:
@@ -336,3 +355,26 @@ def test_zeo_without_server(monkeypatch):
         port = probe.getsockname()[1]
     with pytest.raises(DatabaseError, match="no ZEO server"):
         Store.open(f"zeo://127.0.0.1:{port}")
+
+
+@pytest.mark.parametrize(
+    ("motion_id", "azimuth", "frames", "match"),
+    [
+        (7, [0.0], [np.zeros((3, 5))], "never added"),
+        (0, [0.0, 1.0], [np.zeros((3, 5))], "shape"),
+        (0, [0.0], [np.zeros((3, 4))], r"\(F >= 1, 5\)"),
+        (0, [0.0], [np.zeros((0, 5))], r"\(F >= 1, 5\)"),
+        (0, [0.0], [np.full((3, 5), np.nan)], "NaN"),
+        (0, [0.0], [np.full((3, 5), 1e6)], "float16"),
+        (0, [np.inf], [np.zeros((3, 5))], "infinity"),
+    ],
+)
+def test_bad_sequences_are_refused_and_nothing_is_stored(fitted, motion_id, azimuth, frames, match):
+    space, quantizer, _, pose = fitted
+    with Store.create("memory://") as store:
+        with store.transaction():
+            store.initialise({}, space, quantizer, pose)
+            store.add_motion("m", "s", BVH_TEXT)
+            with pytest.raises(InvalidParameterError, match=match):
+                store.add_sequences(motion_id, azimuth, [0.0] * len(azimuth), frames)
+        assert store.sequences(0).lengths.size == 0

@@ -68,9 +68,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         best = result.best
         verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
+        sequence = (
+            "" if best.sequence_distance is None else f", sequence {best.sequence_distance:.3f}"
+        )
         print(
-            f"{best.label}  ({best.motion}, distance {best.distance:.3f}, view azimuth "
-            f"{best.azimuth_deg:.0f}°, elevation {best.elevation_deg:.0f}°){verdict}"
+            f"{best.label}  ({best.motion}, distance {best.distance:.3f}{sequence}, view "
+            f"azimuth {best.azimuth_deg:.0f}°, elevation {best.elevation_deg:.0f}°){verdict}"
         )
         for seg in result.segments:
             print(f"  frames {seg.start_frame}–{seg.end_frame}: {seg.label}")

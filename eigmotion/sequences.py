@@ -1,0 +1,191 @@
+"""Silhouette sequences: a clip's poses in order, compared by dynamic time warping.
+
+A motion image sums a clip's frame differences into one picture; which pose came
+before which is mostly gone.  On people the database has never seen, that order
+carries what the after-image loses (``docs/accuracy.md``): the two err on different
+clips, and together they name more clips right than either alone.  So every rendering
+of a whole basic motion (one body, one view) also keeps its silhouettes as a sequence,
+and a query's candidate motions — those whose entries the B-tree search returned — are
+ranked again by both distances (:func:`fused_scores`)::
+
+    masks (F, H, W) ──sample at the motion image's sample_fps──▶ (F', H, W)
+        ──align in the motion image's frame (the person frame) at SEQUENCE_SIZE px──▶
+          (F'', SEQUENCE_SIZE²) in [0, 1]
+        ──pose eigenspace (PCA of every database frame, POSE_COMPONENTS axes)──▶
+          (F'', POSE_COMPONENTS) float32
+
+Two sequences are compared by dynamic time warping (:func:`sequence_distances`): the
+cheapest monotone alignment of their frames, each step costing the Euclidean distance
+of two frames' pose coordinates, summed over the path and divided by the two lengths,
+so the pace of a performance does not count against it.  A query compares its
+sequence only with the renderings of each candidate motion seen from within
+:data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from:
+the motion image already found the viewing direction.  The constants below were
+chosen on the holdout benchmark's folds (``docs/accuracy.md``, "Silhouette sequences
+in the query").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .eigenspace import Eigenspace
+from .errors import InvalidParameterError
+from .motion_image import MotionImageConfig, align_frames
+
+#: Side of the person-frame silhouettes of a sequence, pixels.
+SEQUENCE_SIZE = 16
+#: Axes of the pose eigenspace the sequences are stored in.
+POSE_COMPONENTS = 48
+#: A candidate motion is compared with its renderings whose camera azimuth lies within
+#: this many degrees of the view of its nearest entry, degrees.
+VIEW_REACH_DEG = 60.0
+#: Weight of the sequence distance in :func:`fused_scores`.
+SEQUENCE_WEIGHT = 1.0
+#: Distinct motions of the whole clip's nearest entries that are ranked again.
+CANDIDATE_MOTIONS = 10
+
+
+def sequence_frames(masks: np.ndarray, fps: float, image_config: MotionImageConfig) -> np.ndarray:
+    """A clip's silhouettes as a sequence of aligned frames.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+        The person's silhouette per frame.
+    fps : float
+        Frame rate of ``masks``, frames per second.
+    image_config : MotionImageConfig
+        The database's motion image configuration: its ``sample_fps`` and person
+        frame are used, at :data:`SEQUENCE_SIZE` pixels.
+
+    Returns
+    -------
+    (F'', SEQUENCE_SIZE**2) float32 in [0, 1]
+        Frames without a person are left out.
+
+    Raises
+    ------
+    VideoError
+        No person in enough frames.
+    """
+    from .media import sample_indices
+
+    frames = sample_indices(len(masks), float(fps), image_config.sample_fps)
+    small = MotionImageConfig(**{**image_config.to_dict(), "size": SEQUENCE_SIZE})
+    aligned = align_frames(masks[frames], small)
+    return np.ascontiguousarray(aligned.reshape(len(aligned), -1), dtype=np.float32)
+
+
+def _compiled_warp():
+    from numba import njit
+
+    @njit(cache=True)
+    def warp(cost: np.ndarray, starts: np.ndarray, out: np.ndarray) -> None:
+        n = cost.shape[0]
+        for r in range(len(starts) - 1):
+            lo, m = starts[r], starts[r + 1] - starts[r]
+            previous = np.full(m + 1, np.inf)
+            current = np.empty(m + 1)
+            previous[0] = 0.0
+            for i in range(n):
+                current[0] = np.inf
+                for j in range(1, m + 1):
+                    step = min(previous[j], current[j - 1], previous[j - 1])
+                    current[j] = cost[i, lo + j - 1] + step
+                previous, current = current, previous
+            out[r] = previous[m] / (n + m)
+
+    return warp
+
+
+_WARP = None
+
+
+def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Dynamic time warping of one sequence against several.
+
+    Parameters
+    ----------
+    query : (n, d) float
+        The query's frames (pose coordinates).
+    frames : (M, d) float
+        The frames of every sequence compared with, one after the other.
+    lengths : (R,) int
+        Frames of each of those R sequences, summing to ``M``; each >= 1.
+
+    Returns
+    -------
+    (R,) float64
+        Per sequence, the cheapest monotone alignment's summed frame distances
+        (Euclidean, computed in float32) over ``n + m``.
+    """
+    global _WARP
+    if _WARP is None:
+        _WARP = _compiled_warp()
+    query = np.ascontiguousarray(query, dtype=np.float32)
+    frames = np.ascontiguousarray(frames, dtype=np.float32)
+    # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
+    # (float32: distances of pose coordinates of order 1 come out within about 1e-3).
+    cost = query @ frames.T
+    cost *= -2.0
+    cost += np.einsum("ij,ij->i", query, query)[:, None]
+    cost += np.einsum("ij,ij->i", frames, frames)[None, :]
+    np.maximum(cost, 0.0, out=cost)
+    np.sqrt(cost, out=cost)
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    out = np.empty(len(lengths))
+    _WARP(cost, starts, out)
+    return out
+
+
+def fit_pose_space(frames: np.ndarray) -> Eigenspace:
+    """The pose eigenspace: :data:`POSE_COMPONENTS` axes of the frames' PCA (every
+    non-degenerate axis when there are fewer).
+
+    Parameters
+    ----------
+    frames : (N, SEQUENCE_SIZE**2) float
+        The frames of every rendering's sequence, N >= 2.
+    """
+    try:
+        return Eigenspace(POSE_COMPONENTS).fit(frames)
+    except InvalidParameterError:
+        if len(frames) < 2:
+            raise
+        return Eigenspace(None, explained_variance=1.0).fit(frames)
+
+
+def view_reach(azimuth_deg: np.ndarray, centre_deg: float) -> np.ndarray:
+    """(R,) bool: which azimuths lie within :data:`VIEW_REACH_DEG` of ``centre_deg``
+    (degrees, around the circle)."""
+    offset = (np.asarray(azimuth_deg, dtype=np.float64) - centre_deg + 180.0) % 360.0 - 180.0
+    return np.abs(offset) <= VIEW_REACH_DEG + 1e-9
+
+
+def fused_scores(image_distances: np.ndarray, sequence_distances: np.ndarray) -> np.ndarray:
+    """One score per candidate motion from its two distances; smaller is nearer.
+
+    Each distance is divided by the smallest of its kind among the candidates, so the
+    two count alike whatever their units; the sequence's is weighted by
+    :data:`SEQUENCE_WEIGHT`.
+
+    Parameters
+    ----------
+    image_distances : (M,) float
+        Eigenspace distance of each motion's nearest entry.
+    sequence_distances : (M,) float
+        Its silhouette sequence distance (inf where none was compared).
+
+    Returns
+    -------
+    (M,) float64
+        inf for a motion without a sequence distance.
+    """
+    image = np.asarray(image_distances, dtype=np.float64)
+    sequence = np.asarray(sequence_distances, dtype=np.float64)
+    finite = sequence[np.isfinite(sequence)]
+    tiny = np.finfo(np.float64).tiny
+    image_scale = max(float(image.min()), tiny) if image.size else 1.0
+    sequence_scale = max(float(finite.min()), tiny) if finite.size else 1.0
+    return image / image_scale + SEQUENCE_WEIGHT * sequence / sequence_scale

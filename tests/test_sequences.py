@@ -1,0 +1,114 @@
+"""Silhouette sequences: frames, time warping, the pose eigenspace and the fused rank."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigmotion.errors import VideoError
+from eigmotion.motion_image import MotionImageConfig
+from eigmotion.sequences import (
+    POSE_COMPONENTS,
+    SEQUENCE_SIZE,
+    SEQUENCE_WEIGHT,
+    VIEW_REACH_DEG,
+    fit_pose_space,
+    fused_scores,
+    sequence_distances,
+    sequence_frames,
+    view_reach,
+)
+
+
+def reference_warp(a: np.ndarray, b: np.ndarray) -> float:
+    """Dynamic time warping written out from its definition, for comparison."""
+    n, m = len(a), len(b)
+    cost = np.full((n + 1, m + 1), np.inf)
+    cost[0, 0] = 0.0
+    for i in range(1, n + 1):
+        for j in range(1, m + 1):
+            step = min(cost[i - 1, j], cost[i, j - 1], cost[i - 1, j - 1])
+            cost[i, j] = float(np.linalg.norm(a[i - 1] - b[j - 1])) + step
+    return cost[n, m] / (n + m)
+
+
+def test_warping_equals_its_definition():
+    rng = np.random.default_rng(0)
+    query = rng.random((9, 6)).astype(np.float32)
+    others = [rng.random((n, 6)).astype(np.float32) for n in (1, 4, 13, 9)]
+    found = sequence_distances(query, np.concatenate(others), np.array([len(o) for o in others]))
+    expected = [reference_warp(query.astype(np.float64), o.astype(np.float64)) for o in others]
+    np.testing.assert_allclose(found, expected, rtol=1e-5)
+
+
+def test_a_slower_performance_is_nearer_than_another_motion():
+    # A pose path, the same path at half the pace, and the path backwards.
+    t = np.linspace(0.0, 1.0, 12)
+    path = np.stack([np.sin(3 * t), np.cos(2 * t), t], axis=1).astype(np.float32)
+    slow = np.repeat(path, 2, axis=0)
+    backwards = path[::-1].copy()
+    found = sequence_distances(
+        path, np.concatenate([path, slow, backwards]), np.array([12, 24, 12])
+    )
+    assert found[0] == pytest.approx(0.0, abs=1e-3)
+    assert found[1] == pytest.approx(0.0, abs=1e-3)  # repeated frames cost nothing
+    assert found[2] > 0.1
+
+
+def test_warping_is_symmetric_and_orders_by_similarity():
+    rng = np.random.default_rng(2)
+    a = rng.random((15, 6)).astype(np.float32)
+    near = a + 0.01 * rng.standard_normal(a.shape).astype(np.float32)
+    far = rng.random((15, 6)).astype(np.float32)
+    one = np.array([15])
+    assert sequence_distances(a, far, one)[0] == pytest.approx(sequence_distances(far, a, one)[0])
+    assert sequence_distances(a, near, one)[0] < sequence_distances(a, far, one)[0]
+
+
+def test_warping_equals_the_path_cost_by_hand():
+    a = np.array([[0.0], [1.0]])
+    b = np.array([[0.0], [2.0], [1.0]])
+    # Best path (0,0) (1,1) (1,2): costs 0 + 1 + 0, over 2 + 3 frames.
+    assert sequence_distances(a, b, np.array([3]))[0] == pytest.approx(1.0 / 5.0)
+
+
+def test_sequence_frames_are_sampled_aligned_and_small():
+    from eigmotion.scene import stick_figure_masks
+
+    config = MotionImageConfig()
+    masks = stick_figure_masks(60, 120, 160, fps=30.0)  # 2 s at 30 fps
+    frames = sequence_frames(masks, 30.0, config)
+    # Sampled at the motion image's 15 frames/s, 16 × 16 pixels per frame.
+    assert frames.shape == (30, SEQUENCE_SIZE**2) and frames.dtype == np.float32
+    assert 0.0 <= frames.min() and frames.max() <= 1.0
+    assert np.all(frames.sum(axis=1) > 0)  # the person is in every frame
+    with pytest.raises(VideoError):
+        sequence_frames(np.zeros((10, 60, 40), dtype=bool), 30.0, config)
+
+
+def test_pose_space_keeps_its_axes_or_every_axis_there_is():
+    rng = np.random.default_rng(1)
+    many = rng.random((500, SEQUENCE_SIZE**2)).astype(np.float32)
+    assert fit_pose_space(many).n_components_ == POSE_COMPONENTS
+    few = rng.random((6, SEQUENCE_SIZE**2)).astype(np.float32)
+    assert fit_pose_space(few).n_components_ == 5  # six frames span five directions
+
+
+def test_view_reach_wraps_around_the_circle():
+    reach = VIEW_REACH_DEG
+    azimuths = np.array([0.0, reach, reach + 1.0, 360.0 - reach - 1.0, 360.0 - reach, 180.0])
+    np.testing.assert_array_equal(view_reach(azimuths, 0.0), [1, 1, 0, 0, 1, 0])
+    np.testing.assert_array_equal(view_reach(azimuths, 350.0), [1, 0, 0, 1, 1, 0])
+
+
+def test_fused_scores_weigh_both_distances_by_their_smallest():
+    image = np.array([1.0, 1.2, 2.0])
+    sequence = np.array([0.9, 0.3, np.inf])
+    scores = fused_scores(image, sequence)
+    np.testing.assert_allclose(scores[:2], [1.0 + SEQUENCE_WEIGHT * 3.0, 1.2 + SEQUENCE_WEIGHT])
+    assert scores[2] == np.inf
+    assert np.argmin(scores) == 1  # much nearer in sequence, a little farther in image
+    # without any sequence distance the motion image's order stands
+    unknown = fused_scores(image, np.full(3, np.inf))
+    np.testing.assert_array_equal(np.argsort(unknown, kind="stable"), [0, 1, 2])
+    assert np.all(np.isfinite(fused_scores(np.array([0.0, 1.0]), np.array([0.0, 1.0]))[1:]))
