@@ -596,7 +596,9 @@ class MotionDatabase:
         fps : float
             The clip's frame rate, frames per second.
         top_k : int
-            Distinct motions to list in ``top``.
+            Distinct motions to list in ``top``: the :data:`~eigmotion.sequences.
+            CANDIDATE_MOTIONS` ranked by both distances, then further motions by
+            motion image distance (as many as the whole clip's search returned).
 
         Returns
         -------
@@ -628,10 +630,13 @@ class MotionDatabase:
         )
         t2 = time.perf_counter()
         timing["search"] = (t2 - t1) * 1e3
-        nearest = self._nearest_motions(whole.ids[0], whole.distances[0])
-        ranked = self._ranked_by_sequence(sequence_frames(masks, fps, cfg.motion_image), nearest)
+        nearest = self._nearest_motions(
+            whole.ids[0], whole.distances[0], max(CANDIDATE_MOTIONS, top_k)
+        )
+        frames = sequence_frames(masks, fps, cfg.motion_image)
+        ranked = self._ranked_by_sequence(frames, nearest[:CANDIDATE_MOTIONS])
         timing["sequences"] = (time.perf_counter() - t2) * 1e3
-        top = ranked[:top_k]
+        top = (ranked + nearest[CANDIDATE_MOTIONS:])[:top_k]
         segments = self._segments(kept, windowed, len(masks), top[0])
         best = self._most_specific(top[0], windowed)
         if best is not top[0]:
@@ -651,10 +656,11 @@ class MotionDatabase:
             np.asarray(vectors[0]),
         )
 
-    def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
-        """The nearest entry of each of the first :data:`~eigmotion.sequences.
-        CANDIDATE_MOTIONS` distinct motions among ``entry_ids`` (nearest first;
-        ``NO_ENTRY`` slots at the end are skipped)."""
+    def _nearest_motions(
+        self, entry_ids: np.ndarray, distances: np.ndarray, n_motions: int
+    ) -> list[Match]:
+        """The nearest entry of each of the first ``n_motions`` distinct motions among
+        ``entry_ids`` (nearest first; ``NO_ENTRY`` slots at the end are skipped)."""
         nearest: list[Match] = []
         seen: set[int] = set()
         for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
@@ -665,7 +671,7 @@ class MotionDatabase:
                 continue
             seen.add(motion_id)
             nearest.append(self._match(entry_id, dist))
-            if len(nearest) == CANDIDATE_MOTIONS:
+            if len(nearest) == n_motions:
                 break
         return nearest
 

@@ -142,6 +142,25 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
     assert result.segments[-1].end_frame == len(masks)
 
 
+def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
+    db_path, library, other_body, monkeypatch
+):
+    import eigmotion.database as database_module
+
+    masks = _masks(library[2].motion, other_body, azimuth_deg=100.0, elevation_deg=5.0)
+    with MotionDatabase.open(db_path) as db:
+        ranked_all = db.query_masks(masks, 30.0, top_k=4)
+        monkeypatch.setattr(database_module, "CANDIDATE_MOTIONS", 2)
+        ranked_two = db.query_masks(masks, 30.0, top_k=4)
+    assert all(m.sequence_distance is not None for m in ranked_all.top)
+    assert len(ranked_two.top) == 4
+    assert [m.sequence_distance is None for m in ranked_two.top] == [False, False, True, True]
+    # the two ranked are the motion image's two nearest; the rest follow nearest first
+    by_image = sorted(ranked_all.top, key=lambda m: m.distance)
+    assert {m.motion for m in ranked_two.top[:2]} == {m.motion for m in by_image[:2]}
+    assert [m.motion for m in ranked_two.top[2:]] == [m.motion for m in by_image[2:]]
+
+
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):
     by_name = {m.name: m for m in library}
     walk = by_name["walk_02_01"].motion
