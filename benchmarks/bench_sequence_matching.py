@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> None:
                 try:
                     whole = ClipMotionImages(found.masks, config.motion_image, found.fps)
                     query = whole.window(0, len(found.masks))
-                    sequence = sequence_frames(found.masks, found.fps, config.motion_image)
+                    sequence = sequence_frames(whole)
                 except VideoError:
                     for method in METHODS:
                         hits[method].append((False, False))

@@ -428,15 +428,15 @@ def view_images(
         source_windows.reshape(-1, 2),
         np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
         tuple(labels),
-        _whole_sequence(masks, config),
+        _whole_sequence(images),
     )
 
 
-def _whole_sequence(masks: np.ndarray, config: BuildConfig) -> np.ndarray:
+def _whole_sequence(images: ClipMotionImages) -> np.ndarray:
     """(F, SEQUENCE_SIZE**2) float32: the rendering's silhouette sequence, no frames when
     the person is missing from too many of them."""
     try:
-        return sequence_frames(masks, config.render_fps, config.motion_image)
+        return sequence_frames(images)
     except VideoError:
         return np.zeros((0, SEQUENCE_SIZE**2), dtype=np.float32)
 

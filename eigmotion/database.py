@@ -633,7 +633,7 @@ class MotionDatabase:
         nearest = self._nearest_motions(
             whole.ids[0], whole.distances[0], max(CANDIDATE_MOTIONS, top_k)
         )
-        frames = sequence_frames(masks, fps, cfg.motion_image)
+        frames = sequence_frames(images)
         ranked = self._ranked_by_sequence(frames, nearest[:CANDIDATE_MOTIONS])
         timing["sequences"] = (time.perf_counter() - t2) * 1e3
         top = (ranked + nearest[CANDIDATE_MOTIONS:])[:top_k]

@@ -318,15 +318,38 @@ class ClipMotionImages:
         VideoError
             As :func:`motion_image`: no person, too few frames, or no motion.
         """
-        frames = np.arange(start, stop)
-        if self.clip_fps is not None:
-            frames = start + sample_indices(
-                stop - start, float(self.clip_fps), self.config.sample_fps
-            )
-        return _image_from_aligned(self._aligned(frames), self.config)
+        return _image_from_aligned(self._aligned(self._sampled(start, stop)), self.config)
 
-    def _aligned(self, frames: np.ndarray) -> np.ndarray:
-        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`)."""
+    def aligned(self, size: int) -> np.ndarray:
+        """The whole clip's silhouettes as the motion image sees them, at another size.
+
+        Parameters
+        ----------
+        size : int
+            Side of the aligned square, pixels.
+
+        Returns
+        -------
+        (F'', size, size) float32 in [0, 1]
+            The frames the motion image samples, aligned in its frame (see
+            :func:`align_frames`).
+
+        Raises
+        ------
+        VideoError
+            No person, or too few frames with one.
+        """
+        return self._aligned(self._sampled(0, len(self._values)), size)
+
+    def _sampled(self, start: int, stop: int) -> np.ndarray:
+        """Indices of the frames in ``[start, stop)`` sampled at ``config.sample_fps``."""
+        if self.clip_fps is None:
+            return np.arange(start, stop)
+        return start + sample_indices(stop - start, float(self.clip_fps), self.config.sample_fps)
+
+    def _aligned(self, frames: np.ndarray, size: int | None = None) -> np.ndarray:
+        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`),
+        at ``size`` pixels (default ``config.size``)."""
         config = self.config
         occupied = self._occupied[frames]
         if not occupied.any():
@@ -342,7 +365,7 @@ class ClipMotionImages:
                 f"{config.sample_fps:g} fps; step={config.step} needs at least {config.step + 1}"
             )
         rows, cols = self._rows[frames], self._cols[frames]
-        size = config.size
+        size = config.size if size is None else int(size)
         if config.frame == "image":
             # The crop: everything the person covered, less a sliver of stray mass.
             y0, y1 = _trim_1d(rows.sum(axis=0))

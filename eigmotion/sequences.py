@@ -31,7 +31,7 @@ import numpy as np
 
 from .eigenspace import Eigenspace
 from .errors import InvalidParameterError
-from .motion_image import MotionImageConfig, align_frames
+from .motion_image import ClipMotionImages
 
 #: Side of the person-frame silhouettes of a sequence, pixels.
 SEQUENCE_SIZE = 16
@@ -46,18 +46,15 @@ SEQUENCE_WEIGHT = 1.0
 CANDIDATE_MOTIONS = 10
 
 
-def sequence_frames(masks: np.ndarray, fps: float, image_config: MotionImageConfig) -> np.ndarray:
+def sequence_frames(images: ClipMotionImages) -> np.ndarray:
     """A clip's silhouettes as a sequence of aligned frames.
 
     Parameters
     ----------
-    masks : (F, H, W) bool
-        The person's silhouette per frame.
-    fps : float
-        Frame rate of ``masks``, frames per second.
-    image_config : MotionImageConfig
-        The database's motion image configuration: its ``sample_fps`` and person
-        frame are used, at :data:`SEQUENCE_SIZE` pixels.
+    images : ClipMotionImages
+        The clip as the motion image sees it (the database's configuration and the
+        clip's frame rate): the same sampled frames, aligned in the same frame, at
+        :data:`SEQUENCE_SIZE` pixels.
 
     Returns
     -------
@@ -69,11 +66,7 @@ def sequence_frames(masks: np.ndarray, fps: float, image_config: MotionImageConf
     VideoError
         No person in enough frames.
     """
-    from .media import sample_indices
-
-    frames = sample_indices(len(masks), float(fps), image_config.sample_fps)
-    small = MotionImageConfig(**{**image_config.to_dict(), "size": SEQUENCE_SIZE})
-    aligned = align_frames(masks[frames], small)
+    aligned = images.aligned(SEQUENCE_SIZE)
     return np.ascontiguousarray(aligned.reshape(len(aligned), -1), dtype=np.float32)
 
 

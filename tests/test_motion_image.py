@@ -422,3 +422,14 @@ def test_avatar_rendered_at_120_and_30_fps_agree(avatar_walk):
     at_120 = motion_image(render_masks(vertices_120, faces, camera), clip_fps=120.0)
     at_30 = motion_image(render_masks(vertices_30, faces, camera), clip_fps=30.0)
     assert cosine_distance(at_120, at_30) < 0.05
+
+
+@pytest.mark.parametrize("frame", ["person", "image"])
+def test_aligned_at_another_size_is_align_frames_of_the_sampled_frames(frame):
+    config = MotionImageConfig(frame=frame)
+    masks = stick_figure_masks(60, 120, 160, fps=30.0)
+    images = ClipMotionImages(masks, config, clip_fps=30.0)
+    small = MotionImageConfig(frame=frame, size=16)
+    expected = align_frames(masks[sample_indices(60, 30.0, config.sample_fps)], small)
+    np.testing.assert_array_equal(images.aligned(16), expected)
+    assert images.aligned(16).shape[1:] == (16, 16)

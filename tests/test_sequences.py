@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import VideoError
-from eigmotion.motion_image import MotionImageConfig
+from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.sequences import (
     POSE_COMPONENTS,
     SEQUENCE_SIZE,
@@ -77,13 +77,13 @@ def test_sequence_frames_are_sampled_aligned_and_small():
 
     config = MotionImageConfig()
     masks = stick_figure_masks(60, 120, 160, fps=30.0)  # 2 s at 30 fps
-    frames = sequence_frames(masks, 30.0, config)
+    frames = sequence_frames(ClipMotionImages(masks, config, clip_fps=30.0))
     # Sampled at the motion image's 15 frames/s, 16 × 16 pixels per frame.
     assert frames.shape == (30, SEQUENCE_SIZE**2) and frames.dtype == np.float32
     assert 0.0 <= frames.min() and frames.max() <= 1.0
     assert np.all(frames.sum(axis=1) > 0)  # the person is in every frame
     with pytest.raises(VideoError):
-        sequence_frames(np.zeros((10, 60, 40), dtype=bool), 30.0, config)
+        sequence_frames(ClipMotionImages(np.zeros((10, 60, 40), dtype=bool), config, 30.0))
 
 
 def test_pose_space_keeps_its_axes_or_every_axis_there_is():
