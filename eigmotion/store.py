@@ -720,27 +720,24 @@ class Store:
 
     def eigenspace(self) -> Eigenspace:
         """The stored eigenspace, fitted."""
-        root = self._require_initialised()
-        try:
-            return Eigenspace.from_state(dict(root["eigenspace"]))
-        except InvalidParameterError as exc:
-            raise DatabaseError(f"{self.uri}: stored eigenspace is damaged: {exc}") from exc
+        return self._fitted(Eigenspace, "eigenspace", "eigenspace")
 
     def quantizer(self) -> Quantizer:
         """The stored key quantizer, fitted."""
-        root = self._require_initialised()
-        try:
-            return Quantizer.from_state(dict(root["quantizer"]))
-        except InvalidParameterError as exc:
-            raise DatabaseError(f"{self.uri}: stored quantizer is damaged: {exc}") from exc
+        return self._fitted(Quantizer, "quantizer", "quantizer")
 
     def pose_space(self) -> Eigenspace:
         """The stored pose eigenspace of the silhouette sequences, fitted."""
+        return self._fitted(Eigenspace, "pose_space", "pose eigenspace")
+
+    def _fitted(self, cls, key: str, what: str):
+        """``cls.from_state`` of the root's ``key``; DatabaseError naming ``what`` when
+        the stored state is damaged."""
         root = self._require_initialised()
         try:
-            return Eigenspace.from_state(dict(root["pose_space"]))
+            return cls.from_state(dict(root[key]))
         except InvalidParameterError as exc:
-            raise DatabaseError(f"{self.uri}: stored pose eigenspace is damaged: {exc}") from exc
+            raise DatabaseError(f"{self.uri}: stored {what} is damaged: {exc}") from exc
 
     def sequences(self, motion_id: int) -> MotionSequences:
         """The silhouette sequences of one motion's renderings (none for a motion

@@ -378,3 +378,23 @@ def test_bad_sequences_are_refused_and_nothing_is_stored(fitted, motion_id, azim
             with pytest.raises(InvalidParameterError, match=match):
                 store.add_sequences(motion_id, azimuth, [0.0] * len(azimuth), frames)
         assert store.sequences(0).lengths.size == 0
+
+
+@pytest.mark.parametrize(
+    ("key", "read", "what"),
+    [
+        ("eigenspace", Store.eigenspace, "eigenspace"),
+        ("quantizer", Store.quantizer, "quantizer"),
+        ("pose_space", Store.pose_space, "pose eigenspace"),
+    ],
+)
+def test_a_damaged_fitted_state_is_named(fitted, key, read, what):
+    space, quantizer, _, pose = fitted
+    with Store.create("memory://") as store:
+        with store.transaction():
+            store.initialise({}, space, quantizer, pose)
+            state = store._root()[key]
+            for name in [n for n in state if n != "components"]:
+                del state[name]  # as a torn write would leave it
+        with pytest.raises(DatabaseError, match=f"stored {what} is damaged"):
+            read(store)
