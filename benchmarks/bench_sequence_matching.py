@@ -20,7 +20,7 @@ with every motion left in the fold three ways:
     themselves; the motion's distance its nearest rendering's.
 ``fused``
     Each distance over the smallest of its kind for the clip, summed, the sequence's
-    weighted by ``--weight``.
+    weighted by ``--weight`` (default the engine's ``SEQUENCE_WEIGHT``).
 
 Every motion of the fold and every view is compared: the upper bound of what the
 engine's cheaper form of the same ranking gets (pose coordinates, the motion image's
@@ -32,7 +32,7 @@ run.  The database images are rendered once, each (motion, body, view) giving bo
 motion images and its silhouette sequence::
 
     python benchmarks/bench_sequence_matching.py [--rig virtual_cameras/ring6.toml]
-        [--clips-dir DIR] [--weight 1.0] [--clips-per-motion 2] [--seed 0]
+        [--clips-dir DIR] [--weight 2.0] [--clips-per-motion 2] [--seed 0]
 """
 
 from __future__ import annotations
@@ -69,7 +69,11 @@ from eigmotion.evaluation import markdown_table  # noqa: E402
 from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.library import LibraryMotion, load_library  # noqa: E402
 from eigmotion.motion_image import ClipMotionImages  # noqa: E402
-from eigmotion.sequences import sequence_distances, sequence_frames  # noqa: E402
+from eigmotion.sequences import (  # noqa: E402
+    SEQUENCE_WEIGHT,
+    sequence_distances,
+    sequence_frames,
+)
 from eigmotion.silhouettes import render_masks  # noqa: E402
 
 METHODS = ("motion image", "sequence", "fused")
@@ -239,7 +243,10 @@ def run(args: argparse.Namespace) -> None:
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     p = holdout_parser(__doc__.splitlines()[0])
-    p.add_argument("--weight", type=float, default=1.0, help="weight of the sequence distance")
+    p.add_argument(
+        "--weight", type=float, default=SEQUENCE_WEIGHT,
+        help="weight of the sequence distance (default: the engine's SEQUENCE_WEIGHT)",
+    )  # fmt: skip
     args = parse_holdout_args(p, argv)
     if not (np.isfinite(args.weight) and args.weight >= 0):
         p.error(f"--weight must be a number >= 0, got {args.weight}")

@@ -10,6 +10,8 @@ ranked again by both distances (:func:`fused_scores`)::
 
     masks (F, H, W) ──sample at the motion image's sample_fps──▶ (F', H, W)
         ──align in the motion image's frame (the person frame) at SEQUENCE_SIZE px──▶
+          (F'', SEQUENCE_SIZE, SEQUENCE_SIZE) in [0, 1]
+        ──rows below the body centre × LOWER_BODY_WEIGHT──▶
           (F'', SEQUENCE_SIZE²) in [0, 1]
         ──pose eigenspace (PCA of every database frame, POSE_COMPONENTS axes)──▶
           (F'', POSE_COMPONENTS) float32
@@ -20,7 +22,13 @@ of two frames' pose coordinates, summed over the path and divided by the two len
 so the pace of a performance does not count against it.  A query compares its
 sequence only with the renderings of each candidate motion seen from within
 :data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from:
-the motion image already found the viewing direction.  The constants below were
+the motion image already found the viewing direction.
+
+The lower half of each aligned frame — below the body centre, the legs — counts
+:data:`LOWER_BODY_WEIGHT` of the upper: skirts, coats and loose trousers reshape the
+legs' silhouette far more than any garment does the arms', and what tells most
+actions apart (a wave, a punch, covering the head, sitting down) is the upper body.
+The constants below were
 chosen on the holdout benchmark's folds (``docs/accuracy.md``, "Silhouette sequences
 in the query").
 """
@@ -40,8 +48,11 @@ POSE_COMPONENTS = 48
 #: A candidate motion is compared with its renderings whose camera azimuth lies within
 #: this many degrees of the view of its nearest entry, degrees.
 VIEW_REACH_DEG = 60.0
+#: Weight of the rows below the body centre (the lower half of each aligned frame)
+#: against those above, in the sequences' frames.
+LOWER_BODY_WEIGHT = 0.25
 #: Weight of the sequence distance in :func:`fused_scores`.
-SEQUENCE_WEIGHT = 1.0
+SEQUENCE_WEIGHT = 2.0
 #: Distinct motions of the whole clip's nearest entries that are ranked again.
 CANDIDATE_MOTIONS = 10
 
@@ -53,13 +64,15 @@ def sequence_frames(images: ClipMotionImages) -> np.ndarray:
     ----------
     images : ClipMotionImages
         The clip as the motion image sees it (the database's configuration and the
-        clip's frame rate): the same sampled frames, aligned in the same frame, at
-        :data:`SEQUENCE_SIZE` pixels.
+        clip's frame rate): the same sampled frames, aligned in the same frame (body
+        centre on the square's centre), at :data:`SEQUENCE_SIZE` pixels.
 
     Returns
     -------
     (F'', SEQUENCE_SIZE**2) float32 in [0, 1]
-        Frames without a person are left out.
+        Row-major frames, the rows from ``SEQUENCE_SIZE // 2`` down (below the body
+        centre) multiplied by :data:`LOWER_BODY_WEIGHT`.  Frames without a person
+        are left out.
 
     Raises
     ------
@@ -67,6 +80,7 @@ def sequence_frames(images: ClipMotionImages) -> np.ndarray:
         No person in enough frames.
     """
     aligned = images.aligned(SEQUENCE_SIZE)
+    aligned[:, SEQUENCE_SIZE // 2 :] *= LOWER_BODY_WEIGHT
     return np.ascontiguousarray(aligned.reshape(len(aligned), -1), dtype=np.float32)
 
 

@@ -64,8 +64,9 @@ from .errors import DatabaseError, InvalidParameterError
 from .keys import Quantizer
 
 #: Version of the root layout; a database of another version is refused.  Version 2
-#: added the silhouette sequences.
-SCHEMA_VERSION = 2
+#: added the silhouette sequences; version 3 weighs their lower body
+#: (:data:`eigmotion.sequences.LOWER_BODY_WEIGHT`).
+SCHEMA_VERSION = 3
 
 #: Entries per packed column chunk.
 CHUNK_ENTRIES = 65536

@@ -8,6 +8,7 @@ import pytest
 from eigmotion.errors import VideoError
 from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.sequences import (
+    LOWER_BODY_WEIGHT,
     POSE_COMPONENTS,
     SEQUENCE_SIZE,
     SEQUENCE_WEIGHT,
@@ -77,11 +78,19 @@ def test_sequence_frames_are_sampled_aligned_and_small():
 
     config = MotionImageConfig()
     masks = stick_figure_masks(60, 120, 160, fps=30.0)  # 2 s at 30 fps
-    frames = sequence_frames(ClipMotionImages(masks, config, clip_fps=30.0))
+    images = ClipMotionImages(masks, config, clip_fps=30.0)
+    frames = sequence_frames(images)
     # Sampled at the motion image's 15 frames/s, 16 × 16 pixels per frame.
     assert frames.shape == (30, SEQUENCE_SIZE**2) and frames.dtype == np.float32
     assert 0.0 <= frames.min() and frames.max() <= 1.0
     assert np.all(frames.sum(axis=1) > 0)  # the person is in every frame
+    # The aligned silhouettes, the lower half (below the body centre) weighed less.
+    aligned = images.aligned(SEQUENCE_SIZE)
+    half = SEQUENCE_SIZE // 2
+    square = frames.reshape(aligned.shape)
+    np.testing.assert_array_equal(square[:, :half], aligned[:, :half])
+    np.testing.assert_allclose(square[:, half:], LOWER_BODY_WEIGHT * aligned[:, half:])
+    assert aligned[:, half:].sum() > 0.2 * aligned.sum()  # the legs are there to weigh
     with pytest.raises(VideoError):
         sequence_frames(ClipMotionImages(np.zeros((10, 60, 40), dtype=bool), config, 30.0))
 
