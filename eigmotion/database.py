@@ -60,7 +60,8 @@ MIN_SPECIFIC_WINDOWS = 2
 #: Nearest entries the whole clip's search returns: enough to hold the
 #: :data:`~eigmotion.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
 #: ranked again by their silhouette sequences (a motion's renderings from neighbouring
-#: views and bodies crowd its nearest entries).
+#: views and bodies crowd its nearest entries), and the labels beyond them
+#: (:func:`candidate_motions`).
 CANDIDATE_ENTRIES = 256
 
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
@@ -423,6 +424,33 @@ class Match:
         return out
 
 
+def candidate_motions(nearest: Sequence[Match]) -> list[Match]:
+    """The motions a query ranks again by their silhouette sequences.
+
+    The :data:`~eigmotion.sequences.CANDIDATE_MOTIONS` nearest, and then the nearest
+    motion of every other label among ``nearest``: the nearest motions of a clip often
+    show only three or four labels, and a label the sequences never see cannot be
+    ranked in, first or among the first three.
+
+    Parameters
+    ----------
+    nearest : sequence of Match
+        Distinct motions, each by its nearest entry, nearest first.
+
+    Returns
+    -------
+    list of Match
+        A subsequence of ``nearest``, in its order.
+    """
+    chosen = list(nearest[:CANDIDATE_MOTIONS])
+    labels = {m.label for m in chosen}
+    for match in nearest[CANDIDATE_MOTIONS:]:
+        if match.label not in labels:
+            chosen.append(match)
+            labels.add(match.label)
+    return chosen
+
+
 @dataclass(frozen=True)
 class Segment:
     """A stretch of the query clip with one label.
@@ -597,8 +625,10 @@ class MotionDatabase:
             The clip's frame rate, frames per second.
         top_k : int
             Distinct motions to list in ``top``: the :data:`~eigmotion.sequences.
-            CANDIDATE_MOTIONS` ranked by both distances, then further motions by
-            motion image distance (as many as the whole clip's search returned).
+            CANDIDATE_MOTIONS` nearest and the nearest of every further label
+            (:func:`candidate_motions`) ranked by both distances, then further
+            motions by motion image distance (as many as the whole clip's search
+            returned).
 
         Returns
         -------
@@ -630,13 +660,12 @@ class MotionDatabase:
         )
         t2 = time.perf_counter()
         timing["search"] = (t2 - t1) * 1e3
-        nearest = self._nearest_motions(
-            whole.ids[0], whole.distances[0], max(CANDIDATE_MOTIONS, top_k)
-        )
-        frames = sequence_frames(images)
-        ranked = self._ranked_by_sequence(frames, nearest[:CANDIDATE_MOTIONS])
+        nearest = self._nearest_motions(whole.ids[0], whole.distances[0])
+        candidates = candidate_motions(nearest)
+        ranked = self._ranked_by_sequence(sequence_frames(images), candidates)
         timing["sequences"] = (time.perf_counter() - t2) * 1e3
-        top = (ranked + nearest[CANDIDATE_MOTIONS:])[:top_k]
+        compared = {m.motion_id for m in candidates}
+        top = (ranked + [m for m in nearest if m.motion_id not in compared])[:top_k]
         segments = self._segments(kept, windowed, len(masks), top[0])
         best = self._most_specific(top[0], windowed)
         if best is not top[0]:
@@ -656,11 +685,9 @@ class MotionDatabase:
             np.asarray(vectors[0]),
         )
 
-    def _nearest_motions(
-        self, entry_ids: np.ndarray, distances: np.ndarray, n_motions: int
-    ) -> list[Match]:
-        """The nearest entry of each of the first ``n_motions`` distinct motions among
-        ``entry_ids`` (nearest first; ``NO_ENTRY`` slots at the end are skipped)."""
+    def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
+        """The nearest entry of each distinct motion among ``entry_ids`` (nearest
+        first; ``NO_ENTRY`` slots at the end are skipped)."""
         nearest: list[Match] = []
         seen: set[int] = set()
         for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
@@ -671,8 +698,6 @@ class MotionDatabase:
                 continue
             seen.add(motion_id)
             nearest.append(self._match(entry_id, dist))
-            if len(nearest) == n_motions:
-                break
         return nearest
 
     def _ranked_by_sequence(self, frames: np.ndarray, nearest: list[Match]) -> list[Match]:

@@ -53,7 +53,9 @@ VIEW_REACH_DEG = 60.0
 LOWER_BODY_WEIGHT = 0.25
 #: Weight of the sequence distance in :func:`fused_scores`.
 SEQUENCE_WEIGHT = 2.0
-#: Distinct motions of the whole clip's nearest entries that are ranked again.
+#: Distinct motions of the whole clip's nearest entries that are ranked again (and
+#: beyond them the nearest motion of each further label,
+#: :func:`eigmotion.database.candidate_motions`).
 CANDIDATE_MOTIONS = 10
 
 

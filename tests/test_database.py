@@ -24,9 +24,11 @@ from eigmotion.bvh import read_bvh
 from eigmotion.cameras import load_rig, virtual_rig
 from eigmotion.cli import main
 from eigmotion.database import (
+    Match,
     MotionDatabase,
     brute_force_check,
     build_database,
+    candidate_motions,
 )
 from eigmotion.errors import DatabaseError
 from eigmotion.kinematics import forward_kinematics
@@ -150,8 +152,9 @@ def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
     masks = _masks(library[2].motion, other_body, azimuth_deg=100.0, elevation_deg=5.0)
     with MotionDatabase.open(db_path) as db:
         ranked_all = db.query_masks(masks, 30.0, top_k=4)
-        monkeypatch.setattr(database_module, "CANDIDATE_MOTIONS", 2)
+        monkeypatch.setattr(database_module, "candidate_motions", lambda nearest: nearest[:2])
         ranked_two = db.query_masks(masks, 30.0, top_k=4)
+    # four motions of four labels: every one is a candidate
     assert all(m.sequence_distance is not None for m in ranked_all.top)
     assert len(ranked_two.top) == 4
     assert [m.sequence_distance is None for m in ranked_two.top] == [False, False, True, True]
@@ -159,6 +162,22 @@ def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
     by_image = sorted(ranked_all.top, key=lambda m: m.distance)
     assert {m.motion for m in ranked_two.top[:2]} == {m.motion for m in by_image[:2]}
     assert [m.motion for m in ranked_two.top[2:]] == [m.motion for m in by_image[2:]]
+
+
+def test_candidates_are_the_nearest_motions_and_the_nearest_of_each_further_label(
+    monkeypatch,
+):
+    import eigmotion.database as database_module
+
+    monkeypatch.setattr(database_module, "CANDIDATE_MOTIONS", 3)
+    labels = ["walk", "walk", "turn", "walk", "turn", "wave", "jump", "wave", "jump"]
+    nearest = [
+        Match(label, f"m{i}", i, 10 * i, 0.1 * (i + 1), 0.0, 0.0, (0, 30))
+        for i, label in enumerate(labels)
+    ]
+    assert [m.motion_id for m in candidate_motions(nearest)] == [0, 1, 2, 5, 6]
+    assert [m.motion_id for m in candidate_motions(nearest[:2])] == [0, 1]
+    assert candidate_motions([]) == []
 
 
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):
