@@ -16,15 +16,17 @@ with every motion left in the fold three ways:
 ``sequence``
     Dynamic time warping (:func:`eigmotion.sequences.sequence_distances`) between the
     clip's silhouette sequence and each rendering's (every body and view) as
-    :func:`eigmotion.sequences.sequence_frames` makes them, on the 16 × 16 pixels
-    themselves; the motion's distance its nearest rendering's.
+    :func:`eigmotion.sequences.sequence_frames` makes them, in the coordinates the
+    engine compares (:func:`eigmotion.sequences.pose_coordinates`, the pose
+    eigenspace fitted on the fold's frames); the motion's distance its nearest
+    rendering's.
 ``fused``
     Each distance over the smallest of its kind for the clip, summed, the sequence's
     weighted by ``--weight`` (default the engine's ``SEQUENCE_WEIGHT``).
 
 Every motion of the fold and every view is compared: the upper bound of what the
-engine's cheaper form of the same ranking gets (pose coordinates, the motion image's
-10 nearest motions, views near the retrieved one; :mod:`eigmotion.sequences`).
+engine's cheaper form of the same ranking gets (the candidate motions the search
+reached, views near the retrieved one; :mod:`eigmotion.sequences`).
 
 It prints top-1 and top-3 label accuracy of each (top-3: the true label among the
 first three distinct labels) and each one's ratio to the motion image's, from the same
@@ -71,6 +73,8 @@ from eigmotion.library import LibraryMotion, load_library  # noqa: E402
 from eigmotion.motion_image import ClipMotionImages  # noqa: E402
 from eigmotion.sequences import (  # noqa: E402
     SEQUENCE_WEIGHT,
+    fit_pose_space,
+    pose_coordinates,
     sequence_distances,
     sequence_frames,
 )
@@ -115,7 +119,7 @@ def render_library(library, rig: CameraRig, config: BuildConfig, workers: int | 
         Every motion image (whole motions and windows).
     vector_motion : (N,) int64
         Library index of each image's motion.
-    sequences : list of (F, SEQUENCE_SIZE**2) float32
+    sequences : list of (F, SEQUENCE_SIZE**2 + 1) float32
         Each rendering's whole-motion silhouette sequence (none for a rendering
         without a person).
     sequence_motion : (S,) int64
@@ -193,6 +197,8 @@ def run(args: argparse.Namespace) -> None:
         in_fold_sequences = np.flatnonzero(np.isin(sequence_motion, kept))
         fold_motion = sequence_motion[in_fold_sequences]
         fold_frames = np.concatenate([sequences[i] for i in in_fold_sequences])
+        pose_space = fit_pose_space(fold_frames)
+        fold_frames = pose_coordinates(pose_space, fold_frames)
         fold_lengths = np.array([len(sequences[i]) for i in in_fold_sequences])
         for item in held:
             for spec in random_specs(item, args, maker, outfits):
@@ -205,7 +211,7 @@ def run(args: argparse.Namespace) -> None:
                 try:
                     whole = ClipMotionImages(found.masks, config.motion_image, found.fps)
                     query = whole.window(0, len(found.masks))
-                    sequence = sequence_frames(whole)
+                    sequence = pose_coordinates(pose_space, sequence_frames(whole))
                 except VideoError:
                     for method in METHODS:
                         hits[method].append((False, False))

@@ -169,7 +169,7 @@ class ViewImages:
         Unit motion-image vectors, one per window.
     labels : tuple of W str
         Each image's label (:func:`window_labels`); the whole motion's is the motion's.
-    sequence : (F, SEQUENCE_SIZE**2) float32
+    sequence : (F, SEQUENCE_SIZE**2 + 1) float32
         The whole motion's aligned silhouettes
         (:func:`~eigmotion.sequences.sequence_frames`).
     """
@@ -433,12 +433,12 @@ def view_images(
 
 
 def _whole_sequence(images: ClipMotionImages) -> np.ndarray:
-    """(F, SEQUENCE_SIZE**2) float32: the rendering's silhouette sequence, no frames when
+    """(F, SEQUENCE_SIZE**2 + 1) float32: the rendering's silhouette sequence, no frames when
     the person is missing from too many of them."""
     try:
         return sequence_frames(images)
     except VideoError:
-        return np.zeros((0, SEQUENCE_SIZE**2), dtype=np.float32)
+        return np.zeros((0, SEQUENCE_SIZE**2 + 1), dtype=np.float32)
 
 
 def render_views(

@@ -34,6 +34,7 @@ from .sequences import (
     CANDIDATE_MOTIONS,
     fit_pose_space,
     fused_scores,
+    pose_coordinates,
     sequence_distances,
     sequence_frames,
     view_reach,
@@ -145,7 +146,7 @@ class _Collected:
     start: list = field(default_factory=list)
     stop: list = field(default_factory=list)
     labels: list = field(default_factory=list)
-    #: (motion index, azimuth, elevation, (F, SEQUENCE_SIZE**2) frames) per rendering
+    #: (motion index, azimuth, elevation, (F, SEQUENCE_SIZE**2 + 1) frames) per rendering
     sequences: list = field(default_factory=list)
 
     def add(self, view: ViewImages, rig: CameraRig) -> None:
@@ -338,7 +339,7 @@ def _add_sequences(store: Store, motion_ids: Sequence[int], sequences: list, pos
         by_motion.setdefault(motion_index, []).append((azimuth, elevation, frames))
     for motion_index, rows in by_motion.items():
         azimuth, elevation, frames = zip(*rows, strict=True)
-        coordinates = [pose_space.transform(f).astype(np.float32) for f in frames]
+        coordinates = [pose_coordinates(pose_space, f) for f in frames]
         store.add_sequences(motion_ids[motion_index], azimuth, elevation, coordinates)
 
 
@@ -705,7 +706,7 @@ class MotionDatabase:
 
         Parameters
         ----------
-        frames : (F, SEQUENCE_SIZE**2) float32
+        frames : (F, SEQUENCE_SIZE**2 + 1) float32
             The clip's silhouette sequence (:func:`~eigmotion.sequences.sequence_frames`).
         nearest : list of Match
             Each candidate motion's nearest entry, nearest first.
@@ -717,7 +718,7 @@ class MotionDatabase:
             rendering seen from within :data:`~eigmotion.sequences.VIEW_REACH_DEG` of
             its entry's view — in order of :func:`~eigmotion.sequences.fused_scores`.
         """
-        query = self.pose_space.transform(frames).astype(np.float32)
+        query = pose_coordinates(self.pose_space, frames)
         parts, lengths, owners = [], [], []
         for candidate, match in enumerate(nearest):
             stored, starts = self._stored_sequences(match.motion_id)

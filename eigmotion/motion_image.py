@@ -341,11 +341,42 @@ class ClipMotionImages:
         """
         return self._aligned(self._sampled(0, len(self._values)), size)
 
+    def rise(self) -> np.ndarray:
+        """How high the top of the body stands in each frame of :meth:`aligned`.
+
+        The person frame centres every frame on its body, so a jump or a crouch keeps
+        its shape but loses its height; this keeps it.  The top of the body is the
+        body centre row less half the body height (both as the person frame measures
+        them, robust to a raised arm); its rise is how far it lies above its median
+        over the clip's frames, over the clip's median body height.
+
+        Returns
+        -------
+        (F'',) float32
+            Body heights, positive above the median (a jump rises, a sit-down sinks),
+            for the frames of :meth:`aligned`; 0 for a frame without a person.
+        """
+        frames = self._kept(self._sampled(0, len(self._values)))
+        rows = self._rows[frames]
+        occupied = self._occupied[frames]
+        rise = np.zeros(len(frames), dtype=np.float32)
+        if occupied.any():
+            heights = _trimmed_span(rows[occupied])
+            top = _weighted_median(rows[occupied]) - heights / 2.0
+            rise[occupied] = (np.median(top) - top) / max(float(np.median(heights)), 1.0)
+        return rise
+
     def _sampled(self, start: int, stop: int) -> np.ndarray:
         """Indices of the frames in ``[start, stop)`` sampled at ``config.sample_fps``."""
         if self.clip_fps is None:
             return np.arange(start, stop)
         return start + sample_indices(stop - start, float(self.clip_fps), self.config.sample_fps)
+
+    def _kept(self, frames: np.ndarray) -> np.ndarray:
+        """The frames :meth:`_aligned` keeps: in the person frame, those with a person."""
+        if self.config.frame == "person":
+            return frames[self._occupied[frames]]
+        return frames
 
     def _aligned(self, frames: np.ndarray, size: int | None = None) -> np.ndarray:
         """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`),
@@ -357,8 +388,7 @@ class ClipMotionImages:
                 f"masks: no person: all {len(frames)} silhouettes are empty; "
                 "expected pixels > 0 where the person is"
             )
-        if config.frame == "person" and not occupied.all():
-            frames = frames[occupied]
+        frames = self._kept(frames)
         if len(frames) < config.step + 1:
             raise VideoError(
                 f"masks: {len(frames)} usable frame(s) after sampling at "

@@ -11,10 +11,11 @@ ranked again by both distances (:func:`fused_scores`)::
     masks (F, H, W) ──sample at the motion image's sample_fps──▶ (F', H, W)
         ──align in the motion image's frame (the person frame) at SEQUENCE_SIZE px──▶
           (F'', SEQUENCE_SIZE, SEQUENCE_SIZE) in [0, 1]
-        ──rows below the body centre × LOWER_BODY_WEIGHT──▶
-          (F'', SEQUENCE_SIZE²) in [0, 1]
-        ──pose eigenspace (PCA of every database frame, POSE_COMPONENTS axes)──▶
-          (F'', POSE_COMPONENTS) float32
+        ──rows below the body centre × LOWER_BODY_WEIGHT, and the rise of the top
+          of the body beside them──▶ (F'', SEQUENCE_SIZE² + 1)   (sequence_frames)
+        ──the silhouettes into the pose eigenspace (PCA of every database frame,
+          POSE_COMPONENTS axes), the rise × RISE_WEIGHT beside them──▶
+          (F'', POSE_COMPONENTS + 1) float32                  (pose_coordinates)
 
 Two sequences are compared by dynamic time warping (:func:`sequence_distances`): the
 cheapest monotone alignment of their frames, each step costing the Euclidean distance
@@ -28,6 +29,12 @@ The lower half of each aligned frame — below the body centre, the legs — cou
 :data:`LOWER_BODY_WEIGHT` of the upper: skirts, coats and loose trousers reshape the
 legs' silhouette far more than any garment does the arms', and what tells most
 actions apart (a wave, a punch, covering the head, sitting down) is the upper body.
+
+Aligning every frame on its body centre takes away how high the body is: a jump, a
+crouch and a sit-down keep their shapes but lose their rise and fall.  So each frame
+also carries the rise of the top of the body
+(:meth:`~eigmotion.motion_image.ClipMotionImages.rise`, in body heights), weighted by
+:data:`RISE_WEIGHT`, beside its pose coordinates.
 
 The constants below were chosen on the holdout benchmark's folds
 (``docs/accuracy.md``: "Silhouette sequences in the query", and "holdout — legs
@@ -52,6 +59,9 @@ VIEW_REACH_DEG = 60.0
 #: Weight of the rows below the body centre (the lower half of each aligned frame)
 #: against those above, in the sequences' frames.
 LOWER_BODY_WEIGHT = 0.25
+#: Weight of the rise of the top of the body (body heights) beside the pose
+#: coordinates of a frame, per body height.
+RISE_WEIGHT = 8.0
 #: Weight of the sequence distance in :func:`fused_scores`.
 SEQUENCE_WEIGHT = 2.0
 #: Distinct motions of the whole clip's nearest entries that are ranked again (and
@@ -72,10 +82,12 @@ def sequence_frames(images: ClipMotionImages) -> np.ndarray:
 
     Returns
     -------
-    (F'', SEQUENCE_SIZE**2) float32 in [0, 1]
-        Row-major frames, the rows from ``SEQUENCE_SIZE // 2`` down (below the body
-        centre) multiplied by :data:`LOWER_BODY_WEIGHT`.  Frames without a person
-        are left out.
+    (F'', SEQUENCE_SIZE**2 + 1) float32
+        Per frame, the aligned silhouette row-major in [0, 1], the rows from
+        ``SEQUENCE_SIZE // 2`` down (below the body centre) multiplied by
+        :data:`LOWER_BODY_WEIGHT`; then the rise of the top of the body, body heights
+        (:meth:`~eigmotion.motion_image.ClipMotionImages.rise`).  Frames without a
+        person are left out.
 
     Raises
     ------
@@ -84,7 +96,31 @@ def sequence_frames(images: ClipMotionImages) -> np.ndarray:
     """
     aligned = images.aligned(SEQUENCE_SIZE)
     aligned[:, SEQUENCE_SIZE // 2 :] *= LOWER_BODY_WEIGHT
-    return np.ascontiguousarray(aligned.reshape(len(aligned), -1), dtype=np.float32)
+    return np.concatenate(
+        [aligned.reshape(len(aligned), -1), images.rise()[:, None]], axis=1, dtype=np.float32
+    )
+
+
+def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
+    """A sequence's frames as dynamic time warping compares them.
+
+    Parameters
+    ----------
+    pose_space : Eigenspace
+        The pose eigenspace (:func:`fit_pose_space`), p axes.
+    frames : (F, SEQUENCE_SIZE**2 + 1) float
+        From :func:`sequence_frames`.
+
+    Returns
+    -------
+    (F, p + 1) float32
+        The silhouettes' pose coordinates, then the rise × :data:`RISE_WEIGHT`.
+    """
+    frames = np.asarray(frames, dtype=np.float32)
+    silhouettes = pose_space.transform(frames[:, : SEQUENCE_SIZE**2])
+    return np.concatenate(
+        [silhouettes, RISE_WEIGHT * frames[:, SEQUENCE_SIZE**2 :]], axis=1, dtype=np.float32
+    )
 
 
 def _compiled_warp():
@@ -150,20 +186,22 @@ def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarra
 
 
 def fit_pose_space(frames: np.ndarray) -> Eigenspace:
-    """The pose eigenspace: :data:`POSE_COMPONENTS` axes of the frames' PCA (every
-    non-degenerate axis when there are fewer).
+    """The pose eigenspace: :data:`POSE_COMPONENTS` axes of the PCA of the frames'
+    silhouettes (every non-degenerate axis when there are fewer).
 
     Parameters
     ----------
-    frames : (N, SEQUENCE_SIZE**2) float
-        The frames of every rendering's sequence, N >= 2.
+    frames : (N, SEQUENCE_SIZE**2 + 1) float
+        The frames of every rendering's sequence (:func:`sequence_frames`), N >= 2;
+        the rise does not enter the eigenspace.
     """
+    silhouettes = np.asarray(frames)[:, : SEQUENCE_SIZE**2]
     try:
-        return Eigenspace(POSE_COMPONENTS).fit(frames)
+        return Eigenspace(POSE_COMPONENTS).fit(silhouettes)
     except InvalidParameterError:
-        if len(frames) < 2:
+        if len(silhouettes) < 2:
             raise
-        return Eigenspace(None, explained_variance=1.0).fit(frames)
+        return Eigenspace(None, explained_variance=1.0).fit(silhouettes)
 
 
 def view_reach(azimuth_deg: np.ndarray, centre_deg: float) -> np.ndarray:

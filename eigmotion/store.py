@@ -36,8 +36,9 @@ columns are in id order; they repeat the records' ids, keys and points in packed
 so that opening a database of a million entries reads a few dozen objects instead of
 unpickling a million records.  A motion's sequences record is ``{"azimuth": bytes (R
 float64), "elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
-(sum of lengths × p float16)}``: one row per rendering (body × view) of the whole
-motion, its frames in the pose eigenspace (:mod:`eigmotion.sequences`); it is read
+(sum of lengths × (p + 1) float16)}``: one row per rendering (body × view) of the
+whole motion, each frame its p coordinates in the pose eigenspace and its weighted rise
+(:func:`eigmotion.sequences.pose_coordinates`); it is read
 only when a query compares the motion.  :meth:`Store.check` verifies that the B-tree, the
 records and the columns agree.
 
@@ -65,8 +66,9 @@ from .keys import Quantizer
 
 #: Version of the root layout; a database of another version is refused.  Version 2
 #: added the silhouette sequences; version 3 weighs their lower body
-#: (:data:`eigmotion.sequences.LOWER_BODY_WEIGHT`).
-SCHEMA_VERSION = 3
+#: (:data:`eigmotion.sequences.LOWER_BODY_WEIGHT`); version 4 adds the rise of the top
+#: of the body to each of their frames.
+SCHEMA_VERSION = 4
 
 #: Entries per packed column chunk.
 CHUNK_ENTRIES = 65536
@@ -88,8 +90,9 @@ class MotionSequences:
         The virtual camera of each rendering, degrees.
     lengths : (R,) int64
         Frames of each sequence, each >= 1.
-    frames : (sum of lengths, p) float32
-        The sequences' frames in the pose eigenspace, one after the other.
+    frames : (sum of lengths, p + 1) float32
+        The sequences' frames, one after the other: the p pose-eigenspace coordinates
+        and the weighted rise (:func:`eigmotion.sequences.pose_coordinates`).
     """
 
     azimuth_deg: np.ndarray
@@ -141,6 +144,12 @@ def _plain(value, where: str):
         f"{where}: {type(value).__name__} cannot be stored; use numbers, strings, bytes, "
         "lists and dicts"
     )
+
+
+def _frame_columns(root) -> int:
+    """Columns of a stored sequence frame: the pose eigenspace's axes and the rise
+    (:func:`eigmotion.sequences.pose_coordinates`)."""
+    return int(root["pose_space"]["components"]["shape"][0]) + 1
 
 
 def _thaw(value):
@@ -667,9 +676,11 @@ class Store:
             From :meth:`add_motion`.
         view_azimuth_deg, view_elevation_deg : (R,) float
             Each rendering's virtual camera, degrees.
-        sequences : sequence of R (F_r, p) float
-            Each rendering's frames in the stored pose eigenspace (``p`` its axes),
-            ``F_r >= 1``; kept as float16.
+        sequences : sequence of R (F_r, p + 1) float
+            Each rendering's frames: coordinates in the stored pose eigenspace (``p``
+            its axes) and the weighted rise
+            (:func:`eigmotion.sequences.pose_coordinates`), ``F_r >= 1``; kept as
+            float16.
         """
         from persistent.mapping import PersistentMapping
 
@@ -677,7 +688,7 @@ class Store:
         root = self._require_initialised()
         if int(motion_id) not in root["motions"]:
             raise InvalidParameterError(f"motion id {motion_id} was never added (add_motion first)")
-        p = int(root["pose_space"]["components"]["shape"][0])
+        p = _frame_columns(root)
         sequences = [np.asarray(seq) for seq in sequences]
         azimuth = np.asarray(view_azimuth_deg, dtype=np.float64)
         elevation = np.asarray(view_elevation_deg, dtype=np.float64)
@@ -690,7 +701,7 @@ class Store:
         for i, seq in enumerate(sequences):
             if seq.ndim != 2 or seq.shape[0] < 1 or seq.shape[1] != p:
                 raise InvalidParameterError(
-                    f"sequence {i} must be (F >= 1, {p}) pose coordinates, got {seq.shape}"
+                    f"sequence {i} must be (F >= 1, {p}) pose coordinates and rise, got {seq.shape}"
                 )
             if not np.all(np.isfinite(seq)):
                 raise InvalidParameterError(f"sequence {i} holds NaN or infinity")
@@ -744,7 +755,7 @@ class Store:
         """The silhouette sequences of one motion's renderings (none for a motion
         stored without them)."""
         root = self._require_initialised()
-        p = int(root["pose_space"]["components"]["shape"][0])
+        p = _frame_columns(root)
         record = root["sequences"].get(int(motion_id))
         if record is None:
             if int(motion_id) not in root["motions"]:

@@ -96,7 +96,7 @@ def test_database_holds_what_was_built(db_path, library):
             sequences = db.store.sequences(mid)
             assert len(sequences.lengths) == len(CONFIG.bodies) * len(db.rig)
             assert sorted(set(sequences.azimuth_deg)) == sorted({c.azimuth_deg for c in db.rig})
-            assert sequences.frames.shape == (sequences.lengths.sum(), POSE_COMPONENTS)
+            assert sequences.frames.shape == (sequences.lengths.sum(), POSE_COMPONENTS + 1)
 
 
 def test_stored_library_keeps_what_the_build_needs(tmp_path):

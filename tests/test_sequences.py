@@ -10,11 +10,13 @@ from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.sequences import (
     LOWER_BODY_WEIGHT,
     POSE_COMPONENTS,
+    RISE_WEIGHT,
     SEQUENCE_SIZE,
     SEQUENCE_WEIGHT,
     VIEW_REACH_DEG,
     fit_pose_space,
     fused_scores,
+    pose_coordinates,
     sequence_distances,
     sequence_frames,
     view_reach,
@@ -80,14 +82,16 @@ def test_sequence_frames_are_sampled_aligned_and_small():
     masks = stick_figure_masks(60, 120, 160, fps=30.0)  # 2 s at 30 fps
     images = ClipMotionImages(masks, config, clip_fps=30.0)
     frames = sequence_frames(images)
-    # Sampled at the motion image's 15 frames/s, 16 × 16 pixels per frame.
-    assert frames.shape == (30, SEQUENCE_SIZE**2) and frames.dtype == np.float32
-    assert 0.0 <= frames.min() and frames.max() <= 1.0
-    assert np.all(frames.sum(axis=1) > 0)  # the person is in every frame
+    # Sampled at the motion image's 15 frames/s, 16 × 16 pixels and the rise per frame.
+    assert frames.shape == (30, SEQUENCE_SIZE**2 + 1) and frames.dtype == np.float32
+    silhouettes, rise = frames[:, :-1], frames[:, -1]
+    assert 0.0 <= silhouettes.min() and silhouettes.max() <= 1.0
+    assert np.all(silhouettes.sum(axis=1) > 0)  # the person is in every frame
+    np.testing.assert_array_equal(rise, images.rise())
     # The aligned silhouettes, the lower half (below the body centre) weighed less.
     aligned = images.aligned(SEQUENCE_SIZE)
     half = SEQUENCE_SIZE // 2
-    square = frames.reshape(aligned.shape)
+    square = silhouettes.reshape(aligned.shape)
     np.testing.assert_array_equal(square[:, :half], aligned[:, :half])
     np.testing.assert_allclose(square[:, half:], LOWER_BODY_WEIGHT * aligned[:, half:])
     assert aligned[:, half:].sum() > 0.2 * aligned.sum()  # the legs are there to weigh
@@ -95,12 +99,58 @@ def test_sequence_frames_are_sampled_aligned_and_small():
         sequence_frames(ClipMotionImages(np.zeros((10, 60, 40), dtype=bool), config, 30.0))
 
 
+def _block_person(tops: list[int], bottoms: list[int], height_px: int = 120) -> np.ndarray:
+    """(F, height_px, 60) bool: a 20 px wide block from row ``tops[f]`` to ``bottoms[f]``."""
+    masks = np.zeros((len(tops), height_px, 60), dtype=bool)
+    for f, (top, bottom) in enumerate(zip(tops, bottoms, strict=True)):
+        masks[f, top:bottom, 20:40] = True
+    return masks
+
+
+def test_rise_follows_the_top_of_the_body_in_body_heights():
+    config = MotionImageConfig()
+    # 30 frames at 15 fps (every one sampled): 40 px tall, still, then 20 px up (a
+    # jump), or its top 20 px down while the feet stay (a crouch).
+    still = ClipMotionImages(_block_person([50] * 30, [90] * 30), config, 15.0)
+    np.testing.assert_array_equal(still.rise(), np.zeros(30, dtype=np.float32))
+    lift = [0] * 20 + [20] * 10
+    jump = ClipMotionImages(
+        _block_person([50 - d for d in lift], [90 - d for d in lift]), config, 15.0
+    )
+    rise = jump.rise()
+    assert rise.shape == (30,) and rise.dtype == np.float32
+    np.testing.assert_allclose(rise[:20], 0.0, atol=1e-6)
+    # 20 px over a body height of 40 px less the trimmed sliver of mass.
+    assert 0.5 <= rise[20:].min() and rise[20:].max() <= 0.6
+    crouch = ClipMotionImages(_block_person([50] * 20 + [70] * 10, [90] * 30), config, 15.0)
+    assert np.all(crouch.rise()[20:] < -0.2)  # the top sinks a quarter of the body height
+    # Frames without a person are left out, as by ``aligned``.
+    gap = _block_person([50] * 30, [90] * 30)
+    gap[10:14] = False
+    images = ClipMotionImages(gap, config, 15.0)
+    assert images.rise().shape == (26,) == images.aligned(SEQUENCE_SIZE).shape[:1]
+
+
 def test_pose_space_keeps_its_axes_or_every_axis_there_is():
     rng = np.random.default_rng(1)
-    many = rng.random((500, SEQUENCE_SIZE**2)).astype(np.float32)
+    many = rng.random((500, SEQUENCE_SIZE**2 + 1)).astype(np.float32)
     assert fit_pose_space(many).n_components_ == POSE_COMPONENTS
-    few = rng.random((6, SEQUENCE_SIZE**2)).astype(np.float32)
+    few = rng.random((6, SEQUENCE_SIZE**2 + 1)).astype(np.float32)
     assert fit_pose_space(few).n_components_ == 5  # six frames span five directions
+
+
+def test_pose_coordinates_are_the_silhouettes_projection_and_the_weighted_rise():
+    rng = np.random.default_rng(3)
+    frames = rng.random((200, SEQUENCE_SIZE**2 + 1)).astype(np.float32)
+    space = fit_pose_space(frames)
+    # The rise does not enter the eigenspace: the same fit without it.
+    np.testing.assert_allclose(
+        space.components_, fit_pose_space(frames[:, :-1].copy()).components_, atol=1e-6
+    )
+    coordinates = pose_coordinates(space, frames[:7])
+    assert coordinates.shape == (7, POSE_COMPONENTS + 1) and coordinates.dtype == np.float32
+    np.testing.assert_allclose(coordinates[:, :-1], space.transform(frames[:7, :-1]), atol=1e-5)
+    np.testing.assert_allclose(coordinates[:, -1], RISE_WEIGHT * frames[:7, -1], rtol=1e-6)
 
 
 def test_view_reach_wraps_around_the_circle():

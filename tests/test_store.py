@@ -10,6 +10,7 @@ from eigmotion.eigenspace import Eigenspace
 from eigmotion.errors import DatabaseError, InvalidParameterError
 from eigmotion.keys import Quantizer, prefix_range
 from eigmotion.search import TreeIndex, brute_force
+from eigmotion.sequences import pose_coordinates
 from eigmotion.store import SCHEMA_VERSION, Store, parse_uri
 
 BVH_TEXT = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 0\nFrame Time: 0.1\n"
@@ -54,9 +55,9 @@ def fill(store: Store, fitted, n_motions: int = 2) -> np.ndarray:
 
 
 def sequences_of(pose: Eigenspace) -> list[np.ndarray]:
-    """Two renderings' sequences (7 and 3 frames) in the pose eigenspace."""
+    """Two renderings' sequences (7 and 3 frames): pose coordinates and rise."""
     rng = np.random.default_rng(5)
-    return [pose.transform(rng.random((n, 256)).astype(np.float32)) for n in (7, 3)]
+    return [pose_coordinates(pose, rng.random((n, 257)).astype(np.float32)) for n in (7, 3)]
 
 
 def assert_holds(store: Store, fitted, n_motions: int = 2):
@@ -68,7 +69,7 @@ def assert_holds(store: Store, fitted, n_motions: int = 2):
     np.testing.assert_array_equal(found.azimuth_deg, [0.0, 30.0])
     np.testing.assert_array_equal(found.elevation_deg, [0.0, 20.0])
     np.testing.assert_array_equal(found.lengths, [7, 3])
-    assert found.frames.dtype == np.float32 and found.frames.shape == (10, 5)
+    assert found.frames.dtype == np.float32 and found.frames.shape == (10, 6)
     np.testing.assert_allclose(
         found.frames, np.concatenate(sequences_of(pose)), rtol=2e-3, atol=2e-3
     )
@@ -360,13 +361,13 @@ def test_zeo_without_server(monkeypatch):
 @pytest.mark.parametrize(
     ("motion_id", "azimuth", "frames", "match"),
     [
-        (7, [0.0], [np.zeros((3, 5))], "never added"),
-        (0, [0.0, 1.0], [np.zeros((3, 5))], "shape"),
-        (0, [0.0], [np.zeros((3, 4))], r"\(F >= 1, 5\)"),
-        (0, [0.0], [np.zeros((0, 5))], r"\(F >= 1, 5\)"),
-        (0, [0.0], [np.full((3, 5), np.nan)], "NaN"),
-        (0, [0.0], [np.full((3, 5), 1e6)], "float16"),
-        (0, [np.inf], [np.zeros((3, 5))], "infinity"),
+        (7, [0.0], [np.zeros((3, 6))], "never added"),
+        (0, [0.0, 1.0], [np.zeros((3, 6))], "shape"),
+        (0, [0.0], [np.zeros((3, 5))], r"\(F >= 1, 6\)"),
+        (0, [0.0], [np.zeros((0, 6))], r"\(F >= 1, 6\)"),
+        (0, [0.0], [np.full((3, 6), np.nan)], "NaN"),
+        (0, [0.0], [np.full((3, 6), 1e6)], "float16"),
+        (0, [np.inf], [np.zeros((3, 6))], "infinity"),
     ],
 )
 def test_bad_sequences_are_refused_and_nothing_is_stored(fitted, motion_id, azimuth, frames, match):
