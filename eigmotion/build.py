@@ -170,7 +170,7 @@ class ViewImages:
     labels : tuple of W str
         Each image's label (:func:`window_labels`); the whole motion's is the motion's.
     sequence : (F, SEQUENCE_SIZE**2 + 1) float32
-        The whole motion's aligned silhouettes
+        The whole motion's aligned silhouettes and the rise of the body
         (:func:`~eigmotion.sequences.sequence_frames`).
     """
 

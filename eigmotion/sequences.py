@@ -37,8 +37,9 @@ also carries the rise of the top of the body
 :data:`RISE_WEIGHT`, beside its pose coordinates.
 
 The constants below were chosen on the holdout benchmark's folds
-(``docs/accuracy.md``: "Silhouette sequences in the query", and "holdout — legs
-weighed less, every label ranked", which checks them on clips of another seed).
+(``docs/accuracy.md``: "Silhouette sequences in the query", "holdout — legs weighed
+less, every label ranked" and "holdout — the rise of the body in the sequences", the
+last two checked on clips of another seed).
 """
 
 from __future__ import annotations
@@ -59,8 +60,8 @@ VIEW_REACH_DEG = 60.0
 #: Weight of the rows below the body centre (the lower half of each aligned frame)
 #: against those above, in the sequences' frames.
 LOWER_BODY_WEIGHT = 0.25
-#: Weight of the rise of the top of the body (body heights) beside the pose
-#: coordinates of a frame, per body height.
+#: Weight of a frame's rise of the top of the body (in body heights) beside its pose
+#: coordinates.
 RISE_WEIGHT = 8.0
 #: Weight of the sequence distance in :func:`fused_scores`.
 SEQUENCE_WEIGHT = 2.0
