@@ -299,11 +299,11 @@ class ClipMotionImages:
         self._rows = values.sum(axis=2)  # (F, H) silhouette mass per row
         self._cols = values.sum(axis=1)  # (F, W) and per column
         self._occupied = self._rows.sum(axis=1) > 0.0
-        if config.frame == "person":
-            self._centres = np.stack(
-                [_weighted_median(self._rows), _weighted_median(self._cols)], axis=1
-            )
-            self._heights = _trimmed_span(self._rows)
+        # Body centre (row, col) and height per frame: the person frame and the rise.
+        self._centres = np.stack(
+            [_weighted_median(self._rows), _weighted_median(self._cols)], axis=1
+        )
+        self._heights = _trimmed_span(self._rows)
 
     def window(self, start: int, stop: int) -> np.ndarray:
         """The motion image of frames ``[start, stop)`` of the clip.
@@ -357,12 +357,11 @@ class ClipMotionImages:
             for the frames of :meth:`aligned`; 0 for a frame without a person.
         """
         frames = self._kept(self._sampled(0, len(self._values)))
-        rows = self._rows[frames]
         occupied = self._occupied[frames]
         rise = np.zeros(len(frames), dtype=np.float32)
         if occupied.any():
-            heights = _trimmed_span(rows[occupied])
-            top = _weighted_median(rows[occupied]) - heights / 2.0
+            heights = self._heights[frames[occupied]]
+            top = self._centres[frames[occupied], 0] - heights / 2.0
             rise[occupied] = (np.median(top) - top) / max(float(np.median(heights)), 1.0)
         return rise
 
