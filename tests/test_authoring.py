@@ -43,6 +43,7 @@ AUTHORED_LABELS = (
     "sit_down",
     "cover_head",
     "fall_down",
+    "run",
     "jump",
     "turn",
     "wave",
@@ -150,12 +151,12 @@ def _airborne(pose):
 
 def test_feet_on_the_floor_while_standing(authored_poses):
     """Standing phase: the hips above 0.5 m, i.e. the legs bear the weight; only the
-    flight of a jump leaves the floor."""
+    flight of a jump or a running stride leaves the floor."""
     for name, (_, pose) in authored_poses.items():
         standing = _joint(pose, "Hips")[:, 1] > 0.5
         assert standing[0], name
         flying = _airborne(pose) & standing
-        assert not flying.any() or name.startswith("jump_"), name
+        assert not flying.any() or name.startswith(("jump_", "run_")), name
         lowest_foot = _feet_points(pose)[standing & ~flying, :, 1].min(axis=1)
         assert lowest_foot.max() <= TOUCHING_M, name
 
@@ -166,11 +167,11 @@ def _runs(mask):
     return list(zip(edges[::2], edges[1::2], strict=True))
 
 
-def test_jumps_fly_under_gravity(authored_poses):
+def test_jumps_and_runs_fly_under_gravity(authored_poses):
     """In flight the hips fall with g: second differences of their height -g dt²."""
     checked = 0
     for name, (motion, pose) in authored_poses.items():
-        if not name.startswith("jump_"):
+        if not name.startswith(("jump_", "run_")):
             continue
         flights = [(a, b) for a, b in _runs(_airborne(pose)) if b - a >= 3]
         assert flights, name
@@ -178,7 +179,7 @@ def test_jumps_fly_under_gravity(authored_poses):
             accel = np.diff(_joint(pose, "Hips")[a:b, 1], 2) / motion.frame_time_s**2
             np.testing.assert_allclose(accel, -GRAVITY_M_S2, atol=0.05, err_msg=name)
         checked += 1
-    assert checked >= 3
+    assert checked >= 6
 
 
 def test_feet_on_the_floor_do_not_slide(authored_poses):

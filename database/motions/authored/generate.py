@@ -1387,6 +1387,289 @@ def jump_running() -> Motion:
     )
 
 
+def jump_vertical_reach() -> Motion:
+    """Standing vertical jump reaching for something overhead: swing the arms back and
+    dip, spring straight up off both feet, both arms stretched above the head, land on
+    the spot, absorb the landing and stand up."""
+    take_off, land = 0.95, 1.45
+    w = STANCE_HALF_WIDTH_M
+    feet = {}
+    for side, joint in ((1.0, "LeftFoot"), (-1.0, "RightFoot")):
+        x = side * w
+        feet[joint] = [
+            (0.0, (x, 0.0, 0.0, 0.0, 0.0)),
+            (0.8, (x, 0.0, 0.0, 0.0, 0.0)),
+            (take_off, (x, 0.0, 0.0, 50.0, 0.0)),
+            (1.2, (x, 0.0, 0.0, 30.0, 0.10)),
+            (land - 0.05, (x, 0.0, 0.0, 20.0, 0.0)),
+            (land + 0.05, (x, 0.0, 0.0, 0.0, 0.0)),
+        ]
+    root = [
+        (0.0, (0.0, 0.0, 0.0)),
+        (0.35, (0.0, -0.05, 0.0)),
+        (0.75, (0.0, -0.32, -0.06)),
+        (take_off, (0.0, 0.04, 0.0)),
+        (land, (0.0, -0.04, 0.0)),
+        (1.7, (0.0, -0.30, -0.04)),
+        (2.35, (0.0, -0.01, 0.0)),
+        (2.6, (0.0, 0.0, 0.0)),
+    ]
+    body = [
+        (
+            0.0,
+            {
+                **_arms(0, 0),
+                "LowerBack": (0, 0, 0),
+                "Spine": (0, 0, 0),
+                "Head": (0, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (0.35, {**_arms(-20, -20, 15), "LowerBack": (5, 0, 0)}),
+        (
+            0.75,
+            {
+                **_arms(55, 55, 15),
+                "LowerBack": (30, 0, 0),
+                "Spine": (8, 0, 0),
+                "Head": (-15, 0, 0),
+                "LeftForeArm": (15, 0, 0),
+                "RightForeArm": (15, 0, 0),
+            },
+        ),
+        # The arms swing forwards past the thighs, then all the way up.
+        (0.85, {**_arms(-20, -20, 15)}),
+        (
+            take_off,
+            {
+                **_arms(-150, -150, 12),
+                "LowerBack": (0, 0, 0),
+                "Spine": (-3, 0, 0),
+                "Head": (-20, 0, 0),
+                "LeftForeArm": (5, 0, 0),
+                "RightForeArm": (5, 0, 0),
+            },
+        ),
+        (1.2, {**_arms(-170, -170, 10), "LowerBack": (-3, 0, 0)}),
+        (
+            land,
+            {
+                **_arms(-100, -100, 20),
+                "LowerBack": (15, 0, 0),
+                "Spine": (5, 0, 0),
+                "Head": (-5, 0, 0),
+                "LeftForeArm": (30, 0, 0),
+                "RightForeArm": (30, 0, 0),
+            },
+        ),
+        (1.7, {**_arms(-40, -40, 25), "LowerBack": (30, 0, 0), "Spine": (8, 0, 0)}),
+        (2.35, {**_arms(0, 0), "LowerBack": (2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0)}),
+        (2.6, {"LowerBack": (0, 0, 0)}),
+    ]
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Spine", "Head"]
+    return _tracked("jump_vertical_reach", _keyed(joints, body), root, feet, ((take_off, land),))
+
+
+def jump_hop_in_place() -> Motion:
+    """Raise the left knee in front, arms out to the sides for balance, hop three times on
+    the spot on the right foot, put the left foot down."""
+    w = STANCE_HALF_WIDTH_M
+    period, flight = 0.6, 0.36
+    take_offs = [0.9 + period * i for i in range(3)]
+    right: Track = [(0.0, (-w, 0.0, 0.0, 0.0, 0.0))]
+    left: Track = [(0.0, (w, 0.0, 0.0, 0.0, 0.0)), (0.25, (w, 0.0, 0.0, 0.0, 0.0))]
+    left.append((0.6, (0.08, 0.16, 0.0, 20.0, 0.30)))
+    root: Track = [(0.0, (0.0, 0.0, 0.0)), (0.3, (-0.07, -0.02, 0.0)), (0.6, (-0.08, -0.03, 0.0))]
+    arms: list[tuple[float, dict]] = [
+        (0.0, {**_arms(0, 0), "LeftForeArm": (30, 0, 0), "RightForeArm": (30, 0, 0)}),
+        (0.6, {**_arms(-15, -15, 75), "LeftForeArm": (20, 0, 0), "RightForeArm": (20, 0, 0)}),
+    ]
+    for t in take_offs:
+        land = t + flight
+        right += [
+            (t - 0.10, (-w, 0.0, 0.0, 0.0, 0.0)),
+            (t, (-w, 0.0, 0.0, 35.0, 0.0)),
+            (t + 0.5 * flight, (-w, 0.0, 0.0, 25.0, 0.0)),
+            (land, (-w, 0.0, 0.0, 10.0, 0.0)),
+            (land + 0.08, (-w, 0.0, 0.0, 0.0, 0.0)),
+        ]
+        root += [
+            (t - 0.12, (-0.08, -0.10, 0.0)),
+            (t, (-0.08, 0.02, 0.0)),
+            (land, (-0.08, -0.02, 0.0)),
+        ]
+        arms += [
+            (t - 0.12, _arms(-5, -5, 65)),
+            (t + 0.5 * flight, _arms(-25, -25, 85)),
+        ]
+    last = take_offs[-1] + flight
+    left += [
+        (last + 0.15, (0.08, 0.16, 0.0, 20.0, 0.30)),
+        (last + 0.4, (0.11, 0.05, 0.0, 5.0, 0.08)),
+        (last + 0.55, (w, 0.0, 0.0, 0.0, 0.0)),
+    ]
+    root += [
+        (last + 0.15, (-0.08, -0.08, 0.0)),
+        (last + 0.55, (-0.02, -0.02, 0.0)),
+        (last + 0.8, (0.0, 0.0, 0.0)),
+    ]
+    arms += [(last + 0.7, {**_arms(0, 0), "LeftForeArm": (30, 0, 0), "RightForeArm": (30, 0, 0)})]
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm"]
+    flights = tuple((t, t + flight) for t in take_offs)
+    return _tracked(
+        "jump_hop_in_place",
+        _keyed(joints, arms),
+        root,
+        {"LeftFoot": left, "RightFoot": right},
+        flights,
+    )
+
+
+# -- run --------------------------------------------------------------------------------------
+
+#: Half the distance between the ankles in a run, metres (the feet land nearly in line).
+RUN_HALF_WIDTH_M = 0.05
+
+
+def _elbow(side: float, bend_deg: float) -> tuple[float, float, float]:
+    """Forearm rotation (side +1 left, -1 right) bending the elbow ``bend_deg`` so that the
+    forearm swings from its rest direction straight towards the front."""
+    rest = rest_positions_m(canonical_skeleton())
+    prefix = "Left" if side > 0 else "Right"
+    down = rest[prefix + "Hand"] - rest[prefix + "ForeArm"]
+    hinge = np.cross(down, (0.0, 0.0, 1.0))
+    hinge *= np.radians(bend_deg) / np.linalg.norm(hinge)
+    z, x, y = matrix_to_euler(Rotation.from_rotvec(hinge).as_matrix(), "ZXY")
+    return (float(x), float(y), float(z))
+
+
+def _running(
+    name: str,
+    n_steps: int,
+    period_s: float,
+    contact_s: float,
+    stride_m: float,
+    kick_m: float,
+    reach_m: float,
+    lean_deg: float,
+    arm_swing_deg: float,
+    elbow_deg: float,
+) -> Motion:
+    """Running at a steady pace, already under way at the first frame and still at the last.
+
+    Step ``i`` lands the left foot (even ``i``) or the right one flat on the floor at
+    ``i * period_s`` seconds, ``i * stride_m`` metres ahead, and pushes off from its ball
+    ``contact_s`` later; nothing touches the floor until the next step lands.  The
+    swinging foot kicks up ``kick_m`` behind, comes through under the knee and is still
+    ``reach_m`` up in front as the other foot pushes off.  The hips move ahead at a
+    constant ``stride_m / period_s``, lowest at mid-stance; the arms swing
+    ``arm_swing_deg`` against the legs, the forearms bent ``elbow_deg`` forwards from
+    their rest direction (:func:`_elbow`); the back leans ``lean_deg`` forwards.  The
+    clip starts as a foot lands and ends halfway through a stance.
+    """
+    w = RUN_HALF_WIDTH_M
+    speed = stride_m / period_s
+    # The hips pass over the stance foot a little after mid-stance: it lands 0.7 and
+    # pushes off 1.3 times half the stance's travel away (the raised heel reaches back).
+    travel = 0.5 * speed * contact_s
+    ahead = 0.3 * travel
+    rest = rest_positions_m(canonical_skeleton())
+    leg = rest["Hips"][1] - rest["LeftFoot"][1]
+    # Low enough at landing for the leg to reach the foot with the knee still bent.
+    dip = leg - np.sqrt(leg**2 - (0.7 * travel) ** 2) + 0.02
+    swing_s = 2.0 * period_s - contact_s
+    flight_s = period_s - contact_s
+    feet: dict[float, Track] = {1.0: [], -1.0: []}
+    # Two steps before the first frame put both feet where the running already has them.
+    for i in range(-2, n_steps + 2):
+        side = 1.0 if i % 2 == 0 else -1.0
+        land, z = i * period_s, i * stride_m
+        push = land + contact_s
+        after = z + 2.0 * stride_m
+        feet[side] += [
+            (land, (side * w, z, 0.0, 0.0, 0.0)),
+            (push - 0.5 * contact_s, (side * w, z, 0.0, 0.0, 0.0)),
+            (push, (side * w, z, 0.0, 50.0, 0.0)),
+            (push + 0.35 * swing_s, (side * w, z + 0.3 * (after - z), 0.0, 70.0, kick_m)),
+            # Still high in front as the other foot pushes off, down as the flight ends.
+            (push + period_s, (side * w, z + 0.85 * (after - z), 0.0, 5.0, reach_m)),
+            (
+                push + period_s + 0.6 * flight_s,
+                (side * w, z + 0.95 * (after - z), 0.0, 0.0, 0.5 * reach_m),
+            ),
+        ]
+    end_s = (n_steps - 1) * period_s + 0.5 * contact_s
+
+    def at(t: float) -> float:
+        """How far ahead the hips are at time ``t``, metres."""
+        return speed * (t - 0.5 * contact_s) + ahead
+
+    root: Track = []
+    heading: Track = []
+    for i in range(-1, n_steps + 1):
+        side = 1.0 if i % 2 == 0 else -1.0
+        land = i * period_s
+        mid = land + 0.5 * contact_s
+        root += [
+            (land, (0.4 * side * w, -dip, at(land))),
+            (mid, (0.6 * side * w, -dip - 0.03, at(mid))),
+            (land + contact_s, (0.4 * side * w, -dip, at(land + contact_s))),
+        ]
+        heading.append((mid, (0.0, -side * 6.0, 0.0)))
+    body: list[tuple[float, dict]] = []
+    for i in range(-1, n_steps + 1):
+        side = 1.0 if i % 2 == 0 else -1.0
+        # The arm on the side of the landing foot is back, the other forwards.
+        swing = (arm_swing_deg, -arm_swing_deg) if side > 0 else (-arm_swing_deg, arm_swing_deg)
+        body.append(
+            (
+                i * period_s + 0.5 * contact_s,
+                {
+                    **_arms(*swing, 8.0),
+                    "LeftForeArm": _elbow(1.0, elbow_deg + 0.2 * swing[0]),
+                    "RightForeArm": _elbow(-1.0, elbow_deg + 0.2 * swing[1]),
+                    "LowerBack": (lean_deg, 0, 0),
+                    "Spine": (0.3 * lean_deg, 0, 0),
+                    "Head": (-0.8 * lean_deg, 0, 0),
+                },
+            )
+        )
+    rotations = {
+        "Hips": heading,
+        **_keyed(
+            ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Spine", "Head"],
+            body,
+        ),
+    }
+
+    def until_end(track: Track) -> Track:
+        # The tracks start before the clip and would run on after it; _tracked samples
+        # from time 0 to the last key.
+        return [(t, v) for t, v in track if t <= end_s + 1e-9]
+
+    flights = tuple((i * period_s + contact_s, (i + 1) * period_s) for i in range(n_steps - 1))
+    return _tracked(
+        name,
+        {joint: until_end(track) for joint, track in rotations.items()},
+        until_end(root),
+        {"LeftFoot": until_end(feet[1.0]), "RightFoot": until_end(feet[-1.0])},
+        flights,
+    )
+
+
+def run_jogging() -> Motion:
+    """Jogging, about 2.4 m/s: short strides, the feet kicking up a little behind, arms
+    low with the elbows bent."""
+    return _running("run_jogging", 5, 0.38, 0.22, 0.9, 0.25, 0.16, 6.0, 28.0, 55.0)
+
+
+def run_fast() -> Motion:
+    """Running fast, about 3.9 m/s: long strides, the heels kicking high behind, a
+    forward lean and a full arm swing."""
+    return _running("run_fast", 6, 0.31, 0.16, 1.2, 0.36, 0.20, 12.0, 50.0, 65.0)
+
+
 # -- wave -------------------------------------------------------------------------------------
 
 
@@ -2071,6 +2354,10 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "jump_forward_standing": jump_forward_standing,
     "jump_hop_one_leg": jump_hop_one_leg,
     "jump_running": jump_running,
+    "jump_hop_in_place": jump_hop_in_place,
+    "jump_vertical_reach": jump_vertical_reach,
+    "run_jogging": run_jogging,
+    "run_fast": run_fast,
     "wave_right_hand": wave_right_hand,
     "wave_left_hand": wave_left_hand,
     "wave_both_hands": wave_both_hands,
