@@ -1156,6 +1156,18 @@ def _arms(left_deg: float, right_deg: float, spread_deg: float = 12.0) -> dict[s
     }
 
 
+def _standing_upright() -> dict[str, tuple]:
+    """The arms, back and head of the body standing at rest before a jump."""
+    return {
+        **_arms(0, 0),
+        "LeftForeArm": (30, 0, 0),
+        "RightForeArm": (30, 0, 0),
+        "LowerBack": (0, 0, 0),
+        "Spine": (0, 0, 0),
+        "Head": (0, 0, 0),
+    }
+
+
 def _keyed(joints: list[str], keys: list[tuple[float, dict[str, tuple]]]) -> dict[str, Track]:
     """Joint tracks from whole-body keys (time, joint → rotation): each joint is keyed
     where a key names it and interpolated between those keys alone."""
@@ -1193,17 +1205,7 @@ def jump_forward_standing() -> Motion:
         (2.7, (0.0, 0.0, 0.95)),
     ]
     body = [
-        (
-            0.0,
-            {
-                **_arms(0, 0),
-                "LowerBack": (0, 0, 0),
-                "Spine": (0, 0, 0),
-                "Head": (0, 0, 0),
-                "LeftForeArm": (30, 0, 0),
-                "RightForeArm": (30, 0, 0),
-            },
-        ),
+        (0.0, _standing_upright()),
         (0.4, {**_arms(-70, -70, 15), "LowerBack": (5, 0, 0)}),
         (
             0.78,
@@ -1243,7 +1245,7 @@ def jump_forward_standing() -> Motion:
         (2.4, {**_arms(0, 0), "LowerBack": (2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0)}),
         (2.7, {"LowerBack": (0, 0, 0)}),
     ]
-    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Spine", "Head"]
+    joints = list(_standing_upright())  # every joint the keys name
     return _tracked("jump_forward_standing", _keyed(joints, body), root, feet, ((take_off, land),))
 
 
@@ -1415,17 +1417,7 @@ def jump_vertical_reach() -> Motion:
         (2.6, (0.0, 0.0, 0.0)),
     ]
     body = [
-        (
-            0.0,
-            {
-                **_arms(0, 0),
-                "LowerBack": (0, 0, 0),
-                "Spine": (0, 0, 0),
-                "Head": (0, 0, 0),
-                "LeftForeArm": (30, 0, 0),
-                "RightForeArm": (30, 0, 0),
-            },
-        ),
+        (0.0, _standing_upright()),
         (0.35, {**_arms(-20, -20, 15), "LowerBack": (5, 0, 0)}),
         (
             0.75,
@@ -1467,7 +1459,7 @@ def jump_vertical_reach() -> Motion:
         (2.35, {**_arms(0, 0), "LowerBack": (2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0)}),
         (2.6, {"LowerBack": (0, 0, 0)}),
     ]
-    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Spine", "Head"]
+    joints = list(_standing_upright())  # every joint the keys name
     return _tracked("jump_vertical_reach", _keyed(joints, body), root, feet, ((take_off, land),))
 
 
