@@ -34,7 +34,9 @@ from .sequences import (
     CANDIDATE_MOTIONS,
     fit_pose_space,
     fused_scores,
+    pace_factors,
     pose_coordinates,
+    pose_speeds,
     sequence_distances,
     sequence_frames,
     view_reach,
@@ -399,8 +401,9 @@ class Match:
         ``[start, stop)`` frames of the basic motion.
     sequence_distance : float or None
         Time-warped distance between the clip's silhouette sequence and the motion's
-        nearest rendering (pose-eigenspace units, :mod:`eigmotion.sequences`); None
-        when the motion was not compared that way.
+        nearest rendering, times what their difference of pace costs (pose-eigenspace
+        units, :mod:`eigmotion.sequences`); None when the motion was not compared
+        that way.
     """
 
     label: str
@@ -555,7 +558,7 @@ class MotionDatabase:
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
         self._motions = {int(mid): self.store.motion(int(mid)) for mid in self.store.motion_ids()}
-        self._sequences: dict = {}  # motion id → (MotionSequences, starts), read on first use
+        self._sequences: dict = {}  # motion id → (MotionSequences, starts, speeds), on first use
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
@@ -716,19 +719,23 @@ class MotionDatabase:
         list of Match
             The same motions, each with its ``sequence_distance`` — to its nearest
             rendering seen from within :data:`~eigmotion.sequences.VIEW_REACH_DEG` of
-            its entry's view — in order of :func:`~eigmotion.sequences.fused_scores`.
+            its entry's view, times what their difference of pace costs
+            (:func:`~eigmotion.sequences.pace_factors`) — in order of
+            :func:`~eigmotion.sequences.fused_scores`.
         """
         query = pose_coordinates(self.pose_space, frames)
-        parts, lengths, owners = [], [], []
+        parts, lengths, speeds, owners = [], [], [], []
         for candidate, match in enumerate(nearest):
-            stored, starts = self._stored_sequences(match.motion_id)
+            stored, starts, stored_speeds = self._stored_sequences(match.motion_id)
             for r in np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg)):
                 parts.append(stored.frames[starts[r] : starts[r + 1]])
                 lengths.append(stored.lengths[r])
+                speeds.append(stored_speeds[r])
                 owners.append(candidate)
         compared = np.full(len(nearest), np.inf)
         if parts:
             found = sequence_distances(query, np.concatenate(parts), np.asarray(lengths))
+            found *= pace_factors(pose_speeds(query, [len(query)])[0], np.asarray(speeds))
             np.minimum.at(compared, np.asarray(owners), found)
         order = np.argsort(
             fused_scores(np.array([m.distance for m in nearest]), np.array(compared)),
@@ -743,13 +750,15 @@ class MotionDatabase:
         ]
 
     def _stored_sequences(self, motion_id: int):
-        """A motion's :class:`~eigmotion.store.MotionSequences` and the (R + 1,) first
-        frame of each rendering, read from the store once, then kept."""
+        """A motion's :class:`~eigmotion.store.MotionSequences`, the (R + 1,) first
+        frame of each rendering and their (R,) pose speeds
+        (:func:`~eigmotion.sequences.pose_speeds`), read from the store once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
             starts = np.concatenate([[0], np.cumsum(stored.lengths)])
-            found = self._sequences[motion_id] = (stored, starts)
+            speeds = pose_speeds(stored.frames, stored.lengths)
+            found = self._sequences[motion_id] = (stored, starts, speeds)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:

@@ -25,6 +25,12 @@ sequence only with the renderings of each candidate motion seen from within
 :data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from:
 the motion image already found the viewing direction.
 
+Time warping forgives any difference of pace, so a jog matches a walk as well as a
+run.  Each sequence's pose speed (:func:`pose_speeds`: the mean step between its
+frames, smoothed over time) keeps some of it: a rendering's distance is multiplied by
+:func:`pace_factors`, which grows with the ratio of the clip's pose speed to the
+rendering's.
+
 The lower half of each aligned frame — below the body centre, the legs — counts
 :data:`LOWER_BODY_WEIGHT` of the upper: skirts, coats and loose trousers reshape the
 legs' silhouette far more than any garment does the arms', and what tells most
@@ -38,8 +44,9 @@ also carries the rise of the top of the body
 
 The constants below were chosen on the holdout benchmark's folds
 (``docs/accuracy.md``: "Silhouette sequences in the query", "holdout — legs weighed
-less, every label ranked" and "holdout — the rise of the body in the sequences", the
-last two checked on clips of another seed).
+less, every label ranked", "holdout — the rise of the body in the sequences" and
+"holdout — pace in the silhouette sequences", the last three checked on clips of
+another seed).
 """
 
 from __future__ import annotations
@@ -63,6 +70,15 @@ LOWER_BODY_WEIGHT = 0.25
 #: Weight of a frame's rise of the top of the body (in body heights) beside its pose
 #: coordinates.
 RISE_WEIGHT = 8.0
+#: Weight of a difference of pace: a rendering's sequence distance is multiplied by
+#: ``1 + PACE_WEIGHT · |ln((s_q + PACE_FLOOR) / (s_r + PACE_FLOOR))|`` (:func:`pace_factors`).
+PACE_WEIGHT = 1.0
+#: Added to both pose speeds before their ratio is taken, pose-coordinate units per
+#: frame: the speed of a clip's still body is mostly the jitter of its silhouettes,
+#: which this keeps from counting as pace.
+PACE_FLOOR = 0.4
+#: Passes of the [1, 2, 1] / 4 filter over time before a sequence's pose speed is taken.
+PACE_SMOOTHING_PASSES = 2
 #: Weight of the sequence distance in :func:`fused_scores`.
 SEQUENCE_WEIGHT = 2.0
 #: Distinct motions of the whole clip's nearest entries that are ranked again (and
@@ -184,6 +200,71 @@ def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarra
     out = np.empty(len(lengths))
     _WARP(cost, starts, out)
     return out
+
+
+def pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """How fast each sequence's pose changes: the mean step between its frames.
+
+    Each sequence is first smoothed over time (:data:`PACE_SMOOTHING_PASSES` passes of
+    the [1, 2, 1] / 4 filter; its first and last frames are kept), which takes out most
+    of the frame-to-frame jitter of silhouettes cut out of a video.
+
+    Parameters
+    ----------
+    frames : (M, d) float
+        The frames of R sequences (pose coordinates, :func:`pose_coordinates`), one
+        sequence after the other.
+    lengths : (R,) int
+        Frames of each sequence, summing to ``M``; each >= 1.
+
+    Returns
+    -------
+    (R,) float64
+        Mean Euclidean distance between consecutive smoothed frames, pose-coordinate
+        units per frame (at the motion image's ``sample_fps``); 0 for a single frame.
+    """
+    x = np.array(frames, dtype=np.float64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    stops = np.cumsum(lengths)
+    ends = np.zeros(len(x), dtype=bool)  # each sequence's first and last frame
+    ends[stops - 1] = True
+    ends[stops - lengths] = True
+    kept = x[ends]
+    for _ in range(PACE_SMOOTHING_PASSES):
+        x[1:-1] = 0.25 * x[:-2] + 0.5 * x[1:-1] + 0.25 * x[2:]
+        x[ends] = kept  # the filter never reaches across two sequences
+    step = np.diff(x, axis=0)
+    steps = np.sqrt(np.einsum("ij,ij->i", step, step))
+    within = np.ones(len(steps), dtype=bool)
+    within[stops[:-1] - 1] = False  # the step from one sequence into the next
+    owner = np.repeat(np.arange(len(lengths)), lengths)[:-1]
+    totals = np.bincount(owner[within], weights=steps[within], minlength=len(lengths))
+    return totals / np.maximum(lengths - 1, 1)
+
+
+def pace_factors(query_speed: float, speeds: np.ndarray) -> np.ndarray:
+    """What a difference of pace multiplies each sequence distance by.
+
+    Dynamic time warping forgives any difference of pace, so a jog matches a walk,
+    and a quick hop the slow sway of a wave, as well as a motion of their own.  The
+    pose speed (:func:`pose_speeds`) keeps some of it: ``1 + PACE_WEIGHT ·
+    |ln((query_speed + PACE_FLOOR) / (speed + PACE_FLOOR))|``, 1 for the same pace.
+
+    Parameters
+    ----------
+    query_speed : float
+        The query's pose speed, pose-coordinate units per frame.
+    speeds : (R,) float
+        The pose speed of each rendering compared with.
+
+    Returns
+    -------
+    (R,) float64
+        Each >= 1.
+    """
+    speeds = np.asarray(speeds, dtype=np.float64)
+    ratio = (float(query_speed) + PACE_FLOOR) / (speeds + PACE_FLOOR)
+    return 1.0 + PACE_WEIGHT * np.abs(np.log(ratio))
 
 
 def fit_pose_space(frames: np.ndarray) -> Eigenspace:

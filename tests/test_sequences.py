@@ -9,6 +9,9 @@ from eigmotion.errors import VideoError
 from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.sequences import (
     LOWER_BODY_WEIGHT,
+    PACE_FLOOR,
+    PACE_SMOOTHING_PASSES,
+    PACE_WEIGHT,
     POSE_COMPONENTS,
     RISE_WEIGHT,
     SEQUENCE_SIZE,
@@ -16,7 +19,9 @@ from eigmotion.sequences import (
     VIEW_REACH_DEG,
     fit_pose_space,
     fused_scores,
+    pace_factors,
     pose_coordinates,
+    pose_speeds,
     sequence_distances,
     sequence_frames,
     view_reach,
@@ -171,3 +176,53 @@ def test_fused_scores_weigh_both_distances_by_their_smallest():
     unknown = fused_scores(image, np.full(3, np.inf))
     np.testing.assert_array_equal(np.argsort(unknown, kind="stable"), [0, 1, 2])
     assert np.all(np.isfinite(fused_scores(np.array([0.0, 1.0]), np.array([0.0, 1.0]))[1:]))
+
+
+def reference_speed(frames: np.ndarray) -> float:
+    """The pose speed of one sequence, written out frame by frame."""
+    x = frames.astype(np.float64)
+    for _ in range(PACE_SMOOTHING_PASSES):
+        smoothed = x.copy()
+        for i in range(1, len(x) - 1):
+            smoothed[i] = 0.25 * x[i - 1] + 0.5 * x[i] + 0.25 * x[i + 1]
+        x = smoothed
+    steps = [np.linalg.norm(x[i + 1] - x[i]) for i in range(len(x) - 1)]
+    return float(np.mean(steps)) if steps else 0.0
+
+
+def test_pose_speeds_equal_their_definition_sequence_by_sequence():
+    rng = np.random.default_rng(3)
+    sequences = [rng.normal(size=(n, 5)) for n in (1, 2, 3, 7, 30)]
+    found = pose_speeds(np.concatenate(sequences), np.array([len(s) for s in sequences]))
+    np.testing.assert_allclose(found, [reference_speed(s) for s in sequences], rtol=1e-12)
+    assert found[0] == 0.0  # one frame: no step
+
+
+def test_pose_speed_doubles_with_the_pace_and_jitter_is_smoothed_away():
+    t = np.arange(60) / 15.0
+
+    def path(hz):
+        return np.stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)], axis=1)
+
+    slow, fast = pose_speeds(np.concatenate([path(0.5), path(1.0)]), np.array([60, 60]))
+    # twice the pace, less what the filter takes off the faster one: each pass keeps
+    # cos²(π f / 15 Hz) of a frequency f
+    kept = (np.cos(np.pi * 1.0 / 15.0) / np.cos(np.pi * 0.5 / 15.0)) ** (2 * PACE_SMOOTHING_PASSES)
+    assert fast / slow == pytest.approx(2.0 * kept, rel=0.01)
+    # frame-to-frame jitter of a still pose: the steps between the raw frames are
+    # about 0.14 long on average, the smoothed ones much shorter
+    still = 0.1 * np.random.default_rng(0).normal(size=(60, 2))
+    raw = float(np.mean(np.linalg.norm(np.diff(still, axis=0), axis=1)))
+    assert pose_speeds(still, np.array([60]))[0] < 0.5 * raw
+
+
+def test_pace_factors_grow_with_the_ratio_of_pose_speeds_from_one():
+    speeds = np.array([0.5, 1.0, 2.0, 0.0])
+    factors = pace_factors(1.0, speeds)
+    assert factors[1] == 1.0  # the same pace costs nothing
+    assert np.all(factors >= 1.0)
+    expected = 1.0 + PACE_WEIGHT * abs(np.log((1.0 + PACE_FLOOR) / (2.0 + PACE_FLOOR)))
+    assert factors[2] == pytest.approx(expected)
+    assert factors[3] > factors[0] > factors[1]  # the farther the pace, the dearer
+    # speeds under the floor, mostly the jitter of a still body, count for little
+    assert pace_factors(0.05, np.array([0.0]))[0] < 1.0 + 0.15 * PACE_WEIGHT
