@@ -39,6 +39,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
@@ -102,10 +103,21 @@ def parse_variant(text: str) -> dict[str, float]:
                 f"--variant {text!r}: expected NAME=VALUE with NAME one of {sorted(allowed)}"
             )
         try:
-            out[name] = float(value)
+            number = float(value)
         except ValueError:
-            raise InvalidParameterError(f"--variant {text!r}: {value!r} is not a number") from None
+            number = math.nan
+        if not math.isfinite(number):
+            raise InvalidParameterError(f"--variant {text!r}: {value!r} is not a finite number")
+        out[name] = number
     return out
+
+
+def variant_argument(text: str) -> dict[str, float]:
+    """:func:`parse_variant` for argparse, which then prints what is wrong."""
+    try:
+        return parse_variant(text)
+    except InvalidParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class Variant:
@@ -197,7 +209,7 @@ def main(argv=None) -> int:
     parser.add_argument("--db", type=Path, default=DEFAULT_DB_PATH)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--clips-dir", type=Path, default=Path("/tmp/eigmotion-holdout-clips"))
-    parser.add_argument("--variant", action="append", default=[], type=parse_variant)
+    parser.add_argument("--variant", action="append", default=[], type=variant_argument)
     args = parser.parse_args(argv)
     with MotionDatabase.open(args.db) as db:
         args.sample_fps = db.config.motion_image.sample_fps

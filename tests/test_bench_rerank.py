@@ -23,7 +23,7 @@ def test_a_variant_names_query_time_constants_only(bench):
         "SEQUENCE_WEIGHT": 3.0,
     }
     assert bench.parse_variant("") == {}
-    for bad in ("RISE_WEIGHT=2", "PACE_WEIGHT", "PACE_WEIGHT=fast", "pace_weight=1"):
+    for bad in ("RISE_WEIGHT=2", "PACE_WEIGHT", "PACE_WEIGHT=x", "PACE_WEIGHT=inf", "pace=1"):
         with pytest.raises(InvalidParameterError, match="--variant"):
             bench.parse_variant(bad)
 
