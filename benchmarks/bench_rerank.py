@@ -83,7 +83,12 @@ MODULES = {"sequences": sequences_module, "database": database_module}
 
 @dataclass(frozen=True)
 class HeldOutClip:
-    """One holdout clip's silhouettes, as a query cuts them, and what it shows."""
+    """One holdout clip's silhouettes, as a query cuts them, and what it shows.
+
+    ``name``: the clip's file stem; ``held_out``: the names of its fold's motions;
+    ``masks``: (F, H, W) bool, the frames the motion image samples, at the query's
+    working size; ``fps``: their rate, frames/s.
+    """
 
     name: str
     label: str
