@@ -174,9 +174,11 @@ def held_out_clips(args) -> list[HeldOutClip]:
     return clips
 
 
-def stored_motions(db: MotionDatabase) -> dict[int, dict]:
-    """Motion id → its stored record (``label``, ``metadata`` with ``name``, …)."""
-    return {int(mid): db.store.motion(int(mid)) for mid in db.store.motion_ids()}
+def motion_names(db: MotionDatabase) -> dict[int, str]:
+    """Motion id → the stored motion's name."""
+    return {
+        int(mid): db.motion_record(int(mid))["metadata"]["name"] for mid in db.store.motion_ids()
+    }
 
 
 def answer_all(db_path: Path, clips: list[HeldOutClip]) -> list[tuple[str, ...]]:
@@ -187,7 +189,7 @@ def answer_all(db_path: Path, clips: list[HeldOutClip]) -> list[tuple[str, ...]]
     answers = {}
     with MotionDatabase.open(db_path) as db:
         arrays = db.store.arrays()
-        names = {mid: record["metadata"]["name"] for mid, record in stored_motions(db).items()}
+        names = motion_names(db)
         entry_motion = np.array([names[int(m)] for m in arrays.motions])
         for held in sorted({c.held_out for c in clips}):
             kept = ~np.isin(entry_motion, held)
@@ -218,9 +220,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     with MotionDatabase.open(args.db) as db:
         args.sample_fps = db.config.motion_image.sample_fps
-        records = stored_motions(db).values()
+        stored = set(motion_names(db).values())
     basic = {m.name for m in load_library(include_distractors=True) if m.role == "basic"}
-    stored = {record["metadata"]["name"] for record in records}
     if stored != basic:
         raise InvalidParameterError(
             f"{args.db}: holds {len(stored)} motions, not the library's {len(basic)} basic "
