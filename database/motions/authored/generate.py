@@ -54,6 +54,8 @@ HERE = Path(__file__).resolve().parent
 
 #: Seat height of the chair for sit_down, metres (a common chair).
 SEAT_HEIGHT_M = 0.45
+#: Height of the low step sit_down_low_step sits on, metres (a doorstep, a kerb).
+LOW_STEP_HEIGHT_M = 0.25
 
 # The left hand at rest, measured on the MakeHuman mesh: wrist → middle fingertip, and
 # the palm normal (the palm faces the thigh, slightly down); the right hand mirrors it.
@@ -319,6 +321,51 @@ def lift_table_to_shoulder() -> Motion:
     )
 
 
+def lift_table_to_shelf() -> Motion:
+    """At a table: lean in and grip a box by its sides at waist height, lift it to the
+    chest, push it up and forwards onto a shelf above the head, let go, arms down."""
+    elbows_down = {"LeftArm": (-45, 0, -25), "RightArm": (-45, 0, 25)}
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
+            Key(
+                0.6,
+                {"LowerBack": (20, 0, 0), "Spine": (6, 0, 0), "Head": (5, 0, 0)},
+                (0.0, -0.06, -0.05),
+                _box(0.86, 0.46),
+            ),
+            Key(1.0, {"LowerBack": (22, 0, 0)}, (0.0, -0.08, -0.06), _box(0.86, 0.46)),
+            Key(
+                1.6,
+                {"LowerBack": (-2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0), **elbows_down},
+                (0.0, -0.04, 0.0),
+                _box(1.08, 0.32),
+            ),
+            Key(
+                2.3,
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Spine": (-4, 0, 0),
+                    "Neck": (-12, 0, 0),
+                    "LeftArm": (-20, 0, 60),
+                    "RightArm": (-20, 0, -60),
+                },
+                (0.0, 0.0, 0.02),
+                _box(1.80, 0.50),
+            ),
+            Key(2.7, {"LowerBack": (-8, 0, 0)}, (0.0, 0.0, 0.03), _box(1.82, 0.58)),
+            Key(
+                3.3,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0.0, 0.0, 0.0),
+                {"LeftHand": None, "RightHand": None},
+            ),
+            Key(3.7, {}, (0.0, 0.0, 0.0)),
+        ],
+        "lift_table_to_shelf",
+    )
+
+
 def lift_clean_and_press() -> Motion:
     """Clean and press a heavy box: squat wide and grip it on the floor, stand up with it
     slowly, pull it explosively to the shoulders dipping under it, stand, then dip and
@@ -492,6 +539,48 @@ def sit_down_hands_on_knees() -> Motion:
             Key(2.9, {"LowerBack": (7, 0, 0)}, seated),
         ],
         "sit_down_hands_on_knees",
+    )
+
+
+def sit_down_low_step() -> Motion:
+    """Sit on a low step (0.25 m) behind: lean forwards with the arms out for balance,
+    lower the hips far down and back onto it, and stay hunched with the forearms on the
+    knees, knees up."""
+    seated = (0.0, LOW_STEP_HEIGHT_M + 0.11 - 0.852, -0.36)
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
+            Key(0.4, {"LowerBack": (10, 0, 0), "Head": (8, 0, 0)}, (0.0, -0.03, -0.01)),
+            Key(
+                1.1,
+                {
+                    "LowerBack": (38, 0, 0),
+                    "Spine": (10, 0, 0),
+                    "Head": (-10, 0, 0),
+                    "LeftArm": (-50, 0, -20),
+                    "RightArm": (-50, 0, 20),
+                    "LeftForeArm": (15, 0, 0),
+                    "RightForeArm": (15, 0, 0),
+                },
+                (0.0, -0.28, -0.20),
+            ),
+            Key(1.8, {"LowerBack": (40, 0, 0)}, seated),
+            Key(
+                2.5,
+                {
+                    "LowerBack": (30, 0, 0),
+                    "Spine": (12, 0, 0),
+                    "Head": (-5, 0, 0),
+                    "LeftArm": (-35, 0, -22),
+                    "RightArm": (-35, 0, 22),
+                    "LeftForeArm": (55, 0, 0),
+                    "RightForeArm": (55, 0, 0),
+                },
+                seated,
+            ),
+            Key(3.1, {"LowerBack": (29, 0, 0)}, seated),
+        ],
+        "sit_down_low_step",
     )
 
 
@@ -1129,6 +1218,21 @@ def turn_walking_180() -> Motion:
         (-1.0, 2.98, 3.33, _footprint(-1.0, (0.12, 0.2), 180.0, w), 0.05),
     ]
     return _walking("turn_walking_180", steps, 3.75, w, (0.045, 0.012), 14.0)
+
+
+def turn_walking_90() -> Motion:
+    """Walk two steps, turn 90 degrees to the left over two, walk on two steps and stop."""
+    w = WALK_HALF_WIDTH_M
+    steps = [
+        (-1.0, 0.10, 0.50, _footprint(-1.0, (0.0, 0.45), 0.0, w), 0.08),
+        (1.0, 0.58, 0.98, _footprint(1.0, (0.0, 1.0), 0.0, w), 0.08),
+        (-1.0, 1.06, 1.46, _footprint(-1.0, (0.12, 1.45), 40.0, w), 0.08),
+        (1.0, 1.54, 1.94, _footprint(1.0, (0.55, 1.62), 90.0, w), 0.07),
+        (-1.0, 2.02, 2.42, _footprint(-1.0, (1.1, 1.62), 90.0, w), 0.08),
+        (1.0, 2.50, 2.90, _footprint(1.0, (1.65, 1.62), 90.0, w), 0.08),
+        (-1.0, 2.98, 3.33, _footprint(-1.0, (1.65, 1.62), 90.0, w), 0.05),
+    ]
+    return _walking("turn_walking_90", steps, 3.75, w, (0.045, 0.012), 14.0)
 
 
 # -- jump -------------------------------------------------------------------------------------
@@ -2327,11 +2431,13 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_suitcase_one_hand": lift_suitcase_one_hand,
     "lift_table_to_shoulder": lift_table_to_shoulder,
     "lift_clean_and_press": lift_clean_and_press,
+    "lift_table_to_shelf": lift_table_to_shelf,
     "sit_down_holding_stomach_slow": sit_down_holding_stomach_slow,
     "sit_down_holding_stomach_fast": sit_down_holding_stomach_fast,
     "sit_down_doubled_over": sit_down_doubled_over,
     "sit_down_hands_on_knees": sit_down_hands_on_knees,
     "sit_down_on_the_floor": sit_down_on_the_floor,
+    "sit_down_low_step": sit_down_low_step,
     "cover_head_standing": cover_head_standing,
     "cover_head_crouching": cover_head_crouching,
     "cover_head_stooping": cover_head_stooping,
@@ -2343,6 +2449,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "turn_in_place_90": turn_in_place_90,
     "turn_in_place_180": turn_in_place_180,
     "turn_walking_180": turn_walking_180,
+    "turn_walking_90": turn_walking_90,
     "jump_forward_standing": jump_forward_standing,
     "jump_hop_one_leg": jump_hop_one_leg,
     "jump_running": jump_running,
