@@ -544,8 +544,8 @@ def sit_down_hands_on_knees() -> Motion:
 
 def sit_down_low_step() -> Motion:
     """Sit on a low step (0.25 m) behind: lean forwards with the arms out for balance,
-    lower the hips far down and back onto it, and stay hunched with the forearms on the
-    knees, knees up."""
+    lower the hips far down and back onto it, and stay hunched, knees up, the arms
+    hanging between the knees."""
     seated = (0.0, LOW_STEP_HEIGHT_M + 0.11 - 0.852, -0.36)
     return _animate(
         [
