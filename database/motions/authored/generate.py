@@ -639,6 +639,50 @@ def sit_down_on_the_floor() -> Motion:
     )
 
 
+
+def sit_down_squatting() -> Motion:
+    """Slump down holding the stomach with no seat: both hands to the belly, bend over
+    them and sink into a deep squat on the balls of the feet, knees wide, curled up
+    between them."""
+    squat = (0.0, -0.47, -0.18)
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.10)),
+            Key(
+                0.4,
+                {
+                    "Spine": (10, 0, 0),
+                    "Head": (10, 0, 0),
+                    "LeftArm": (-10, 0, -10),
+                    "RightArm": (-10, 0, 10),
+                },
+                (0.0, -0.03, 0.0),
+                _stomach(0.18, 0.11),
+            ),
+            Key(
+                1.0,
+                {"LowerBack": (20, 0, 0), "Spine": (15, 0, 0), **_knees_out(10)},
+                (0.0, -0.24, -0.07),
+                _stomach(0.18, 0.11),
+            ),
+            Key(
+                1.6,
+                {
+                    "LowerBack": (22, 0, 0),
+                    "Spine": (18, 0, 0),
+                    "Neck": (10, 0, 0),
+                    **_knees_out(15),
+                    **_toes(25),
+                },
+                squat,
+                {**_planted(extra_width_m=0.10, heel_raise_deg=25), **_stomach(0.18, 0.11)},
+            ),
+            Key(2.2, {"Spine": (25, 0, 0)}, (squat[0], squat[1] - 0.02, squat[2]), _stomach(0.18, 0.11)),
+            Key(2.8, {"Spine": (22, 0, 0)}, squat, _stomach(0.18, 0.11)),
+        ],
+        "sit_down_squatting",
+    )
+
 # -- cover the head against a falling object -----------------------------------------------
 
 
@@ -818,6 +862,48 @@ def cover_head_one_arm() -> Motion:
         "cover_head_one_arm",
     )
 
+
+
+def cover_head_kneeling() -> Motion:
+    """Drop and cover: look up, drop onto both knees, curl forwards over them and sit
+    back towards the heels, both hands over the head, the elbows in front of the face."""
+    kneeling = (0.0, -0.36, 0.36)
+    curled = (0.0, -0.46, 0.22)
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
+            Key(0.15, {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                0.45,
+                {"LeftArm": (-50, 0, -10), "RightArm": (-50, 0, 10), **_toes(40)},
+                (0.0, -0.16, 0.14),
+                {**_planted(extra_width_m=0.04, heel_raise_deg=40), **_before_face()},
+            ),
+            Key(
+                0.8,
+                {
+                    **ARMS_UP,
+                    **_toes(75),
+                    "LowerBack": (10, 0, 0),
+                    "Spine": (5, 0, 0),
+                    "Neck": (15, 0, 0),
+                    "Head": (15, 0, 0),
+                    "LeftShoulder": (0, 0, 10),
+                    "RightShoulder": (0, 0, -10),
+                },
+                kneeling,
+                {**_planted(extra_width_m=0.04, heel_raise_deg=75), **_on_head()},
+            ),
+            Key(
+                1.4,
+                {"Hips": (20, 0, 0), "LowerBack": (30, 0, 0), "Spine": (20, 0, 0)},
+                curled,
+            ),
+            Key(2.1, {"Spine": (23, 0, 0)}, curled),
+            Key(2.7, {"Spine": (21, 0, 0)}, curled),
+        ],
+        "cover_head_kneeling",
+    )
 
 # -- fall down ----------------------------------------------------------------------------------
 
@@ -2424,6 +2510,61 @@ def punch_stepping_in() -> Motion:
     )
 
 
+
+def punch_lunging() -> Motion:
+    """Lunge punch (oi-zuki): fists up, step the right foot far forwards into a long, low
+    front stance and drive a straight right as it lands, the left fist pulled back to
+    the hip; hold, bring the fist back, arms down, still in the stance."""
+    rest = rest_positions_m(canonical_skeleton())
+    ankle = rest["RightFoot"][[0, 2]]
+
+    def front(forward_m: float, heel_deg: float = 0.0, lift_m: float = 0.0) -> Target:
+        """The right foot ``forward_m`` on, drawn in under the body as it passes."""
+        x, z = ankle[0] + 0.04 * forward_m, ankle[1] + forward_m
+        return foot_target("RightFoot", (x, z), 10.0 * forward_m, heel_deg, lift_m)
+
+    lunge = (0.0, -0.17, 0.42)
+    hip_fist = _fist(1.0, (0.17, -0.32, 0.02), ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)))
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
+            Key(0.4, _guard_arms(), (0.0, -0.05, 0.0), _guard(RELAXED_GUARD)),
+            Key(
+                0.58,
+                {"RightToeBase": (-25, 0, 0)},
+                (0.01, -0.07, 0.06),
+                {"RightFoot": front(0.0, 25.0)},
+            ),
+            Key(
+                0.76,
+                {"RightToeBase": (0, 0, 0), **_chest_turn(-10, 4)},
+                (0.02, -0.10, 0.22),
+                {"RightFoot": front(0.38, 5.0, 0.09)},
+            ),
+            Key(
+                0.95,
+                {"Hips": (0, 10, 0), **_chest_turn(25, 8)},
+                lunge,
+                {"RightFoot": front(0.80), "LeftHand": hip_fist, **_straight(-1.0, (0.1, 0.05, 1.0))},
+            ),
+            Key(1.3, {}, (lunge[0], lunge[1] - 0.01, lunge[2])),
+            Key(
+                1.7,
+                {"Hips": (0, 0, 0), **_chest_turn(0, 6)},
+                lunge,
+                {"RightHand": _fist(-1.0, RELAXED_GUARD), "LeftHand": _fist(1.0, RELAXED_GUARD)},
+            ),
+            Key(
+                2.3,
+                {**ARMS_DOWN, **_chest_turn(0), **_fists(0.0)},
+                (0.0, -0.12, 0.40),
+                {"LeftHand": None, "RightHand": None},
+            ),
+            Key(2.6, {}, (0.0, -0.11, 0.40)),
+        ],
+        "punch_lunging",
+    )
+
 MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
@@ -2438,11 +2579,13 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "sit_down_hands_on_knees": sit_down_hands_on_knees,
     "sit_down_on_the_floor": sit_down_on_the_floor,
     "sit_down_low_step": sit_down_low_step,
+    "sit_down_squatting": sit_down_squatting,
     "cover_head_standing": cover_head_standing,
     "cover_head_crouching": cover_head_crouching,
     "cover_head_stooping": cover_head_stooping,
     "cover_head_stepping_back": cover_head_stepping_back,
     "cover_head_one_arm": cover_head_one_arm,
+    "cover_head_kneeling": cover_head_kneeling,
     "fall_down_forwards": fall_down_forwards,
     "fall_down_backwards": fall_down_backwards,
     "fall_down_sideways": fall_down_sideways,
@@ -2468,6 +2611,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "punch_hooks": punch_hooks,
     "punch_uppercuts": punch_uppercuts,
     "punch_stepping_in": punch_stepping_in,
+    "punch_lunging": punch_lunging,
 }
 
 
