@@ -871,8 +871,9 @@ def _chunk_masks(
 ) -> np.ndarray:
     """The second pass over a chunk: its masks (n, H, W) bool from its evidence.
 
-    The shadow test runs once; the person is segmented, and segmented again when
-    :func:`_clear_upper_body_shadow` takes the test back anywhere."""
+    The shadow test runs once; the person's components are found, and found again
+    when :func:`_clear_upper_body_shadow` takes the test back anywhere beside them;
+    then they are made into the masks (holes filled, the rim refined) once."""
     kernels = _kernels()
     n, (h, w), sep, tile = evidence.n, scene.shape, scene.sep, scene.tile
     rows = sep + n * tile
@@ -883,28 +884,35 @@ def _chunk_masks(
         np.float32(config.shadow_chroma), np.float32(levels.rgb_noise),
         _frames_of(shadow, scene, n).reshape(n, -1),
     )  # fmt: skip
-    person = _person_given_shadow(evidence, scene, levels, config, shadow)
+    labels, boxes, keep = _person_components_given_shadow(evidence, scene, levels, config, shadow)
     if config.upper_body_frac > 0.0 and _clear_upper_body_shadow(
-        person, shadow, scene, n, config.upper_body_frac
+        boxes[keep], shadow, scene, n, config.upper_body_frac
     ):
-        person = _person_given_shadow(evidence, scene, levels, config, shadow)
+        labels, boxes, keep = _person_components_given_shadow(
+            evidence, scene, levels, config, shadow
+        )
+    person = _person_mask(evidence, scene, levels, config, shadow, labels, boxes, keep)
     return _frames_of(person, scene, n)[:, :h].copy()
 
 
 def _clear_upper_body_shadow(
-    person: np.ndarray, shadow: np.ndarray, scene: _Scene, n: int, upper_frac: float
+    person_boxes: np.ndarray, shadow: np.ndarray, scene: _Scene, n: int, upper_frac: float
 ) -> bool:
     """Take back the shadow test where a cast shadow cannot be: beside the upper body.
 
     A cast shadow lies on the floor, around and behind the feet; clothing darker
     than the wall behind it with the wall's hue passes the same test.  In each frame,
-    ``shadow`` is cleared over the top ``upper_frac`` of ``person``'s box, in its
-    columns widened by :data:`UPPER_BODY_SIDE_FRAC` of its height on each side.
+    ``shadow`` is cleared over the top ``upper_frac`` of the box of the person's
+    components, in its columns widened by :data:`UPPER_BODY_SIDE_FRAC` of its height
+    on each side.
 
     Parameters
     ----------
-    person, shadow : (S, W) bool
-        The stacked frames' masks and shadow pixels (``shadow`` is changed in place).
+    person_boxes : (K, 5) int64
+        Area, x0, y0, x1, y1 of the person's components in the stack less its first
+        ``scene.sep`` rows (frame ``f`` from row ``f·tile``).
+    shadow : (S, W) bool
+        The stacked frames' shadow pixels, changed in place.
     scene : _Scene
     n : int
         Frames in the stack.
@@ -916,31 +924,37 @@ def _clear_upper_body_shadow(
     bool
         Whether any shadow pixel was cleared.
     """
-    h = scene.shape[0]
-    masks = _frames_of(person, scene, n)[:, :h]
-    shadows = _frames_of(shadow, scene, n)[:, :h]
-    rows_hit, cols_hit = masks.any(axis=2), masks.any(axis=1)
+    shadows = _frames_of(shadow, scene, n)[:, : scene.shape[0]]
+    area, x0, y0, x1, y1 = _per_frame_boxes(person_boxes, scene.tile, n)
     cleared = False
-    for f in range(n):
-        rows, cols = np.flatnonzero(rows_hit[f]), np.flatnonzero(cols_hit[f])
-        if len(rows) == 0:
-            continue
-        height = rows[-1] - rows[0] + 1
+    for f in np.flatnonzero(area > 0):
+        top, height = y0[f] - f * scene.tile, y1[f] - y0[f] + 1
         side = int(round(UPPER_BODY_SIDE_FRAC * height))
-        region = shadows[f, rows[0] : rows[0] + int(round(upper_frac * height)),
-                         max(0, cols[0] - side) : cols[-1] + side + 1]  # fmt: skip
+        region = shadows[f, top : top + int(round(upper_frac * height)),
+                         max(0, x0[f] - side) : x1[f] + side + 1]  # fmt: skip
         if region.any():
             region[:] = False
             cleared = True
     return cleared
 
 
-def _person_given_shadow(
+def _person_components_given_shadow(
     evidence: _Evidence, scene: _Scene, levels: _Levels, config: SilhouetteConfig,
     shadow: np.ndarray,
-) -> np.ndarray:  # fmt: skip
-    """The person (S, W) bool in a chunk's stacked frames, ``shadow`` (S, W) bool
-    being the pixels taken as cast shadow (never foreground)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """The person's components in a chunk's stacked frames, ``shadow`` (S, W) bool
+    being the pixels taken as cast shadow (never foreground).
+
+    Returns
+    -------
+    labels : (S, W) int32
+        Connected components of the foreground.
+    boxes : (C, 5) int64
+        Per component: area, x0, y0, x1, y1 (inclusive), rows counted from the end of
+        the stack's first ``scene.sep`` rows (frame ``f`` from row ``f·tile``).
+    keep : (C,) bool
+        The components that are the person (:func:`_person_components`).
+    """
     import cv2
 
     kernels = _kernels()
@@ -965,13 +979,27 @@ def _person_given_shadow(
     boxes = np.zeros((count, 5), np.int64)
     kernels.component_boxes(labels.ravel(), w, boxes)
     boxes[1:, [2, 4]] -= sep  # rows of the frames' view, frame f from row f·tile
-    keep = _person_components(boxes, tile, n, min_area, config.keep_piece_frac)
-    person = np.empty((rows, w), np.bool_)
+    return labels, boxes, _person_components(boxes, tile, n, min_area, config.keep_piece_frac)
+
+
+def _person_mask(
+    evidence: _Evidence, scene: _Scene, levels: _Levels, config: SilhouetteConfig,
+    shadow: np.ndarray, labels: np.ndarray, boxes: np.ndarray, keep: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The person (S, W) bool in a chunk's stacked frames from its components (as
+    :func:`_person_components_given_shadow` returns them): holes that are clothing
+    filled, the rim the smoothing added kept only where it differs by itself, and the
+    boundary refined."""
+    import cv2
+
+    kernels = _kernels()
+    sep = scene.sep
+    person = np.empty(labels.shape, np.bool_)
     kernels.chosen(labels.ravel(), keep, person.ravel())
     reach = scene.reach
     _fill_holes(
         person[sep:], boxes[keep], (evidence.smoothed[sep:], levels.low, evidence.raw[sep:],
-        levels.low_raw), shadow[sep:], tile, reach, config.small_hole_frac,
+        levels.low_raw), shadow[sep:], scene.tile, reach, config.small_hole_frac,
     )  # fmt: skip
     person8 = person.view(np.uint8)
     if config.smooth_sigma_px > 0.0:
@@ -984,7 +1012,7 @@ def _person_given_shadow(
     core = cv2.erode(inside, cross)
     out = person8.copy()
     kernels.refine_rim(
-        person8, inside, core, evidence.corrected, scene.rgb, sep, tile,
+        person8, inside, core, evidence.corrected, scene.rgb, sep, scene.tile,
         np.float32((4.0 * levels.rgb_noise) ** 2), out,
     )  # fmt: skip
     return out.view(bool)
