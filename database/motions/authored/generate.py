@@ -639,7 +639,6 @@ def sit_down_on_the_floor() -> Motion:
     )
 
 
-
 def sit_down_squatting() -> Motion:
     """Slump down holding the stomach with no seat: both hands to the belly, bend over
     them and sink into a deep squat on the balls of the feet, knees wide, curled up
@@ -677,11 +676,60 @@ def sit_down_squatting() -> Motion:
                 squat,
                 {**_planted(extra_width_m=0.10, heel_raise_deg=25), **_stomach(0.18, 0.11)},
             ),
-            Key(2.2, {"Spine": (25, 0, 0)}, (squat[0], squat[1] - 0.02, squat[2]), _stomach(0.18, 0.11)),
+            Key(
+                2.2,
+                {"Spine": (25, 0, 0)},
+                (squat[0], squat[1] - 0.02, squat[2]),
+                _stomach(0.18, 0.11),
+            ),
             Key(2.8, {"Spine": (22, 0, 0)}, squat, _stomach(0.18, 0.11)),
         ],
         "sit_down_squatting",
     )
+
+
+def sit_down_slumping_to_the_floor() -> Motion:
+    """Slump down onto the floor with stomach ache: both hands to the belly, bend over
+    them and sink into a squat, then sit back onto the floor behind the feet, knees up,
+    hunched over the belly."""
+    sat = (0.0, 0.11 - 0.852, -0.40)  # the buttocks on the floor 0.4 m behind
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.08)),
+            Key(
+                0.4,
+                {
+                    "Spine": (10, 0, 0),
+                    "Head": (10, 0, 0),
+                    "LeftArm": (-10, 0, -10),
+                    "RightArm": (-10, 0, 10),
+                },
+                (0.0, -0.03, 0.0),
+                _stomach(0.18, 0.11),
+            ),
+            Key(
+                1.0,
+                {"LowerBack": (20, 0, 0), "Spine": (15, 0, 0), **_knees_out(10)},
+                (0.0, -0.28, -0.10),
+                _stomach(0.18, 0.11),
+            ),
+            Key(
+                1.6,
+                {"LowerBack": (20, 0, 0), "Spine": (18, 0, 0), **_knees_out(14), **_toes(20)},
+                (0.0, -0.52, -0.22),
+                {**_planted(extra_width_m=0.08, heel_raise_deg=20), **_stomach(0.18, 0.11)},
+            ),
+            Key(
+                2.2,
+                {"LowerBack": (-4, 0, 0), "Spine": (18, 0, 0), "Neck": (12, 0, 0), **_toes(0)},
+                sat,
+                {**_planted(extra_width_m=0.08), **_stomach(0.20, 0.13)},
+            ),
+            Key(2.9, {"Spine": (21, 0, 0)}, sat, _stomach(0.20, 0.13)),
+        ],
+        "sit_down_slumping_to_the_floor",
+    )
+
 
 # -- cover the head against a falling object -----------------------------------------------
 
@@ -863,7 +911,6 @@ def cover_head_one_arm() -> Motion:
     )
 
 
-
 def cover_head_kneeling() -> Motion:
     """Drop and cover: look up, drop onto both knees, curl forwards over them and sit
     back towards the heels, both hands over the head, the elbows in front of the face."""
@@ -904,6 +951,7 @@ def cover_head_kneeling() -> Motion:
         ],
         "cover_head_kneeling",
     )
+
 
 # -- fall down ----------------------------------------------------------------------------------
 
@@ -2510,7 +2558,6 @@ def punch_stepping_in() -> Motion:
     )
 
 
-
 def punch_lunging() -> Motion:
     """Lunge punch (oi-zuki): fists up, step the right foot far forwards into a long, low
     front stance and drive a straight right as it lands, the left fist pulled back to
@@ -2545,7 +2592,11 @@ def punch_lunging() -> Motion:
                 0.95,
                 {"Hips": (0, 10, 0), **_chest_turn(25, 8)},
                 lunge,
-                {"RightFoot": front(0.80), "LeftHand": hip_fist, **_straight(-1.0, (0.1, 0.05, 1.0))},
+                {
+                    "RightFoot": front(0.80),
+                    "LeftHand": hip_fist,
+                    **_straight(-1.0, (0.1, 0.05, 1.0)),
+                },
             ),
             Key(1.3, {}, (lunge[0], lunge[1] - 0.01, lunge[2])),
             Key(
@@ -2565,6 +2616,7 @@ def punch_lunging() -> Motion:
         "punch_lunging",
     )
 
+
 MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
@@ -2580,6 +2632,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "sit_down_on_the_floor": sit_down_on_the_floor,
     "sit_down_low_step": sit_down_low_step,
     "sit_down_squatting": sit_down_squatting,
+    "sit_down_slumping_to_the_floor": sit_down_slumping_to_the_floor,
     "cover_head_standing": cover_head_standing,
     "cover_head_crouching": cover_head_crouching,
     "cover_head_stooping": cover_head_stooping,
