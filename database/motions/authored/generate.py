@@ -639,31 +639,46 @@ def sit_down_on_the_floor() -> Motion:
     )
 
 
+#: Wrist heights on the belly in the slumps with stomach ache, left and right
+#: (:func:`_stomach`, metres): high enough for the forearms to clear the thighs.
+SLUMP_HANDS_M = (0.18, 0.11)
+
+
+def _doubling_over(stance_m: float, sunk_m: tuple[float, float, float]) -> list[Key]:
+    """The first second of a slump with stomach ache: standing with the feet
+    ``stance_m`` apart beyond rest, both hands go to the belly and the back bends over
+    them, then the body sinks to the root offset ``sunk_m``, knees out."""
+    return [
+        Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=stance_m)),
+        Key(
+            0.4,
+            {
+                "Spine": (10, 0, 0),
+                "Head": (10, 0, 0),
+                "LeftArm": (-10, 0, -10),
+                "RightArm": (-10, 0, 10),
+            },
+            (0.0, -0.03, 0.0),
+            _stomach(*SLUMP_HANDS_M),
+        ),
+        Key(
+            1.0,
+            {"LowerBack": (20, 0, 0), "Spine": (15, 0, 0), **_knees_out(10)},
+            sunk_m,
+            _stomach(*SLUMP_HANDS_M),
+        ),
+    ]
+
+
 def sit_down_squatting() -> Motion:
     """Slump down holding the stomach with no seat: both hands to the belly, bend over
     them and sink into a deep squat on the balls of the feet, knees wide, curled up
     between them."""
     squat = (0.0, -0.47, -0.18)
+    hands = _stomach(*SLUMP_HANDS_M)
     return _animate(
         [
-            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.10)),
-            Key(
-                0.4,
-                {
-                    "Spine": (10, 0, 0),
-                    "Head": (10, 0, 0),
-                    "LeftArm": (-10, 0, -10),
-                    "RightArm": (-10, 0, 10),
-                },
-                (0.0, -0.03, 0.0),
-                _stomach(0.18, 0.11),
-            ),
-            Key(
-                1.0,
-                {"LowerBack": (20, 0, 0), "Spine": (15, 0, 0), **_knees_out(10)},
-                (0.0, -0.24, -0.07),
-                _stomach(0.18, 0.11),
-            ),
+            *_doubling_over(0.10, (0.0, -0.24, -0.07)),
             Key(
                 1.6,
                 {
@@ -674,15 +689,10 @@ def sit_down_squatting() -> Motion:
                     **_toes(25),
                 },
                 squat,
-                {**_planted(extra_width_m=0.10, heel_raise_deg=25), **_stomach(0.18, 0.11)},
+                {**_planted(extra_width_m=0.10, heel_raise_deg=25), **hands},
             ),
-            Key(
-                2.2,
-                {"Spine": (25, 0, 0)},
-                (squat[0], squat[1] - 0.02, squat[2]),
-                _stomach(0.18, 0.11),
-            ),
-            Key(2.8, {"Spine": (22, 0, 0)}, squat, _stomach(0.18, 0.11)),
+            Key(2.2, {"Spine": (25, 0, 0)}, (squat[0], squat[1] - 0.02, squat[2]), hands),
+            Key(2.8, {"Spine": (22, 0, 0)}, squat, hands),
         ],
         "sit_down_squatting",
     )
@@ -693,39 +703,24 @@ def sit_down_slumping_to_the_floor() -> Motion:
     them and sink into a squat, then sit back onto the floor behind the feet, knees up,
     hunched over the belly."""
     sat = (0.0, 0.11 - 0.852, -0.40)  # the buttocks on the floor 0.4 m behind
+    # Seated, the thighs come up: the hands go a little higher on the belly.
+    seated_hands = _stomach(SLUMP_HANDS_M[0] + 0.02, SLUMP_HANDS_M[1] + 0.02)
     return _animate(
         [
-            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.08)),
-            Key(
-                0.4,
-                {
-                    "Spine": (10, 0, 0),
-                    "Head": (10, 0, 0),
-                    "LeftArm": (-10, 0, -10),
-                    "RightArm": (-10, 0, 10),
-                },
-                (0.0, -0.03, 0.0),
-                _stomach(0.18, 0.11),
-            ),
-            Key(
-                1.0,
-                {"LowerBack": (20, 0, 0), "Spine": (15, 0, 0), **_knees_out(10)},
-                (0.0, -0.28, -0.10),
-                _stomach(0.18, 0.11),
-            ),
+            *_doubling_over(0.08, (0.0, -0.28, -0.10)),
             Key(
                 1.6,
                 {"LowerBack": (20, 0, 0), "Spine": (18, 0, 0), **_knees_out(14), **_toes(20)},
                 (0.0, -0.52, -0.22),
-                {**_planted(extra_width_m=0.08, heel_raise_deg=20), **_stomach(0.18, 0.11)},
+                {**_planted(extra_width_m=0.08, heel_raise_deg=20), **_stomach(*SLUMP_HANDS_M)},
             ),
             Key(
                 2.2,
                 {"LowerBack": (-4, 0, 0), "Spine": (18, 0, 0), "Neck": (12, 0, 0), **_toes(0)},
                 sat,
-                {**_planted(extra_width_m=0.08), **_stomach(0.20, 0.13)},
+                {**_planted(extra_width_m=0.08), **seated_hands},
             ),
-            Key(2.9, {"Spine": (21, 0, 0)}, sat, _stomach(0.20, 0.13)),
+            Key(2.9, {"Spine": (21, 0, 0)}, sat, seated_hands),
         ],
         "sit_down_slumping_to_the_floor",
     )
