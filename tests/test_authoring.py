@@ -35,7 +35,7 @@ AUTHORED = REPO / "database" / "motions" / "authored"
 #: Motions in which both feet stay planted from start to end: those of these labels
 #: but the ones that step.
 PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_", "pick_up_", "wave_")
-STEPPING = ("cover_head_stepping_back",)
+STEPPING = ("cover_head_stepping_back", "cover_head_kneeling_on_one_knee")
 
 #: Labels with authored motions.
 AUTHORED_LABELS = (

@@ -948,6 +948,58 @@ def cover_head_kneeling() -> Motion:
     )
 
 
+def cover_head_kneeling_on_one_knee() -> Motion:
+    """Drop and cover on one knee: look up, step the right foot back and go down onto
+    the right knee, the left foot planted in front, bend forwards over the left thigh,
+    both hands over the head."""
+    rest = rest_positions_m(canonical_skeleton())
+    ankle = rest["RightFoot"][[0, 2]]
+
+    def back(back_m: float, heel_deg: float = 0.0, lift_m: float = 0.0) -> Target:
+        """The right foot ``back_m`` behind its place."""
+        return foot_target("RightFoot", (ankle[0], ankle[1] - back_m), 0.0, heel_deg, lift_m)
+
+    kneeling = (-0.02, -0.385, -0.08)
+    curled = (-0.02, -0.415, -0.02)
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted()),
+            Key(0.15, {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                0.35,
+                {"RightToeBase": (-30, 0, 0), "LeftArm": (-50, 0, -10), "RightArm": (-50, 0, 10)},
+                (0.0, -0.06, -0.02),
+                {"RightFoot": back(0.0, 30.0), **_before_face()},
+            ),
+            Key(
+                0.55,
+                {"RightToeBase": (-40, 0, 0), "LowerBack": (5, 0, 0)},
+                (-0.01, -0.22, -0.06),
+                {"RightFoot": back(0.28, 40.0, 0.05)},
+            ),
+            Key(
+                0.85,
+                {
+                    **ARMS_UP,
+                    "RightToeBase": (-70, 0, 0),
+                    "LowerBack": (15, 0, 0),
+                    "Spine": (8, 0, 0),
+                    "Neck": (15, 0, 0),
+                    "Head": (15, 0, 0),
+                    "LeftShoulder": (0, 0, 10),
+                    "RightShoulder": (0, 0, -10),
+                },
+                kneeling,
+                {"RightFoot": back(0.45, 70.0), **_on_head()},
+            ),
+            Key(1.4, {"LowerBack": (30, 0, 0), "Spine": (18, 0, 0)}, curled),
+            Key(2.1, {"Spine": (21, 0, 0)}, curled),
+            Key(2.7, {"Spine": (19, 0, 0)}, curled),
+        ],
+        "cover_head_kneeling_on_one_knee",
+    )
+
+
 # -- fall down ----------------------------------------------------------------------------------
 
 
@@ -1889,6 +1941,12 @@ def run_jogging() -> Motion:
     return _running("run_jogging", 5, 0.38, 0.22, 0.9, 0.25, 0.16, 6.0, 28.0, 55.0)
 
 
+def run_easy() -> Motion:
+    """An easy run, about 2.1 m/s: short, quick strides with little flight, the feet
+    barely kicking up behind, upright, arms held high and bent, a small swing."""
+    return _running("run_easy", 6, 0.36, 0.20, 0.75, 0.20, 0.14, 3.0, 20.0, 80.0)
+
+
 def run_fast() -> Motion:
     """Running fast, about 3.9 m/s: long strides, the heels kicking high behind, a
     forward lean and a full arm swing."""
@@ -1969,6 +2027,29 @@ def wave_both_hands() -> Motion:
         up,
         (to_left, to_right),
         {"Neck": (-8, 0, 0), "Head": (-8, 0, 0)},
+    )
+
+
+def wave_both_arms_crossing() -> Motion:
+    """Signalling for help: both arms raised, swept from out to the sides until the
+    wrists cross in front of the forehead, and back, again and again."""
+    up = {
+        "LeftArm": (-10, 0, 110),
+        "RightArm": (-10, 0, -110),
+        "LeftForeArm": (0, 0, 10),
+        "RightForeArm": (0, 0, -10),
+    }
+    crossed = {"LeftArm": (-15, 0, 158), "RightArm": (-15, 0, -158)}
+    spread = {"LeftArm": (-5, 0, 80), "RightArm": (-5, 0, -80)}
+    return _waving(
+        "wave_both_arms_crossing",
+        0.5,
+        3.3,
+        3.8,
+        1.0,
+        up,
+        (crossed, spread),
+        {"Neck": (-10, 0, 0), "Head": (-10, 0, 0)},
     )
 
 
@@ -2634,6 +2715,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "cover_head_stepping_back": cover_head_stepping_back,
     "cover_head_one_arm": cover_head_one_arm,
     "cover_head_kneeling": cover_head_kneeling,
+    "cover_head_kneeling_on_one_knee": cover_head_kneeling_on_one_knee,
     "fall_down_forwards": fall_down_forwards,
     "fall_down_backwards": fall_down_backwards,
     "fall_down_sideways": fall_down_sideways,
@@ -2648,9 +2730,11 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "jump_vertical_reach": jump_vertical_reach,
     "run_jogging": run_jogging,
     "run_fast": run_fast,
+    "run_easy": run_easy,
     "wave_right_hand": wave_right_hand,
     "wave_left_hand": wave_left_hand,
     "wave_both_hands": wave_both_hands,
+    "wave_both_arms_crossing": wave_both_arms_crossing,
     "pick_up_squatting": pick_up_squatting,
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
