@@ -1586,6 +1586,61 @@ def jump_hop_one_leg() -> Motion:
     )
 
 
+def jump_hops_both_feet() -> Motion:
+    """Three hops forwards on both feet together: crouch with the arms swung back, spring
+    up and on with them swinging forwards, land on the balls of the feet, sink, again;
+    stand up after the third."""
+    w = STANCE_HALF_WIDTH_M
+    period, flight, advance = 0.85, 0.4, 0.4
+    take_offs = [0.7 + period * i for i in range(3)]
+    feet: dict[float, Track] = {1.0: [(0.0, (w, 0.0, 0.0, 0.0, 0.0))], -1.0: []}
+    feet[-1.0] = [(0.0, (-w, 0.0, 0.0, 0.0, 0.0))]
+    root: Track = [(0.0, (0.0, 0.0, 0.0)), (0.3, (0.0, -0.03, 0.0))]
+    upright = {
+        **_arms(0, 0),
+        "LeftForeArm": (30, 0, 0),
+        "RightForeArm": (30, 0, 0),
+        "LowerBack": (0, 0, 0),
+        "Head": (0, 0, 0),
+    }
+    body: list[tuple[float, dict]] = [(0.0, upright)]
+    z = 0.0
+    for t in take_offs:
+        land = t + flight
+        for side in (1.0, -1.0):
+            feet[side] += [
+                (t - 0.1, (side * w, z, 0.0, 0.0, 0.0)),
+                (t, (side * w, z, 0.0, 40.0, 0.0)),
+                (t + 0.5 * flight, (side * w, z + 0.5 * advance, 0.0, 20.0, 0.08)),
+                (land, (side * w, z + advance, 0.0, 15.0, 0.0)),
+                (land + 0.12, (side * w, z + advance, 0.0, 0.0, 0.0)),
+            ]
+        root += [
+            (t - 0.25, (0.0, -0.17, z + 0.02)),
+            (t, (0.0, 0.0, z + 0.08)),
+            (land, (0.0, -0.04, z + advance + 0.02)),
+            (land + 0.15, (0.0, -0.15, z + advance + 0.03)),
+        ]
+        body += [
+            (t - 0.25, {**_arms(45, 45, 10), "LowerBack": (25, 0, 0), "Head": (-15, 0, 0)}),
+            (t + 0.5 * flight, {**_arms(-70, -70, 10), "LowerBack": (5, 0, 0), "Head": (-5, 0, 0)}),
+            (land + 0.15, {**_arms(-15, -15, 10), "LowerBack": (20, 0, 0), "Head": (-12, 0, 0)}),
+        ]
+        z += advance
+    last = take_offs[-1] + flight
+    root += [(last + 0.6, (0.0, -0.01, z + 0.02)), (last + 0.9, (0.0, 0.0, z + 0.02))]
+    body.append((last + 0.7, upright))
+    joints = ["LeftArm", "RightArm", "LeftForeArm", "RightForeArm", "LowerBack", "Head"]
+    flights = tuple((t, t + flight) for t in take_offs)
+    return _tracked(
+        "jump_hops_both_feet",
+        _keyed(joints, body),
+        root,
+        {"LeftFoot": feet[1.0], "RightFoot": feet[-1.0]},
+        flights,
+    )
+
+
 def jump_running() -> Motion:
     """Three running steps, take off from the right foot driving the left knee up, fly
     0.5 s, land on both feet, absorb the landing and stand up."""
@@ -2727,6 +2782,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "jump_hop_one_leg": jump_hop_one_leg,
     "jump_running": jump_running,
     "jump_hop_in_place": jump_hop_in_place,
+    "jump_hops_both_feet": jump_hops_both_feet,
     "jump_vertical_reach": jump_vertical_reach,
     "run_jogging": run_jogging,
     "run_fast": run_fast,
