@@ -1593,8 +1593,7 @@ def jump_hops_both_feet() -> Motion:
     w = STANCE_HALF_WIDTH_M
     period, flight, advance = 0.85, 0.4, 0.4
     take_offs = [0.7 + period * i for i in range(3)]
-    feet: dict[float, Track] = {1.0: [(0.0, (w, 0.0, 0.0, 0.0, 0.0))], -1.0: []}
-    feet[-1.0] = [(0.0, (-w, 0.0, 0.0, 0.0, 0.0))]
+    feet: dict[float, Track] = {s: [(0.0, (s * w, 0.0, 0.0, 0.0, 0.0))] for s in (1.0, -1.0)}
     root: Track = [(0.0, (0.0, 0.0, 0.0)), (0.3, (0.0, -0.03, 0.0))]
     upright = {
         **_arms(0, 0),
