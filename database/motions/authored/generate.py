@@ -2062,14 +2062,18 @@ def wave_left_hand() -> Motion:
     )
 
 
+def _raised(x_deg: float, z_deg: float, elbow_deg: float | None = None) -> dict[str, tuple]:
+    """Both arms raised alike: upper arms at ``(x_deg, 0, ±z_deg)``, and forearms at
+    ``(0, 0, ±elbow_deg)`` when given (left +, right −)."""
+    arms = {"LeftArm": (x_deg, 0, z_deg), "RightArm": (x_deg, 0, -z_deg)}
+    if elbow_deg is not None:
+        arms |= {"LeftForeArm": (0, 0, elbow_deg), "RightForeArm": (0, 0, -elbow_deg)}
+    return arms
+
+
 def wave_both_hands() -> Motion:
     """Both arms straight up above the head, swaying together from side to side."""
-    up = {
-        "LeftArm": (-5, 0, 115),
-        "RightArm": (-5, 0, -115),
-        "LeftForeArm": (0, 0, 15),
-        "RightForeArm": (0, 0, -15),
-    }
+    up = _raised(-5, 115, 15)
     to_left = {"LeftArm": (-5, 0, 100), "RightArm": (-5, 0, -128)}
     to_right = {"LeftArm": (-5, 0, 128), "RightArm": (-5, 0, -100)}
     return _waving(
@@ -2087,22 +2091,14 @@ def wave_both_hands() -> Motion:
 def wave_both_arms_crossing() -> Motion:
     """Signalling for help: both arms raised, swept from out to the sides until the
     wrists cross in front of the forehead, and back, again and again."""
-    up = {
-        "LeftArm": (-10, 0, 110),
-        "RightArm": (-10, 0, -110),
-        "LeftForeArm": (0, 0, 10),
-        "RightForeArm": (0, 0, -10),
-    }
-    crossed = {"LeftArm": (-15, 0, 158), "RightArm": (-15, 0, -158)}
-    spread = {"LeftArm": (-5, 0, 80), "RightArm": (-5, 0, -80)}
     return _waving(
         "wave_both_arms_crossing",
         0.5,
         3.3,
         3.8,
         1.0,
-        up,
-        (crossed, spread),
+        _raised(-10, 110, 10),
+        (_raised(-15, 158), _raised(-5, 80)),
         {"Neck": (-10, 0, 0), "Head": (-10, 0, 0)},
     )
 
