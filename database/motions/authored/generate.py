@@ -753,7 +753,13 @@ def _before_face() -> dict[str, Target]:
     }
 
 
-ARMS_UP = {"LeftArm": (-30, 0, 80), "RightArm": (-30, 0, -80)}
+#: Both arms raised to put the hands on the head, the shoulders shrugged up.
+ARMS_UP = {
+    "LeftArm": (-30, 0, 80),
+    "RightArm": (-30, 0, -80),
+    "LeftShoulder": (0, 0, 10),
+    "RightShoulder": (0, 0, -10),
+}
 
 
 def _cover_head(
@@ -780,8 +786,6 @@ def _cover_head(
                     "Spine1": (5, 0, 0),
                     "Neck": (15, 0, 0),
                     "Head": (15, 0, 0),
-                    "LeftShoulder": (0, 0, 10),
-                    "RightShoulder": (0, 0, -10),
                 },
                 crouch,
                 _on_head(),
@@ -841,8 +845,6 @@ def cover_head_stepping_back() -> Motion:
                     "Spine": (8, -5, 3),
                     "Neck": (15, -15, 0),
                     "Head": (15, -20, 0),
-                    "LeftShoulder": (0, 0, 10),
-                    "RightShoulder": (0, 0, -10),
                 },
                 (-0.13, -0.12, -0.17),
                 {
@@ -930,8 +932,6 @@ def cover_head_kneeling() -> Motion:
                     "Spine": (5, 0, 0),
                     "Neck": (15, 0, 0),
                     "Head": (15, 0, 0),
-                    "LeftShoulder": (0, 0, 10),
-                    "RightShoulder": (0, 0, -10),
                 },
                 kneeling,
                 {**_planted(extra_width_m=0.04, heel_raise_deg=75), **_on_head()},
@@ -986,8 +986,6 @@ def cover_head_kneeling_on_one_knee() -> Motion:
                     "Spine": (8, 0, 0),
                     "Neck": (15, 0, 0),
                     "Head": (15, 0, 0),
-                    "LeftShoulder": (0, 0, 10),
-                    "RightShoulder": (0, 0, -10),
                 },
                 kneeling,
                 {"RightFoot": back(0.45, 70.0), **_on_head()},
