@@ -366,6 +366,46 @@ def lift_table_to_shelf() -> Motion:
     )
 
 
+def lift_bag_onto_overhead_rack() -> Motion:
+    """Stow a bag on an overhead rack: holding it by both sides at the hips, dip and
+    swing it up to the chest, rise onto the toes pressing it up and forwards onto the
+    rack above the head, push it in, let go, heels and arms down."""
+    elbows_down = {"LeftArm": (-45, 0, -25), "RightArm": (-45, 0, 25)}
+    overhead = {"LeftArm": (-20, 0, 60), "RightArm": (-20, 0, -60)}
+    return _animate(
+        [
+            Key(
+                0.0,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0, 0, 0),
+                {**_planted(extra_width_m=0.04), **_box(0.86, 0.26, 0.18)},
+            ),
+            Key(0.4, {"LowerBack": (6, 0, 0)}, (0.0, -0.09, -0.02), _box(0.78, 0.30, 0.18)),
+            Key(
+                0.9,
+                {"LowerBack": (-3, 0, 0), **elbows_down},
+                (0.0, -0.02, 0.0),
+                _box(1.22, 0.30, 0.18),
+            ),
+            Key(
+                1.5,
+                {"LowerBack": (-8, 0, 0), "Spine": (-4, 0, 0), "Neck": (-12, 0, 0), **overhead},
+                (0.0, 0.03, 0.03),
+                {**_planted(extra_width_m=0.04, heel_raise_deg=15.0), **_box(1.90, 0.45, 0.18)},
+            ),
+            Key(1.9, {"LowerBack": (-9, 0, 0)}, (0.0, 0.03, 0.05), _box(1.92, 0.58, 0.18)),
+            Key(
+                2.6,
+                {**ARMS_DOWN, **SPINE_STRAIGHT},
+                (0.0, 0.0, 0.0),
+                {**_planted(extra_width_m=0.04), "LeftHand": None, "RightHand": None},
+            ),
+            Key(3.0, {}, (0.0, 0.0, 0.0)),
+        ],
+        "lift_bag_onto_overhead_rack",
+    )
+
+
 def lift_clean_and_press() -> Motion:
     """Clean and press a heavy box: squat wide and grip it on the floor, stand up with it
     slowly, pull it explosively to the shoulders dipping under it, stand, then dip and
@@ -908,6 +948,57 @@ def cover_head_one_arm() -> Motion:
     )
 
 
+def cover_head_one_arm_crouching() -> Motion:
+    """Crouch away from something falling: look up, the left forearm across the top of
+    the head and the right one up in front of the face, sink low with the knees out
+    and turn the trunk to the left."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.06)),
+            Key(0.15, {"Neck": (-10, 0, 0), "Head": (-15, 0, 0)}, (0.0, -0.01, 0.0)),
+            Key(
+                0.4,
+                {"LeftArm": (-30, 0, 50), "RightArm": (-50, 0, 10), **_knees_out(5)},
+                (0.0, -0.12, -0.04),
+                {
+                    "LeftHand": Target((0.25, 0.05, 0.10), "Head"),
+                    "RightHand": Target((-0.12, -0.12, 0.30), "Head"),
+                },
+            ),
+            Key(
+                0.75,
+                {
+                    "LeftArm": (-30, 0, 80),
+                    "RightArm": (-60, 0, 20),
+                    "LowerBack": (22, 8, 0),
+                    "Spine": (10, 6, 0),
+                    "Neck": (5, 5, 0),
+                    "Head": (5, 10, 0),
+                    "LeftShoulder": (0, 0, 10),
+                    "RightShoulder": (0, 0, -5),
+                    **_knees_out(12),
+                },
+                (0.0, -0.30, -0.10),
+                {
+                    "LeftHand": Target(
+                        (-0.05, 0.2, -0.05),
+                        "Head",
+                        _hand_deg(1.0, (1.0, -0.4, 0.0), (0.0, -1.0, 0.0)),
+                    ),
+                    "RightHand": Target(
+                        (-0.03, 0.08, 0.21),
+                        "Head",
+                        _hand_deg(-1.0, (0.0, 1.0, 0.1), (0.0, 0.0, 1.0)),
+                    ),
+                },
+            ),
+            Key(1.4, {"LowerBack": (25, 8, 0)}, (0.0, -0.32, -0.11)),
+            Key(2.1, {"LowerBack": (24, 8, 0)}, (0.0, -0.31, -0.11)),
+        ],
+        "cover_head_one_arm_crouching",
+    )
+
+
 def cover_head_kneeling() -> Motion:
     """Drop and cover: look up, drop onto both knees, curl forwards over them and sit
     back towards the heels, both hands over the head, the elbows in front of the face."""
@@ -1412,6 +1503,22 @@ def turn_walking_90() -> Motion:
         (-1.0, 2.98, 3.33, _footprint(-1.0, (1.65, 1.62), 90.0, w), 0.05),
     ]
     return _walking("turn_walking_90", steps, 3.75, w, (0.045, 0.012), 14.0)
+
+
+def turn_walking_90_brisk() -> Motion:
+    """Walk briskly, pivot 90 degrees to the left in one step on the right foot planted
+    turned in, walk on three steps and stop."""
+    w = WALK_HALF_WIDTH_M
+    steps = [
+        (-1.0, 0.10, 0.42, _footprint(-1.0, (0.0, 0.55), 0.0, w), 0.08),
+        (1.0, 0.46, 0.78, _footprint(1.0, (0.0, 1.15), 0.0, w), 0.08),
+        (-1.0, 0.82, 1.14, _footprint(-1.0, (0.05, 1.45), 70.0, w), 0.07),
+        (1.0, 1.18, 1.50, _footprint(1.0, (0.45, 1.5), 90.0, w), 0.08),
+        (-1.0, 1.54, 1.86, _footprint(-1.0, (1.05, 1.5), 90.0, w), 0.08),
+        (1.0, 1.90, 2.22, _footprint(1.0, (1.65, 1.5), 90.0, w), 0.08),
+        (-1.0, 2.26, 2.56, _footprint(-1.0, (1.65, 1.5), 90.0, w), 0.05),
+    ]
+    return _walking("turn_walking_90_brisk", steps, 2.95, w, (0.05, 0.015), 20.0)
 
 
 # -- jump -------------------------------------------------------------------------------------
@@ -2749,6 +2856,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_table_to_shoulder": lift_table_to_shoulder,
     "lift_clean_and_press": lift_clean_and_press,
     "lift_table_to_shelf": lift_table_to_shelf,
+    "lift_bag_onto_overhead_rack": lift_bag_onto_overhead_rack,
     "sit_down_holding_stomach_slow": sit_down_holding_stomach_slow,
     "sit_down_holding_stomach_fast": sit_down_holding_stomach_fast,
     "sit_down_doubled_over": sit_down_doubled_over,
@@ -2764,6 +2872,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "cover_head_one_arm": cover_head_one_arm,
     "cover_head_kneeling": cover_head_kneeling,
     "cover_head_kneeling_on_one_knee": cover_head_kneeling_on_one_knee,
+    "cover_head_one_arm_crouching": cover_head_one_arm_crouching,
     "fall_down_forwards": fall_down_forwards,
     "fall_down_backwards": fall_down_backwards,
     "fall_down_sideways": fall_down_sideways,
@@ -2771,6 +2880,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "turn_in_place_180": turn_in_place_180,
     "turn_walking_180": turn_walking_180,
     "turn_walking_90": turn_walking_90,
+    "turn_walking_90_brisk": turn_walking_90_brisk,
     "jump_forward_standing": jump_forward_standing,
     "jump_hop_one_leg": jump_hop_one_leg,
     "jump_running": jump_running,
