@@ -2384,6 +2384,81 @@ def pick_up_one_hand() -> Motion:
     )
 
 
+def pick_up_reaching_forwards() -> Motion:
+    """Bend knees and back deeply and reach far forwards to the floor with the right
+    hand, scoop something up towards the feet, rise and hold it up in front of the
+    chest, looking at it."""
+    return _animate(
+        [
+            Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.03)),
+            Key(
+                0.4,
+                {
+                    "Hips": (10, 0, 0),
+                    "LowerBack": (25, 0, 0),
+                    "Spine": (10, 0, 0),
+                    "LeftArm": (-20, 0, -25),
+                    **_knees_out(6),
+                },
+                (0.0, -0.15, -0.08),
+                {"RightHand": Target((-0.15, 0.55, 0.40))},
+            ),
+            Key(
+                0.8,
+                {
+                    "Hips": (25, 0, 0),
+                    "LowerBack": (45, 0, 0),
+                    "Spine": (20, 0, 0),
+                    "Neck": (-10, 0, 0),
+                    "LeftArm": (-40, 0, -20),
+                    "LeftForeArm": (30, 0, 0),
+                    **_knees_out(12),
+                },
+                (0.0, -0.38, -0.20),
+                {"RightHand": Target((-0.12, 0.06, 0.62))},
+            ),
+            Key(
+                1.15,
+                {"LowerBack": (46, 0, 0)},
+                (0.0, -0.39, -0.21),
+                {"RightHand": Target((-0.12, 0.06, 0.50))},
+            ),
+            Key(
+                1.6,
+                {
+                    "Hips": (8, 0, 0),
+                    "LowerBack": (18, 0, 0),
+                    "Spine": (6, 0, 0),
+                    "Neck": (0, 0, 0),
+                    "LeftArm": (-10, 0, -28),
+                    **_knees_out(4),
+                },
+                (0.0, -0.12, -0.05),
+                {"RightHand": Target((-0.15, 0.80, 0.35))},
+            ),
+            Key(
+                2.0,
+                {
+                    "Hips": (0, 0, 0),
+                    **SPINE_STRAIGHT,
+                    "Head": (12, 0, 0),
+                    **_knees_out(0),
+                    "LeftArm": (0, 0, -30),
+                },
+                (0.0, 0.0, 0.0),
+                {"RightHand": Target((-0.12, 1.15, 0.40))},
+            ),
+            Key(
+                2.4,
+                {"Head": (10, 0, 0)},
+                (0.0, 0.0, 0.0),
+                {"RightHand": Target((-0.12, 1.16, 0.40))},
+            ),
+        ],
+        "pick_up_reaching_forwards",
+    )
+
+
 # -- punch ------------------------------------------------------------------------------------
 
 #: Time a straight punch takes from the guard to full extension, seconds.
@@ -2897,6 +2972,7 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "pick_up_squatting": pick_up_squatting,
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
+    "pick_up_reaching_forwards": pick_up_reaching_forwards,
     "punch_straight_alternating": punch_straight_alternating,
     "punch_jab_cross": punch_jab_cross,
     "punch_hooks": punch_hooks,
