@@ -101,6 +101,11 @@ def _planted(**kwargs) -> dict[str, Target]:
 # -- lift a heavy load -------------------------------------------------------------------------
 
 
+#: Upper arms holding a load overhead, and holding it at the chest with the elbows down.
+LOAD_OVERHEAD = {"LeftArm": (-20, 0, 60), "RightArm": (-20, 0, -60)}
+LOAD_AT_CHEST = {"LeftArm": (-45, 0, -25), "RightArm": (-45, 0, 25)}
+
+
 def _box(y_m: float, z_m: float, half_width_m: float = 0.2) -> dict[str, Target]:
     """Wrist targets gripping a box by its sides, world metres.
 
@@ -179,8 +184,7 @@ def lift_chest_to_overhead() -> Motion:
                     "LowerBack": (-8, 0, 0),
                     "Spine": (-3, 0, 0),
                     "Neck": (-5, 0, 0),
-                    "LeftArm": (-20, 0, 60),
-                    "RightArm": (-20, 0, -60),
+                    **LOAD_OVERHEAD,
                 },
                 (0.0, 0.0, 0.0),
                 _box(1.78, 0.08),
@@ -324,7 +328,6 @@ def lift_table_to_shoulder() -> Motion:
 def lift_table_to_shelf() -> Motion:
     """At a table: lean in and grip a box by its sides at waist height, lift it to the
     chest, push it up and forwards onto a shelf above the head, let go, arms down."""
-    elbows_down = {"LeftArm": (-45, 0, -25), "RightArm": (-45, 0, 25)}
     return _animate(
         [
             Key(0.0, {**ARMS_DOWN, **SPINE_STRAIGHT}, (0, 0, 0), _planted(extra_width_m=0.04)),
@@ -337,7 +340,7 @@ def lift_table_to_shelf() -> Motion:
             Key(1.0, {"LowerBack": (22, 0, 0)}, (0.0, -0.08, -0.06), _box(0.86, 0.46)),
             Key(
                 1.6,
-                {"LowerBack": (-2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0), **elbows_down},
+                {"LowerBack": (-2, 0, 0), "Spine": (0, 0, 0), "Head": (0, 0, 0), **LOAD_AT_CHEST},
                 (0.0, -0.04, 0.0),
                 _box(1.08, 0.32),
             ),
@@ -347,8 +350,7 @@ def lift_table_to_shelf() -> Motion:
                     "LowerBack": (-8, 0, 0),
                     "Spine": (-4, 0, 0),
                     "Neck": (-12, 0, 0),
-                    "LeftArm": (-20, 0, 60),
-                    "RightArm": (-20, 0, -60),
+                    **LOAD_OVERHEAD,
                 },
                 (0.0, 0.0, 0.02),
                 _box(1.80, 0.50),
@@ -370,8 +372,6 @@ def lift_bag_onto_overhead_rack() -> Motion:
     """Stow a bag on an overhead rack: holding it by both sides at the hips, dip and
     swing it up to the chest, rise onto the toes pressing it up and forwards onto the
     rack above the head, push it in, let go, heels and arms down."""
-    elbows_down = {"LeftArm": (-45, 0, -25), "RightArm": (-45, 0, 25)}
-    overhead = {"LeftArm": (-20, 0, 60), "RightArm": (-20, 0, -60)}
     return _animate(
         [
             Key(
@@ -383,13 +383,18 @@ def lift_bag_onto_overhead_rack() -> Motion:
             Key(0.4, {"LowerBack": (6, 0, 0)}, (0.0, -0.09, -0.02), _box(0.78, 0.30, 0.18)),
             Key(
                 0.9,
-                {"LowerBack": (-3, 0, 0), **elbows_down},
+                {"LowerBack": (-3, 0, 0), **LOAD_AT_CHEST},
                 (0.0, -0.02, 0.0),
                 _box(1.22, 0.30, 0.18),
             ),
             Key(
                 1.5,
-                {"LowerBack": (-8, 0, 0), "Spine": (-4, 0, 0), "Neck": (-12, 0, 0), **overhead},
+                {
+                    "LowerBack": (-8, 0, 0),
+                    "Spine": (-4, 0, 0),
+                    "Neck": (-12, 0, 0),
+                    **LOAD_OVERHEAD,
+                },
                 (0.0, 0.03, 0.03),
                 {**_planted(extra_width_m=0.04, heel_raise_deg=15.0), **_box(1.90, 0.45, 0.18)},
             ),
@@ -466,8 +471,7 @@ def lift_clean_and_press() -> Motion:
                 {
                     "LowerBack": (-8, 0, 0),
                     "Neck": (-5, 0, 0),
-                    "LeftArm": (-20, 0, 60),
-                    "RightArm": (-20, 0, -60),
+                    **LOAD_OVERHEAD,
                 },
                 (0.0, 0.0, 0.0),
                 _box(1.76, 0.08, 0.2),
