@@ -10,9 +10,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from .errors import EigmotionError
+
+# A video that cannot be read is reported once, by the command, naming the file: the
+# lines FFmpeg and OpenCV print about it themselves would come before that one, so they
+# are silenced (read when cv2 is first imported; a setting of the user's own wins).
+os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 
 #: Sub-commands in the order ``--help`` lists them.
 COMMANDS = (

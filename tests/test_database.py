@@ -410,6 +410,9 @@ def test_queries_run_while_an_index_commits(db_path, tmp_path, other_body, libra
     "argv, message",
     [
         (["query", "missing.mp4", "--db", "{db}"], "missing.mp4"),
+        # FFmpeg and OpenCV say nothing of their own about a video they cannot read.
+        (["query", "{tmp}/empty.mp4", "--db", "{db}"], "empty.mp4"),
+        (["query", "{tmp}/cut.mp4", "--db", "{db}"], "cut.mp4"),
         (["query", "{clip}", "--db", "{tmp}/nothing.fs"], "nothing.fs"),
         (["query", "{clip}", "--db", "{db}", "--top", "0"], "--top"),
         (["index", "{tmp}/none.bvh", "--label", "x", "--db", "{db}"], "none.bvh"),
@@ -419,6 +422,9 @@ def test_queries_run_while_an_index_commits(db_path, tmp_path, other_body, libra
 def test_bad_input_is_one_line_and_exit_2(db_path, tmp_path, argv, message):
     clip = tmp_path / "clip.npz"
     np.savez(clip, masks=np.zeros((10, 32, 32), bool), fps=30.0)
+    (tmp_path / "empty.mp4").write_bytes(b"")
+    video = (REPO / "database" / "samples" / "kick.mp4").read_bytes()
+    (tmp_path / "cut.mp4").write_bytes(video[: len(video) // 2])  # the index is at the end
     argv = [a.format(db=db_path, tmp=tmp_path, clip=clip) for a in argv]
     proc = _eigmotion(*argv)
     out, err = proc.communicate(timeout=120)
