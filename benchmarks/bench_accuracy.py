@@ -5,7 +5,7 @@ built with (1.62 m / girth 1.2, 1.85 m / girth 0.9), filmed by one still camera 
 textured background with a cast shadow, camouflaged clothing and sensor noise
 (:func:`eigmotion.clips.render_clip`, 320 × 240, 30 fps), written to ``.mp4`` with an
 image of the empty scene, and answered through ``eigmotion query CLIP --db DB --json
---top 10 [--background EMPTY.png]`` (in-process, stdout captured), exactly as a user
+--top 32 [--background EMPTY.png]`` (in-process, stdout captured), exactly as a user
 would run it.  Four suites:
 
 ``seen``
@@ -102,8 +102,12 @@ SEEN_MARGIN = 0.08
 SINGLE_ROW_ELEVATION_DEG = 10.0
 LOSO_ELEVATION_DEG = (-5.0, 30.0)
 LOSO_PERSON_PX = (50.0, 200.0)
-#: Distinct motions asked for per query, so that at least three labels get ranked.
-TOP_MOTIONS = 10
+#: Distinct motions asked for per query: more than the query ranks again by their
+#: silhouette sequences (``CANDIDATE_MOTIONS`` and the nearest of each further label, see
+#: :func:`eigmotion.database.candidate_motions`), so that the answer lists every label
+#: the query ranked.  Ten could hold only one or two labels when the nearest motions
+#: were all of them.
+TOP_MOTIONS = 32
 TOP_K = 3
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
 #: Label given to a query the engine could not answer (e.g. no person found).

@@ -47,6 +47,7 @@ from bench_accuracy import (  # noqa: E402
     CLIP_FPS,
     DEFAULT_RIG,
     HEIGHT_PX,
+    TOP_MOTIONS,
     WIDTH_PX,
     ClipMaker,
     ClipSpec,
@@ -66,7 +67,6 @@ from eigmotion.library import LibraryMotion, load_library  # noqa: E402
 from eigmotion.silhouettes import render_masks  # noqa: E402
 
 CONDITIONS = ("db body, db view", "db body, clip view", "clip body", "video")
-TOP_MOTIONS = 10
 
 
 def nearest_rig_view(rig: CameraRig, azimuth_deg: float, elevation_deg: float):

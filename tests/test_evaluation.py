@@ -303,6 +303,15 @@ def test_halfway_views(bench, rig_file, azimuths, elevations):
     np.testing.assert_allclose(el, elevations)
 
 
+def test_queries_ask_for_every_motion_the_query_ranks(bench):
+    """The answer lists the candidates the query ranks again and the nearest motion of
+    every label beside them, so its ranked labels are not cut short."""
+    from eigmotion.library import LABELS
+    from eigmotion.sequences import CANDIDATE_MOTIONS
+
+    assert bench.TOP_MOTIONS >= CANDIDATE_MOTIONS + len(LABELS)
+
+
 def test_person_height_px(bench):
     masks = np.zeros((3, 20, 10), dtype=bool)
     masks[0, 2:12, 3] = True  # 10 rows
