@@ -105,8 +105,8 @@ LOSO_PERSON_PX = (50.0, 200.0)
 #: Distinct motions asked for per query: more than the query ranks again by their
 #: silhouette sequences (``CANDIDATE_MOTIONS`` and the nearest of each further label, see
 #: :func:`eigmotion.database.candidate_motions`), so that the answer lists every label
-#: the query ranked.  Ten could hold only one or two labels when the nearest motions
-#: were all of them.
+#: the query ranked.  Ten held only one or two labels when the ten nearest motions
+#: were all of those.
 TOP_MOTIONS = 32
 TOP_K = 3
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
