@@ -169,8 +169,10 @@ class FrameSampleStream:
     work on one chunk while the next is being decoded (the decoder and OpenCV's
     colour conversion release the GIL).  FFmpeg decodes with one thread: on the small
     frames of a query its frame threading costs more time than it saves (a 3 s,
-    320×240 clip: about 10 ms on one thread, 17 ms on two).  A GIF, a folder of
-    images, or a video with ``fps`` given is read whole first.
+    320×240 clip: about 10 ms on one thread, 17 ms on two).  However the reading of
+    :meth:`chunks` ends — the last frame, an error, or the caller closing it early —
+    the decoding thread is stopped and joined before control returns.  A GIF, a folder
+    of images, or a video with ``fps`` given is read whole first.
 
     Parameters
     ----------
@@ -196,11 +198,16 @@ class FrameSampleStream:
         self.n_frames = 0
         self.clip_fps = self.fps = float("nan")
         self._decoded: queue.SimpleQueue | None = None
+        self._decoder: threading.Thread | None = None
+        self._stop = threading.Event()
         self._frames: np.ndarray | None = None
         video = self.path.is_file() and self.path.suffix.lower() in VIDEO_EXTENSIONS
         if video and fps is None:
             self._decoded = queue.SimpleQueue()
-            threading.Thread(target=self._decode, name="eigmotion-decode", daemon=True).start()
+            self._decoder = threading.Thread(
+                target=self._decode, name="eigmotion-decode", daemon=True
+            )
+            self._decoder.start()
         else:
             self._frames, clip_fps = read_frames(self.path, fps)
             self._finish(len(self._frames), clip_fps)
@@ -225,13 +232,20 @@ class FrameSampleStream:
         # Hold back one frame: whether the last frame decoded belongs to the sample is
         # known only once the clip's length is (see _decode).
         held: list[tuple[int, np.ndarray]] = []
-        while (item := self._decoded.get()) is not _END_OF_CLIP:
-            if isinstance(item, VideoError):
-                raise item
-            held.append(item)
-            if len(held) > size:
-                yield self._stacked(held[:size])
-                del held[:size]
+        try:
+            while (item := self._decoded.get()) is not _END_OF_CLIP:
+                if isinstance(item, VideoError):
+                    raise item
+                held.append(item)
+                if len(held) > size:
+                    yield self._stacked(held[:size])
+                    del held[:size]
+        finally:
+            # However the reading ends (an error, or the caller giving up early), the
+            # decoder is stopped and waited for: a process that exits while FFmpeg is
+            # still inside a decoding thread can abort instead of exiting cleanly.
+            self._stop.set()
+            self._decoder.join()
         if not held:
             raise VideoError(f"{self.path}: no frame could be decoded (empty or corrupt video)")
         wanted = set(self.frame_indices.tolist())
@@ -268,7 +282,7 @@ class FrameSampleStream:
                 clip_fps = DEFAULT_FPS
             every = sample_fps is None or clip_fps <= sample_fps
             sample = 0
-            while capture.grab():
+            while not self._stop.is_set() and capture.grab():
                 if every or n_frames == int(np.rint(sample / sample_fps * clip_fps)):
                     ok, bgr = capture.retrieve()
                     if not ok:

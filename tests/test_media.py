@@ -67,8 +67,21 @@ def test_frame_sample_stream_hands_over_the_sample_in_chunks(tmp_path, suffix, s
 def test_frame_sample_stream_names_an_unreadable_video(tmp_path, content):
     path = tmp_path / "broken.mp4"
     path.write_bytes(content)
+    stream = FrameSampleStream(path, 15.0)
     with pytest.raises(VideoError, match="broken.mp4: cannot be opened|broken.mp4: no frame"):
-        list(FrameSampleStream(path, 15.0).chunks(4))
+        list(stream.chunks(4))
+    # The decoder is done before the error reaches the caller: a process exiting on it
+    # while FFmpeg was still releasing the file could abort.
+    assert not stream._decoder.is_alive()
+
+
+def test_frame_sample_stream_stops_its_decoder_when_the_reader_gives_up(tmp_path):
+    path = write_video(_smooth_clip(n_frames=60), tmp_path / "clip.mp4", fps=30.0)
+    stream = FrameSampleStream(path, 15.0)
+    chunks = stream.chunks(2)
+    assert len(next(chunks)) == 2
+    chunks.close()
+    assert not stream._decoder.is_alive()
 
 
 @pytest.mark.parametrize("sample_fps", [0.0, -5.0, float("nan")])
