@@ -7,14 +7,14 @@ median image, for :func:`eigmotion.video.estimate_background` (method ``"grabcut
 to replace it with the scene::
 
     first masks (the person against the plain median: what moves) ──▶ their union,
-    closed and filled: the envelope the person moved in ──▶ colour models, smoothed
-    3-D RGB histograms: the scene's from a ring of the median image around the
-    envelope, the person's from the first masks' pixels in the frames ──▶ their log
-    likelihood ratio on the median image seeds cv2.grabCut inside the envelope
-    (outside it: certainly scene) ──▶ kept where the moving person was near in at
-    least half of the frames (a person crossing the picture leaves no still body),
-    and where its colour is more the person's than that of the scene right around
-    it ──▶ plus still limbs: pieces of certainly personal colour above or below it,
+    closed, its rows and columns filled: the envelope the person moved in ──▶ colour
+    models, smoothed 3-D RGB histograms: the scene's from a ring of the median image
+    around the envelope, the person's from the first masks' pixels in the frames ──▶
+    their log likelihood ratio on the median image seeds cv2.grabCut inside the
+    envelope (outside it: certainly scene) ──▶ kept where the moving person was near
+    in at least half of the frames (a person crossing the picture leaves no still
+    body), and where its colour is more the person's than that of the scene right
+    around it ──▶ plus still limbs: pieces of certainly personal colour above or below it,
     within reach of the envelope (legs below waving arms) ──▶ the still body.
 
 The same colour models then judge, frame by frame, which pixels of the envelope show
@@ -81,8 +81,9 @@ class StillBody:
     mask : (H, W) bool
         Pixels of the median image that show the person.
     envelope : (H, W) bool
-        Where the person moved: the union of the first masks, closed, holes filled
-        and grown by a few pixels.
+        Where the person moved: the union of the first masks, closed, every row and
+        then every column filled from its first pixel to its last, and grown by a few
+        pixels.
     person_histogram, scene_histogram : (B, B, B) float32
         Colour probabilities over RGB bins (``B`` = :data:`HISTOGRAM_BINS`), each
         summing to 1.
@@ -158,17 +159,23 @@ def find_still_body(
 
 
 def _envelope(motion: np.ndarray, height: int, cv2) -> np.ndarray:
-    """The union of the first masks (H, W) bool, closed, its holes filled, grown."""
-    closed = cv2.morphologyEx(
-        motion.astype(np.uint8), cv2.MORPH_CLOSE, _disk(CLOSE_PER_HEIGHT * height, cv2)
-    )
-    # Holes: what a flood fill from outside the image does not reach.
-    h, w = closed.shape
-    padded = np.zeros((h + 2, w + 2), np.uint8)
-    padded[1:-1, 1:-1] = closed
-    cv2.floodFill(padded, None, (0, 0), 1)
-    filled = closed | (1 - padded[1:-1, 1:-1])
-    return cv2.dilate(filled, _disk(GROW_PER_HEIGHT * height, cv2)) > 0
+    """The union of the first masks (H, W) bool, closed, its spans filled, grown.
+
+    A still body between moving parts lies in the envelope even where the gap between
+    them is open on one side: the torso between two waving arms, open below.
+    """
+    close = _disk(CLOSE_PER_HEIGHT * height, cv2)
+    closed = cv2.morphologyEx(motion.astype(np.uint8), cv2.MORPH_CLOSE, close) > 0
+    filled = _spans_filled(_spans_filled(closed, axis=1), axis=0)
+    return cv2.dilate(filled.astype(np.uint8), _disk(GROW_PER_HEIGHT * height, cv2)) > 0
+
+
+def _spans_filled(mask: np.ndarray, axis: int) -> np.ndarray:
+    """(H, W) bool: ``mask`` with every row (``axis=1``) or column (``axis=0``) filled
+    from its first pixel to its last (holes included)."""
+    before = np.logical_or.accumulate(mask, axis=axis)
+    after = np.flip(np.logical_or.accumulate(np.flip(mask, axis=axis), axis=axis), axis=axis)
+    return before & after
 
 
 def _grabcut(median: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2) -> np.ndarray:
