@@ -11,9 +11,9 @@ to replace it with the scene::
     models, smoothed 3-D RGB histograms: the scene's from a ring of the median image
     around the envelope, the person's from the first masks' pixels in the frames ──▶
     their log likelihood ratio on the median image seeds cv2.grabCut inside the
-    envelope (outside it: certainly scene) ──▶ kept where the moving person was near
-    in at least half of the frames (a person crossing the picture leaves no still
-    body), and where its colour is more the person's than that of the scene right
+    envelope (outside it: certainly scene) ──▶ its pieces kept that come near the
+    moving person in at least half of the frames (a person crossing the picture leaves
+    no still body), where its colour is more the person's than that of the scene right
     around it ──▶ plus still limbs: pieces of certainly personal colour above or below it,
     within reach of the envelope (legs below waving arms) ──▶ the still body.
 
@@ -150,7 +150,9 @@ def find_still_body(
     person = _histogram(frames[core] if core.any() else frames[first_masks])
     scene = _histogram(median[ring])
     log_ratio = _log_ratio(person, scene, median)
-    mask = _grabcut(median, envelope, log_ratio, cv2) & _near_most_frames(first_masks, height, cv2)
+    mask = _pieces_reaching(
+        _grabcut(median, envelope, log_ratio, cv2), _near_most_frames(first_masks, height, cv2), cv2
+    )
     if mask.any():
         mask &= ~_like_surroundings(median, mask, person, height, cv2)
     if mask.any():
@@ -218,6 +220,17 @@ def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> np.ndarray:
     for mask in shown:
         count += cv2.dilate(mask.astype(np.uint8), near)
     return count >= MIN_NEAR_FRAC * len(shown)
+
+
+def _pieces_reaching(cut: np.ndarray, near: np.ndarray, cv2) -> np.ndarray:
+    """(H, W) bool: the pieces (8-connected) of ``cut`` that reach into ``near``, whole.
+
+    The nearness is measured in the height the person moved over, which is the arms'
+    when only the arms move: the torso below them lies beyond it, joined to the
+    shoulders that do not."""
+    _, labels = cv2.connectedComponents(cut.astype(np.uint8), connectivity=8)
+    reached = np.unique(labels[cut & near])
+    return np.isin(labels, reached[reached > 0])
 
 
 def _like_surroundings(

@@ -274,6 +274,22 @@ def test_still_body_is_found_in_the_median(lift_scene):
     assert find_still_body(median, lift_scene.frames, np.zeros_like(first)) is None
 
 
+def test_a_still_body_piece_near_the_moving_person_is_kept_whole():
+    import cv2
+
+    from eigmotion.background import _pieces_reaching
+
+    cut = np.zeros((40, 30), bool)
+    cut[2:30, 10:20] = True  # head to hips: one piece
+    cut[34:38, 2:6] = True  # a stray piece of the cut, far from the person
+    near = np.zeros_like(cut)
+    near[0:8, 5:25] = True  # only the shoulders lie near the waving arms
+    kept = _pieces_reaching(cut, near, cv2)
+    np.testing.assert_array_equal(kept[2:30, 10:20], True)
+    assert not kept[34:38, 2:6].any()
+    assert kept.sum() == 28 * 10
+
+
 def test_a_person_crossing_the_picture_leaves_no_still_body(avatar_scene):
     frames, _, truth = avatar_scene
     median, first = first_masks(frames)
