@@ -226,8 +226,8 @@ def _pieces_reaching(cut: np.ndarray, near: np.ndarray, cv2) -> np.ndarray:
     """(H, W) bool: the pieces (8-connected) of ``cut`` that reach into ``near``, whole.
 
     The nearness is measured in the height the person moved over, which is the arms'
-    when only the arms move: the torso below them lies beyond it, joined to the
-    shoulders that do not."""
+    when only the arms move: the torso below them lies beyond that reach, but is
+    joined to shoulders within it."""
     _, labels = cv2.connectedComponents(cut.astype(np.uint8), connectivity=8)
     reached = np.unique(labels[cut & near])
     return np.isin(labels, reached[reached > 0])
