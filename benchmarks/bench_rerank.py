@@ -25,6 +25,11 @@ settings run first and are the baseline every variant is compared with::
 
     python benchmarks/bench_rerank.py [--seed 0] [--clips-dir DIR] [--db PATH]
         [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
+        [--no-background]
+
+``--no-background`` cuts the clips as a query without an image of the empty scene
+does (the background estimated from each clip), to compare silhouette front ends by
+what they do to recognition.
 
 Clips are rendered into ``--clips-dir`` when missing (about 4 min for 184 clips) and
 reused; making their specifications (the avatar posed to frame each clip) and cutting
@@ -169,7 +174,8 @@ def held_out_clips(args) -> list[HeldOutClip]:
         specs = [s for s in specs if s.label in known]
         for spec in tqdm(specs, desc="clips", unit="clip", leave=False):
             clip = maker.make(spec, items[spec.motion])
-            cut = load_clip_masks(clip.video, clip.background, config, args.sample_fps)
+            background = clip.background if args.background else None
+            cut = load_clip_masks(clip.video, background, config, args.sample_fps)
             clips.append(HeldOutClip(clip.video.stem, spec.label, held_names, cut.masks, cut.fps))
     return clips
 
@@ -217,6 +223,12 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--clips-dir", type=Path, default=Path("/tmp/eigmotion-holdout-clips"))
     parser.add_argument("--variant", action="append", default=[], type=variant_argument)
+    parser.add_argument(
+        "--no-background",
+        dest="background",
+        action="store_false",
+        help="cut the clips without their empty-scene images (estimated from each clip)",
+    )
     args = parser.parse_args(argv)
     with MotionDatabase.open(args.db) as db:
         args.sample_fps = db.config.motion_image.sample_fps
@@ -230,7 +242,8 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     clips = held_out_clips(args)
     seconds = time.perf_counter() - t0
-    print(f"{len(clips)} holdout clips (seed {args.seed}), cut out in {seconds:.0f} s")
+    how = "with their backgrounds" if args.background else "without their backgrounds"
+    print(f"{len(clips)} holdout clips (seed {args.seed}), cut out {how} in {seconds:.0f} s")
     runs = [("shipped", {})]
     runs += [(",".join(f"{k}={v:g}" for k, v in values.items()), values) for values in args.variant]
     results = []
