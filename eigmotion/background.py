@@ -11,11 +11,12 @@ to replace it with the scene::
     models, smoothed 3-D RGB histograms: the scene's from a ring of the median image
     around the envelope, the person's from the first masks' pixels in the frames ──▶
     their log likelihood ratio on the median image seeds cv2.grabCut inside the
-    envelope (outside it: certainly scene) ──▶ its pieces kept that come near the
-    moving person in at least half of the frames (a person crossing the picture leaves
-    no still body), where its colour is more the person's than that of the scene right
-    around it ──▶ plus still limbs: pieces of certainly personal colour above or below it,
-    within reach of the envelope (legs below waving arms) ──▶ the still body.
+    envelope (outside it: certainly scene) ──▶ its pieces that come near the moving
+    person in at least half of the frames, kept whole (a person crossing the picture
+    leaves no still body), less what is more the colour of the scene right around them
+    than the person's ──▶ plus still limbs: pieces of certainly personal colour above
+    or below them, within reach of the envelope (legs below waving arms) ──▶ the still
+    body.
 
 The same colour models then judge, frame by frame, which pixels of the envelope show
 the scene (:meth:`StillBody.person_log_ratio`).
