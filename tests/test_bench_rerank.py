@@ -9,6 +9,7 @@ import pytest
 import eigmotion.database as database_module
 import eigmotion.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation import QueryOutcome
 
 
 @pytest.fixture(scope="module")
@@ -48,8 +49,31 @@ def test_scores_count_top_1_and_top_k_per_label(bench):
         bench.HeldOutClip("b", "walk", ("w1",), None, 15.0),
         bench.HeldOutClip("c", "run", ("r1",), None, 15.0),
     ]
-    answers = [("walk", "run"), ("run", "turn", "jump", "walk"), ("walk", "jump", "run")]
+    ranked = [("walk", "run"), ("run", "turn", "jump", "walk"), ("walk", "jump", "run")]
+    answers = [
+        QueryOutcome(clip.label, labels, True, True, 0.0, 0.3)
+        for clip, labels in zip(clips, ranked, strict=True)
+    ]
     s = bench.scores(clips, answers)
     assert s["n"] == {"walk": 2, "run": 1}
     assert s["top1"]["walk"] == 1 and s["top1"]["run"] == 0
     assert s["topk"]["walk"] == 1 and s["topk"]["run"] == 1  # the 4th label is not top-3
+
+
+def test_unknown_tables_count_rejections_per_label_left_out(bench, capsys):
+    known = [QueryOutcome("walk", ("walk",), True, True, 0.0, d) for d in (0.1, 0.2, 0.3)]
+    known.append(QueryOutcome("run", ("walk",), False, True, 0.0, 0.5))
+    unknown = [
+        QueryOutcome("walk", ("run",), True, False, 0.0, 0.25),
+        QueryOutcome("walk", ("turn",), False, False, 0.0, 0.6),
+        QueryOutcome("run", ("walk",), True, False, 0.0, 0.2),
+    ]
+    bench.print_unknown(known, unknown, {"run": 0.31, "walk": 0.32})
+    out = capsys.readouterr().out
+    assert "| run            | 0.310     | 0/1      | walk 1" in out
+    assert "| walk           | 0.320     | 1/2      | run 1" in out
+    assert "unknown motions rejected 1/3 (33.3 %)" in out
+    assert "known motions falsely rejected 1/4 (25.0 %" in out
+    # distance alone: of 12 pairs, 0.6 is farther than all four known, 0.25 than two,
+    # 0.2 than one and ties one: 7.5 / 12
+    assert "AUC 0.625" in out

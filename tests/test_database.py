@@ -29,6 +29,7 @@ from eigmotion.database import (
     brute_force_check,
     build_database,
     candidate_motions,
+    leave_one_motion_out_threshold,
 )
 from eigmotion.errors import DatabaseError
 from eigmotion.kinematics import forward_kinematics
@@ -97,6 +98,40 @@ def test_database_holds_what_was_built(db_path, library):
             assert len(sequences.lengths) == len(CONFIG.bodies) * len(db.rig)
             assert sorted(set(sequences.azimuth_deg)) == sorted({c.azimuth_deg for c in db.rig})
             assert sequences.frames.shape == (sequences.lengths.sum(), POSE_COMPONENTS + 1)
+
+
+def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance(rng):
+    points = rng.normal(size=(700, 5)).astype(np.float32)
+    performance = rng.integers(0, 3, size=700)
+    whole = rng.random(700) < 0.9  # some performance has more whole entries than a block
+    found = [
+        np.linalg.norm(points[performance != performance[i]] - points[i], axis=1).min()
+        for i in np.flatnonzero(whole)
+    ]
+    assert leave_one_motion_out_threshold(points, performance, whole) == pytest.approx(
+        np.quantile(found, 0.95), rel=1e-6
+    )
+    one = np.zeros(700, dtype=int)
+    radius = np.linalg.norm(points - points.mean(axis=0), axis=1).max()
+    assert leave_one_motion_out_threshold(points, one, whole) == pytest.approx(2 * radius)
+
+
+def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_script):
+    """The entry table behind ``bench_rerank.py --unknown``: calibrating the threshold
+    from it gives the one the build stored, and leaving a label out leaves its
+    motions' entries out."""
+    with benchmark_script("bench_rerank") as bench, MotionDatabase.open(db_path) as db:
+        table = bench.EntryTable(db)
+        n_views = len(CONFIG.bodies) * len(db.rig)
+        assert table.whole.sum() == n_views * len(MOTIONS)
+        assert set(table.motion) == set(MOTIONS)
+        assert len(set(table.performance)) == len(MOTIONS)  # no mirror images here
+        assert leave_one_motion_out_threshold(
+            table.points, table.performance, table.whole
+        ) == pytest.approx(db.threshold, rel=1e-6)
+        kept = table.label != "wave"
+        table.search_only(db, kept)
+        assert db.index.n_entries == kept.sum() < len(table.motion)
 
 
 def test_stored_library_keeps_what_the_build_needs(tmp_path):
