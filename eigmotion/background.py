@@ -1,16 +1,16 @@
-"""The person's still body in a clip's median image.
+"""The person's still body in the image of a clip's commonest colours.
 
 A person who stays in place (waving, lifting, covering the head) covers the same
-pixels for most of the clip, so the per-pixel temporal median keeps their body, and a
-segmentation against it finds only what moves.  This module finds that body in the
-median image, for :func:`eigmotion.video.estimate_background` (method ``"grabcut"``)
-to replace it with the scene::
+pixels for most of the clip, so each pixel's commonest colour over the clip
+(:func:`eigmotion.video.estimate_background`, method ``"grabcut"``) is their body's,
+and a segmentation against that image finds only what moves.  This module finds that
+body in the image, for the estimate to replace it with the scene::
 
-    first masks (the person against the plain median: what moves) ──▶ their union,
+    first masks (the person against the image: what moves) ──▶ their union,
     closed, its rows and columns filled: the envelope the person moved in ──▶ colour
-    models, smoothed 3-D RGB histograms: the scene's from a ring of the median image
+    models, smoothed 3-D RGB histograms: the scene's from a ring of the image
     around the envelope, the person's from the first masks' pixels in the frames ──▶
-    their log likelihood ratio on the median image seeds cv2.grabCut inside the
+    their log likelihood ratio on the image seeds cv2.grabCut inside the
     envelope (outside it: certainly scene) ──▶ its pieces that come near the moving
     person in at least half of the frames, kept whole (a person crossing the picture
     leaves no still body), less what is more the colour of the scene right around them
@@ -37,7 +37,7 @@ HISTOGRAM_SIGMA_BINS = 0.7
 #: Pseudo-count added to every histogram bin, samples.
 HISTOGRAM_PRIOR = 0.1
 
-#: Person/scene log likelihood ratio above which a median pixel seeds grabCut as
+#: Person/scene log likelihood ratio above which a pixel of the image seeds grabCut as
 #: probably the person, and above which it is certainly the person.
 PROBABLE_LOG_RATIO = 0.0
 CERTAIN_LOG_RATIO = 2.0
@@ -75,12 +75,12 @@ MIN_LIMB_FRAC = 0.05
 
 @dataclass(frozen=True, eq=False)
 class StillBody:
-    """The person as the median image shows them, and the colour models that found it.
+    """The person as the commonest colours show them, and the colour models that found it.
 
     Attributes
     ----------
     mask : (H, W) bool
-        Pixels of the median image that show the person.
+        Pixels of the commonest colours' image that show the person.
     envelope : (H, W) bool
         Where the person moved: the union of the first masks, closed, every row and
         then every column filled from its first pixel to its last, and grown by a few
@@ -111,18 +111,18 @@ class StillBody:
 
 
 def find_still_body(
-    median: np.ndarray, frames: np.ndarray, first_masks: np.ndarray
+    commonest: np.ndarray, frames: np.ndarray, first_masks: np.ndarray
 ) -> StillBody | None:
-    """The person's still body in the median image of a clip.
+    """The person's still body in the image of a clip's commonest colours.
 
     Parameters
     ----------
-    median : (H, W, 3) uint8
-        The per-pixel temporal median of ``frames``, RGB.
+    commonest : (H, W, 3) uint8
+        Each pixel's commonest colour over ``frames``, RGB.
     frames : (F, H, W, 3) uint8
         The frames, RGB.
     first_masks : (F, H, W) bool
-        The person in each frame as a segmentation against ``median`` finds them
+        The person in each frame as a segmentation against ``commonest`` finds them
         (what moves).
 
     Returns
@@ -149,13 +149,15 @@ def find_still_body(
     # The first masks' rims mix the person's colour with the scene's.
     core = np.stack([cv2.erode(m.astype(np.uint8), _disk(1, cv2)) for m in first_masks]) > 0
     person = _histogram(frames[core] if core.any() else frames[first_masks])
-    scene = _histogram(median[ring])
-    log_ratio = _log_ratio(person, scene, median)
+    scene = _histogram(commonest[ring])
+    log_ratio = _log_ratio(person, scene, commonest)
     mask = _pieces_reaching(
-        _grabcut(median, envelope, log_ratio, cv2), _near_most_frames(first_masks, height, cv2), cv2
+        _grabcut(commonest, envelope, log_ratio, cv2),
+        _near_most_frames(first_masks, height, cv2),
+        cv2,
     )
     if mask.any():
-        mask &= ~_like_surroundings(median, mask, person, height, cv2)
+        mask &= ~_like_surroundings(commonest, mask, person, height, cv2)
     if mask.any():
         mask |= _still_limbs(mask, envelope, log_ratio, height, cv2)
     return StillBody(mask, envelope, person, scene)
@@ -181,8 +183,8 @@ def _spans_filled(mask: np.ndarray, axis: int) -> np.ndarray:
     return before & after
 
 
-def _grabcut(median: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2) -> np.ndarray:
-    """The person in the median image (H, W) bool: grabCut inside the envelope, seeded
+def _grabcut(image: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2) -> np.ndarray:
+    """The person in the image (H, W) bool: grabCut inside the envelope, seeded
     by the colour models' log ratio; the scene outside the envelope."""
     seeds = np.full(envelope.shape, cv2.GC_BGD, np.uint8)
     seeds[envelope] = np.where(
@@ -202,7 +204,7 @@ def _grabcut(median: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv
     labels = np.ascontiguousarray(seeds[box])
     if not ((labels == cv2.GC_BGD) | (labels == cv2.GC_PR_BGD)).any():
         return person_seed
-    bgr = np.ascontiguousarray(median[box][..., ::-1])
+    bgr = np.ascontiguousarray(image[box][..., ::-1])
     models = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
     cv2.setRNGSeed(0)  # grabCut starts its colour models with k-means: the same clip, the same cut
     cv2.grabCut(bgr, labels, None, *models, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
@@ -235,7 +237,7 @@ def _pieces_reaching(cut: np.ndarray, near: np.ndarray, cv2) -> np.ndarray:
 
 
 def _like_surroundings(
-    median: np.ndarray, body: np.ndarray, person: np.ndarray, height: int, cv2
+    image: np.ndarray, body: np.ndarray, person: np.ndarray, height: int, cv2
 ) -> np.ndarray:
     """(H, W) bool: pixels of ``body`` whose colour is more the scene's right around it
     than the person's: a stretch of a stripe, say, that continues beyond the body found."""
@@ -243,8 +245,8 @@ def _like_surroundings(
     around &= ~body
     if around.sum() < MIN_RING_PIXELS:
         return np.zeros_like(body)
-    local = _histogram(median[around])
-    return body & (_log_ratio(person, local, median) < 0.0)
+    local = _histogram(image[around])
+    return body & (_log_ratio(person, local, image) < 0.0)
 
 
 def _still_limbs(
