@@ -481,11 +481,11 @@ def _commonest_colours(sample: np.ndarray) -> np.ndarray:
     by_pixel = np.ascontiguousarray(values.reshape(f, h * w, 3).transpose(1, 0, 2))
     kernel = _kernels().largest_cluster_means
     workers = _workers()
-    blocks = np.array_split(np.arange(h * w), os.cpu_count() or 1)
+    bounds = np.linspace(0, h * w, (os.cpu_count() or 1) + 1).astype(np.int64)
     jobs = [
-        workers.submit(kernel, by_pixel[b[0] : b[-1] + 1], radius, out[b[0] : b[-1] + 1])
-        for b in blocks
-        if len(b)
+        workers.submit(kernel, by_pixel[lo:hi], radius, out[lo:hi])
+        for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
+        if hi > lo
     ]
     for job in jobs:
         job.result()
@@ -1378,7 +1378,7 @@ def _largest_cluster_means(values, radius, out):  # pragma: no cover - JIT
             for i in range(1, n_frames):
                 if counts[i] > counts[best]:
                     best = i
-        total = np.zeros(3, np.float64)
+        r = g = b = 0.0
         members = 0
         for j in range(n_frames):
             if (
@@ -1386,11 +1386,11 @@ def _largest_cluster_means(values, radius, out):  # pragma: no cover - JIT
                 and abs(v[best, 1] - v[j, 1]) <= radius
                 and abs(v[best, 2] - v[j, 2]) <= radius
             ):
-                for c in range(3):
-                    total[c] += v[j, c]
+                r += v[j, 0]
+                g += v[j, 1]
+                b += v[j, 2]
                 members += 1
-        for c in range(3):
-            out[p, c] = total[c] / members
+        out[p, 0], out[p, 1], out[p, 2] = r / members, g / members, b / members
 
 
 def _lab_differences(lab, bg_lab, diff, raw):  # pragma: no cover - JIT
