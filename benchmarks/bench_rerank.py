@@ -236,10 +236,11 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
     answers, thresholds = {}, {}
     with MotionDatabase.open(db_path) as db:
         entries = EntryTable(db)
+        whole = entries.whole(db)
         for label in sorted({c.label for c in clips}):
             without = entries.label != label
             thresholds[label] = leave_one_motion_out_threshold(
-                entries.points[without], entries.performance[without], entries.whole[without]
+                entries.points[without], entries.performance[without], whole[without]
             )
             for held in sorted({c.held_out for c in clips if c.label == label}):
                 entries.search_only(db, without & ~np.isin(entries.motion, held))
@@ -253,22 +254,26 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
 class EntryTable:
     """What each entry of a database is, as arrays (N,): ``motion`` (its motion's
     name), ``label``, ``performance`` (an index; a motion and its mirror image are
-    one), ``whole`` (it covers the whole motion), and ``points`` (N, k)."""
+    one), and ``points`` (N, k); :meth:`whole` reads which cover a whole motion."""
 
     def __init__(self, db: MotionDatabase):
         self.arrays = db.store.arrays()
         records = {int(m): db.motion_record(int(m)) for m in db.store.motion_ids()}
-        meta = {m: r["metadata"] for m, r in records.items()}
+        self._meta = {m: r["metadata"] for m, r in records.items()}
         motions = self.arrays.motions.tolist()
         self.points = self.arrays.points
-        self.motion = np.array([meta[m]["name"] for m in motions])
+        self.motion = np.array([self._meta[m]["name"] for m in motions])
         self.label = np.array([records[m]["label"] for m in motions])
-        originals = [meta[m].get("mirror_of") or meta[m]["name"] for m in motions]
+        originals = [self._meta[m].get("mirror_of") or self._meta[m]["name"] for m in motions]
         self.performance = np.unique(originals, return_inverse=True)[1]
-        stored = [db.store.entry(int(i)) for i in self.arrays.ids]
-        self.whole = np.array(
-            [e["start_frame"] == 0 and e["end_frame"] == meta[m]["n_frames"]
-             for e, m in zip(stored, motions, strict=True)]
+
+    def whole(self, db: MotionDatabase) -> np.ndarray:
+        """(N,) bool: the entries that cover their whole motion (every entry record
+        read from the store, so only when the threshold is calibrated again)."""
+        return np.array(
+            [self._meta[int(m)]["n_frames"] == e["end_frame"] and e["start_frame"] == 0
+             for m, e in zip(self.arrays.motions, map(db.store.entry, self.arrays.ids.tolist()),
+                             strict=True)]
         )  # fmt: skip
 
     def search_only(self, db: MotionDatabase, kept: np.ndarray) -> None:
