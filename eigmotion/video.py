@@ -471,19 +471,18 @@ def _commonest_colours(sample: np.ndarray) -> np.ndarray:
         RGB frames.
     """
     f, h, w, _ = sample.shape
-    values = sample.astype(np.int16)
     # The noise on a grid of about 1,000 pixels per frame pair, as the segmentation's.
     grid = _grid_step(h, w)
-    on_grid = values[:, ::grid, ::grid]
+    on_grid = sample[:, ::grid, ::grid].astype(np.int16)
     step = np.abs(np.diff(on_grid, axis=0)).max(axis=-1) if f > 1 else np.zeros(1)
-    radius = np.int16(max(MIN_COLOUR_LEVELS, math.floor(COLOUR_PER_NOISE * np.median(step))))
+    radius = np.int32(max(MIN_COLOUR_LEVELS, math.floor(COLOUR_PER_NOISE * np.median(step))))
     out = np.empty((h * w, 3), np.float32)
-    by_pixel = np.ascontiguousarray(values.reshape(f, h * w, 3).transpose(1, 0, 2))
+    pixels = np.ascontiguousarray(sample).reshape(f, h * w, 3)
     kernel = _kernels().largest_cluster_means
     workers = _workers()
     bounds = np.linspace(0, h * w, (os.cpu_count() or 1) + 1).astype(np.int64)
     jobs = [
-        workers.submit(kernel, by_pixel[lo:hi], radius, out[lo:hi])
+        workers.submit(kernel, pixels[:, lo:hi], radius, out[lo:hi])
         for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
         if hi > lo
     ]
@@ -1348,48 +1347,53 @@ def _kernels():
 
 
 def _largest_cluster_means(values, radius, out):  # pragma: no cover - JIT
-    """``out`` (P, 3) float32: per pixel of ``values`` (P, F, 3) int16, the mean of the
+    """``out`` (P, 3) float32: per pixel of ``values`` (F, P, 3) uint8, the mean of the
     sample with the most samples within ``radius`` in every channel, and of those.
 
     A pixel whose samples all lie within ``radius`` of one another in every channel
     (most of the scene) is one cluster: its mean, without comparing every pair."""
-    n_pixels, n_frames = values.shape[0], values.shape[1]
+    n_frames, n_pixels = values.shape[0], values.shape[1]
     counts = np.empty(n_frames, np.int32)
+    channels = np.empty((3, n_frames), np.int32)
+    red, green, blue = channels[0], channels[1], channels[2]
     for p in range(n_pixels):
-        v = values[p]
         spread = 0
         for c in range(3):
-            lo, hi = v[0, c], v[0, c]
-            for i in range(1, n_frames):
-                lo, hi = min(lo, v[i, c]), max(hi, v[i, c])
+            lo = hi = np.int32(values[0, p, c])
+            for i in range(n_frames):
+                value = np.int32(values[i, p, c])
+                lo, hi = min(lo, value), max(hi, value)
+                channels[c, i] = value
             spread = max(spread, hi - lo)
         best = 0
         if spread > radius:
-            counts[:] = 1
+            # Every sample against every one (itself included), without branches, over
+            # channels laid out apart: the compiler vectorises the inner loop.
             for i in range(n_frames):
-                for j in range(i + 1, n_frames):
-                    if (
-                        abs(v[i, 0] - v[j, 0]) <= radius
-                        and abs(v[i, 1] - v[j, 1]) <= radius
-                        and abs(v[i, 2] - v[j, 2]) <= radius
-                    ):
-                        counts[i] += 1
-                        counts[j] += 1
+                ri, gi, bi = red[i], green[i], blue[i]
+                count = 0
+                for j in range(n_frames):
+                    count += (
+                        (abs(red[j] - ri) <= radius)
+                        & (abs(green[j] - gi) <= radius)
+                        & (abs(blue[j] - bi) <= radius)
+                    )
+                counts[i] = count
             for i in range(1, n_frames):
                 if counts[i] > counts[best]:
                     best = i
-        r = g = b = 0.0
-        members = 0
+        rb, gb, bb = red[best], green[best], blue[best]
+        r = g = b = members = 0  # integer sums: exact in any order
         for j in range(n_frames):
-            if (
-                abs(v[best, 0] - v[j, 0]) <= radius
-                and abs(v[best, 1] - v[j, 1]) <= radius
-                and abs(v[best, 2] - v[j, 2]) <= radius
-            ):
-                r += v[j, 0]
-                g += v[j, 1]
-                b += v[j, 2]
-                members += 1
+            member = (
+                (abs(red[j] - rb) <= radius)
+                & (abs(green[j] - gb) <= radius)
+                & (abs(blue[j] - bb) <= radius)
+            )
+            r += member * red[j]
+            g += member * green[j]
+            b += member * blue[j]
+            members += member
         out[p, 0], out[p, 1], out[p, 2] = r / members, g / members, b / members
 
 

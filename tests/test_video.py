@@ -22,9 +22,12 @@ from eigmotion.scene import (
     stick_figure_masks,
 )
 from eigmotion.video import (
+    COLOUR_PER_NOISE,
     DEFAULT_NPZ_FPS,
+    MIN_COLOUR_LEVELS,
     SilhouetteConfig,
     _commonest_colours,
+    _grid_step,
     estimate_background,
     extract_silhouettes,
     load_clip_masks,
@@ -275,6 +278,29 @@ def test_commonest_colour_is_the_scene_where_a_person_covers_it_more_often_than_
     assert commonest.shape == (8, 8, 3) and commonest.dtype == np.float32
     np.testing.assert_allclose(commonest, 120.0, atol=1.0)
     assert np.median(frames, axis=0)[2:6, 2:6].min() > 150  # the median takes the person
+
+
+def test_commonest_colour_is_the_mean_of_the_largest_cluster_by_its_definition(rng):
+    """The compiled kernel against every pair compared in numpy: the first sample (in
+    frame order) with the most samples within the radius in every channel, and the
+    mean of those, with ties, clusters of every size and a spread just over the radius."""
+    frames = (100 + rng.integers(-1, 2, size=(23, 12, 13, 3))).astype(np.uint8)  # the scene
+    frames[:, 7] = 100 + 3 * rng.integers(0, 3, size=(23, 13, 3))  # a spread just over the radius
+    frames[:, 8:] = 60 + 5 * rng.integers(0, 6, size=(23, 4, 13, 3))  # colours the radius apart
+    commonest = _commonest_colours(frames)
+    f, h, w, _ = frames.shape
+    values = frames.reshape(f, h * w, 3).astype(np.int64)
+    grid = _grid_step(h, w)
+    noise = np.median(
+        np.abs(np.diff(values.reshape(f, h, w, 3)[:, ::grid, ::grid], axis=0)).max(-1)
+    )
+    radius = max(MIN_COLOUR_LEVELS, int(COLOUR_PER_NOISE * noise))
+    assert radius == 5  # a few levels: clusters of many sizes, and ties, among the colours
+    near = np.abs(values[:, None] - values[None, :]).max(axis=-1) <= radius  # (F, F, P)
+    best = near.sum(axis=1).argmax(axis=0)  # the first of the largest
+    members = near[best, :, np.arange(h * w)]  # (P, F)
+    expected = (members[..., None] * values.transpose(1, 0, 2)).sum(1) / members.sum(1)[:, None]
+    np.testing.assert_array_equal(commonest.reshape(-1, 3), expected.astype(np.float32))
 
 
 def test_still_body_is_found_in_the_commonest_colours(lift_scene):
