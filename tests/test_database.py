@@ -520,7 +520,8 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         a, b = rendered.store.arrays(), given.store.arrays()
         np.testing.assert_allclose(a.points, b.points, atol=1e-5)
         np.testing.assert_array_equal(a.motions, b.motions)
-        assert rendered.threshold == given.threshold
+        # Points equal to float32 rounding give a threshold equal to its last bit or so.
+        assert rendered.threshold == pytest.approx(given.threshold, rel=1e-6)
         assert one.store.n_motions == 1
         assert one.motion_record(0)["label"] == "wave"
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
