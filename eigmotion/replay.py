@@ -20,6 +20,9 @@ from .motion import Motion
 from .retarget import animation_to_motion, retarget
 from .rotations import axis_rotation
 
+#: Height of each panel of a replay video, pixels.
+PANEL_HEIGHT_PX = 240
+
 
 @dataclass(frozen=True, eq=False)
 class Replay:
@@ -131,7 +134,7 @@ def replay_video(
     motion_picture: np.ndarray,
     path: str | Path,
     fps: float,
-    height_px: int = 240,
+    height_px: int = PANEL_HEIGHT_PX,
     progress: bool = False,
 ) -> Path:
     """Write input | silhouettes | motion image | avatar replay, side by side.
@@ -140,7 +143,8 @@ def replay_video(
     ----------
     result : Replay
     clip_frames : (F, H, W, 3) uint8 or None
-        The query clip (``None`` for a clip given as masks only).
+        The query clip (``None`` for a clip given as masks only), at any size; read
+        by :func:`read_input_panel` it is at the panel height already.
     masks : (F, H, W) bool
         Its silhouettes.
     motion_picture : (S, S) uint8
@@ -171,3 +175,34 @@ def replay_video(
         titles.insert(0, "input")
     frames = side_by_side(panels, titles, height_px=height_px)
     return write_video(frames, path, fps)
+
+
+def read_input_panel(path: str | Path, height_px: int = PANEL_HEIGHT_PX) -> np.ndarray:
+    """The query clip for the input panel of :func:`replay_video`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A clip :func:`eigmotion.media.read_frames` reads.
+    height_px : int
+        Panel height, pixels.
+
+    Returns
+    -------
+    (F, H', W', 3) uint8
+        Every frame, RGB.  Frames taller than ``height_px`` are scaled to it as they
+        are decoded (area averaging, the aspect ratio kept), so that a long clip in
+        high definition is never held at its full size.
+    """
+    import cv2
+
+    from .media import FrameSampleStream
+
+    parts = []
+    for chunk in FrameSampleStream(path).chunks(16):
+        h, w = chunk.shape[1:3]
+        if h > height_px:
+            size = (max(1, int(round(w * height_px / h))), int(height_px))
+            chunk = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in chunk])
+        parts.append(chunk)
+    return np.concatenate(parts)

@@ -633,7 +633,9 @@ def load_clip_masks(
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
     stream = FrameSampleStream(path, sample_fps)
     if background_path is None:  # the background is estimated from the whole clip
-        frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
+        # Shrunk to the working size as they are decoded (as extract_silhouettes would
+        # shrink them): a long clip in high definition is held at that size only.
+        frames = np.concatenate([_shrink(chunk, config) for chunk in stream.chunks(CHUNK_FRAMES)])
         masks = extract_silhouettes(frames, None, config)
     else:  # segmented as it is decoded
         background = read_background(background_path)

@@ -184,6 +184,35 @@ def test_masks_do_not_depend_on_the_chunks_frames_are_segmented_in(
         np.testing.assert_array_equal(extract_silhouettes(frames, given), reference)
 
 
+def test_a_large_clip_without_a_background_is_shrunk_as_it_is_decoded(avatar_scene, tmp_path):
+    """Frames four times the working size give the masks of the whole clip read at full
+    size and cut out at once (the frames are shrunk per chunk instead of all together)."""
+    from eigmotion.media import read_frames, write_video
+
+    frames, _, _ = avatar_scene
+    large = np.repeat(np.repeat(frames, 2, axis=1), 2, axis=2)  # 320 × 240
+    path = write_video(large, tmp_path / "clip.mp4", 30.0)
+    config = SilhouetteConfig(work_max_side_px=80)
+    streamed = load_clip_masks(path, None, config)
+    whole, _ = read_frames(path)
+    assert streamed.masks.shape == (len(frames), 60, 80)
+    np.testing.assert_array_equal(streamed.masks, extract_silhouettes(whole, None, config))
+
+
+def test_the_replay_input_panel_is_the_clip_at_the_panel_height(avatar_scene, tmp_path):
+    from eigmotion.media import read_frames, write_video
+    from eigmotion.replay import read_input_panel
+
+    frames, _, _ = avatar_scene
+    large = np.repeat(np.repeat(frames, 3, axis=1), 3, axis=2)  # 480 × 360
+    path = write_video(large, tmp_path / "clip.mp4", 30.0)
+    whole, _ = read_frames(path)
+    panel = read_input_panel(path, height_px=90)
+    expected = [cv2.resize(f, (120, 90), interpolation=cv2.INTER_AREA) for f in whole]
+    np.testing.assert_array_equal(panel, np.stack(expected))
+    np.testing.assert_array_equal(read_input_panel(path, height_px=360), whole)  # as read
+
+
 def test_a_clip_segmented_while_it_is_decoded_equals_one_read_whole(avatar_scene, tmp_path):
     from eigmotion.media import read_frame_sample, write_video
 

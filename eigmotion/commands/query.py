@@ -88,7 +88,7 @@ def _write_replay(db, result, masks, fps, args) -> None:
     from ..bvh import write_bvh
     from ..continuous_pose import continuous_pose
     from ..motion_image import motion_image_picture
-    from ..replay import replay, replay_video
+    from ..replay import read_input_panel, replay, replay_video
 
     best = result.best
     pose = None
@@ -108,9 +108,7 @@ def _write_replay(db, result, masks, fps, args) -> None:
     if args.replay_out:
         frames = None
         if args.clip.suffix.lower() != ".npz":
-            from ..media import read_frames
-
-            frames, _ = read_frames(args.clip)
+            frames = read_input_panel(args.clip)
         picture = motion_image_picture(result.motion_image, db.config.motion_image)
         replay_video(rep, frames, masks, picture, args.replay_out, fps, progress=True)
     written = (args.bvh_out, args.replay_out, args.pose_out)
