@@ -837,6 +837,7 @@ class MotionDatabase:
         background: str | os.PathLike | None = None,
         top_k: int = 3,
         every_frame: bool = False,
+        progress: bool = False,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -854,6 +855,8 @@ class MotionDatabase:
             frames segmented, and the noise levels are taken over them, so silhouettes
             cut from every frame differ a little; the answer does not depend on
             whether a 3D answer was asked for.
+        progress : bool
+            Progress bars on stderr while a long video is read.
 
         Returns
         -------
@@ -867,7 +870,8 @@ class MotionDatabase:
         """
         t0 = time.perf_counter()
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
-        clip = load_clip_masks(path, background, config, self.config.motion_image.sample_fps)
+        sample_fps = self.config.motion_image.sample_fps
+        clip = load_clip_masks(path, background, config, sample_fps, progress)
         t1 = time.perf_counter()
         result = self.query_masks(clip.masks, clip.fps, top_k)
         # Segments come in mask indices; a mask's successor starts the next segment.
@@ -880,7 +884,7 @@ class MotionDatabase:
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
         if every_frame:
             t2 = time.perf_counter()
-            clip = load_clip_masks(path, background, config)
+            clip = load_clip_masks(path, background, config, progress=progress)
             timing["every_frame_silhouettes"] = (time.perf_counter() - t2) * 1e3
         timing["total"] = (time.perf_counter() - t0) * 1e3
         return dataclasses.replace(result, segments=segments, timing_ms=timing), clip

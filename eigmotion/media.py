@@ -178,6 +178,9 @@ class FrameSampleStream:
     ----------
     path, sample_fps, fps
         As for :func:`read_frame_sample`.
+    progress : bool
+        A bar on stderr of the video's frames decoded, shown once the reading has
+        taken more than a second (a long clip).
 
     Attributes
     ----------
@@ -188,9 +191,15 @@ class FrameSampleStream:
     """
 
     def __init__(
-        self, path: str | os.PathLike, sample_fps: float | None = None, fps: float | None = None
+        self,
+        path: str | os.PathLike,
+        sample_fps: float | None = None,
+        fps: float | None = None,
+        progress: bool = False,
     ):
         self.path = Path(path)
+        self._progress = progress
+        self._expected_frames = 0  # the container's frame count, set by the decoder
         if sample_fps is not None and not (math.isfinite(sample_fps) and sample_fps > 0):
             raise InvalidParameterError(f"sample_fps must be > 0 frames/s, got {sample_fps!r}")
         self._sample_fps = sample_fps
@@ -232,10 +241,15 @@ class FrameSampleStream:
         # Hold back one frame: whether the last frame decoded belongs to the sample is
         # known only once the clip's length is (see _decode).
         held: list[tuple[int, np.ndarray]] = []
+        bar = None
         try:
             while (item := self._decoded.get()) is not _END_OF_CLIP:
                 if isinstance(item, VideoError):
                     raise item
+                if self._progress:
+                    if bar is None:
+                        bar = _frame_bar(self._expected_frames)
+                    bar.update(item[0] + 1 - bar.n)
                 held.append(item)
                 if len(held) > size:
                     yield self._stacked(held[:size])
@@ -246,6 +260,8 @@ class FrameSampleStream:
             # still inside a decoding thread can abort instead of exiting cleanly.
             self._stop.set()
             self._decoder.join()
+            if bar is not None:
+                bar.close()
         if not held:
             raise VideoError(f"{self.path}: no frame could be decoded (empty or corrupt video)")
         wanted = set(self.frame_indices.tolist())
@@ -280,6 +296,8 @@ class FrameSampleStream:
             clip_fps = capture.get(cv2.CAP_PROP_FPS)
             if not (np.isfinite(clip_fps) and clip_fps > 0):
                 clip_fps = DEFAULT_FPS
+            count = capture.get(cv2.CAP_PROP_FRAME_COUNT)  # a container's guess, or <= 0
+            self._expected_frames = int(count) if np.isfinite(count) and count > 0 else 0
             every = sample_fps is None or clip_fps <= sample_fps
             sample = 0
             while not self._stop.is_set() and capture.grab():
@@ -300,6 +318,18 @@ class FrameSampleStream:
 
 #: What the decoding thread of a :class:`FrameSampleStream` queues after the last frame.
 _END_OF_CLIP = object()
+
+
+def _frame_bar(expected_frames: int):
+    """A progress bar on stderr over a video's frames, shown after one second."""
+    import sys
+
+    from tqdm import tqdm
+
+    return tqdm(
+        total=expected_frames or None, desc="reading frames", unit="frame", file=sys.stderr,
+        leave=False, delay=1.0,
+    )  # fmt: skip
 
 
 def sample_indices(n_frames: int, clip_fps: float, sample_fps: float) -> np.ndarray:

@@ -586,6 +586,7 @@ def load_clip_masks(
     background_path: str | Path | None = None,
     config: SilhouetteConfig = SilhouetteConfig(),  # noqa: B008 - frozen, immutable
     sample_fps: float | None = None,
+    progress: bool = False,
 ) -> ClipMasks:
     """Silhouettes of the person in a clip on disk.
 
@@ -604,6 +605,9 @@ def load_clip_masks(
         :func:`eigmotion.media.sample_indices`): the motion image samples the clip at
         its own rate anyway, and frames it skips need no silhouette.  Every frame when
         ``None``.
+    progress : bool
+        A bar on stderr of a long video's frames as they are read
+        (:class:`eigmotion.media.FrameSampleStream`).
 
     Returns
     -------
@@ -631,7 +635,7 @@ def load_clip_masks(
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
-    stream = FrameSampleStream(path, sample_fps)
+    stream = FrameSampleStream(path, sample_fps, progress=progress)
     if background_path is None:  # the background is estimated from the whole clip
         # Shrunk to the working size as they are decoded (as extract_silhouettes would
         # shrink them): a long clip in high definition is held at that size only.

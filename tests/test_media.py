@@ -63,6 +63,25 @@ def test_frame_sample_stream_hands_over_the_sample_in_chunks(tmp_path, suffix, s
     assert (stream.n_frames, stream.clip_fps, stream.fps) == (23, whole.clip_fps, whole.fps)
 
 
+def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, monkeypatch):
+    """The bar (shown after a second, so shown at once here) counts the clip's frames,
+    sampled or not, and the frames handed over are those of a stream without one."""
+    import io
+
+    from tqdm import tqdm
+
+    from eigmotion import media
+
+    shown = io.StringIO()
+    monkeypatch.setattr(
+        media, "_frame_bar", lambda n: tqdm(total=n, desc="reading frames", file=shown)
+    )
+    path = write_video(_smooth_clip(n_frames=23), tmp_path / "clip.mp4", fps=25.0)
+    with_bar = np.concatenate(list(FrameSampleStream(path, 15.0, progress=True).chunks(4)))
+    np.testing.assert_array_equal(with_bar, read_frame_sample(path, 15.0).frames)
+    assert "reading frames" in shown.getvalue() and "23/23" in shown.getvalue()
+
+
 @pytest.mark.parametrize("content", [b"", b"not a video at all"])
 def test_frame_sample_stream_names_an_unreadable_video(tmp_path, content):
     path = tmp_path / "broken.mp4"

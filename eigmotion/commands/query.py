@@ -60,7 +60,9 @@ def run(args: argparse.Namespace) -> int:
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
         answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
-        result, clip = db.query_clip(args.clip, args.background, args.top, every_frame=answer_3d)
+        result, clip = db.query_clip(
+            args.clip, args.background, args.top, every_frame=answer_3d, progress=True
+        )
         if answer_3d:
             _write_replay(db, result, clip.masks, clip.fps, args)
     if args.json:
