@@ -27,7 +27,7 @@ import queue
 import re
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -181,6 +181,10 @@ class FrameSampleStream:
     progress : bool
         A bar on stderr of the video's frames decoded, shown once the reading has
         taken more than a second (a long clip).
+    transform : callable, optional
+        Applied to each RGB frame (H, W, 3) uint8 taken, as soon as it is decoded (by
+        the reading thread, while the next is decoded): a clip shrunk this way is
+        never held at its full size.
 
     Attributes
     ----------
@@ -196,9 +200,11 @@ class FrameSampleStream:
         sample_fps: float | None = None,
         fps: float | None = None,
         progress: bool = False,
+        transform: Callable[[np.ndarray], np.ndarray] | None = None,
     ):
         self.path = Path(path)
         self._progress = progress
+        self._transform = transform
         self._expected_frames = 0  # the container's frame count, set by the decoder
         if sample_fps is not None and not (math.isfinite(sample_fps) and sample_fps > 0):
             raise InvalidParameterError(f"sample_fps must be > 0 frames/s, got {sample_fps!r}")
@@ -236,7 +242,10 @@ class FrameSampleStream:
         """
         if self._decoded is None:
             for start in range(0, len(self.frame_indices), size):
-                yield self._frames[self.frame_indices[start : start + size]]
+                chunk = self._frames[self.frame_indices[start : start + size]]
+                if self._transform is not None:
+                    chunk = np.stack([self._transform(frame) for frame in chunk])
+                yield chunk
             return
         # Hold back one frame: whether the last frame decoded belongs to the sample is
         # known only once the clip's length is (see _decode).
@@ -250,6 +259,8 @@ class FrameSampleStream:
                     if bar is None:
                         bar = _frame_bar(self._expected_frames)
                     bar.update(item[0] + 1 - bar.n)
+                if self._transform is not None:
+                    item = (item[0], self._transform(item[1]))
                 held.append(item)
                 if len(held) > size:
                     yield self._stacked(held[:size])

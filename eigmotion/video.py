@@ -635,13 +635,19 @@ def load_clip_masks(
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
-    stream = FrameSampleStream(path, sample_fps, progress=progress)
     if background_path is None:  # the background is estimated from the whole clip
-        # Shrunk to the working size as they are decoded (as extract_silhouettes would
-        # shrink them): a long clip in high definition is held at that size only.
-        frames = np.concatenate([_shrink(chunk, config) for chunk in stream.chunks(CHUNK_FRAMES)])
+        # Each frame shrunk to the working size as it is decoded (as extract_silhouettes
+        # would shrink it): a long clip in high definition is held at that size only.
+        stream = FrameSampleStream(
+            path,
+            sample_fps,
+            progress=progress,
+            transform=lambda frame: _shrink(frame[None], config)[0],
+        )
+        frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         masks = extract_silhouettes(frames, None, config)
     else:  # segmented as it is decoded
+        stream = FrameSampleStream(path, sample_fps, progress=progress)
         background = read_background(background_path)
         chunks = _same_size(stream.chunks(CHUNK_FRAMES), background)
         masks = _person_found(_segment(chunks, background, config), config)
