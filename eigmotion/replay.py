@@ -198,11 +198,11 @@ def read_input_panel(path: str | Path, height_px: int = PANEL_HEIGHT_PX) -> np.n
 
     from .media import FrameSampleStream
 
-    parts = []
-    for chunk in FrameSampleStream(path).chunks(16):
-        h, w = chunk.shape[1:3]
-        if h > height_px:
-            size = (max(1, int(round(w * height_px / h))), int(height_px))
-            chunk = np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in chunk])
-        parts.append(chunk)
-    return np.concatenate(parts)
+    def to_panel(frame: np.ndarray) -> np.ndarray:
+        h, w = frame.shape[:2]
+        if h <= height_px:
+            return frame
+        size = (max(1, int(round(w * height_px / h))), int(height_px))
+        return cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
+
+    return np.concatenate(list(FrameSampleStream(path, transform=to_panel).chunks(16)))
