@@ -309,15 +309,20 @@ def _check_background(background) -> np.ndarray:
 
 def _same_size(chunks: Iterable[np.ndarray], background: np.ndarray) -> Iterator[np.ndarray]:
     """The chunks, each checked to be frames of the background's size."""
-    h, w = background.shape[:2]
     for chunk in chunks:
         chunk = _check_frames(chunk)
-        if chunk.shape[1:3] != (h, w):
-            raise VideoError(
-                f"background is {w}×{h} pixels but the frames are "
-                f"{chunk.shape[2]}×{chunk.shape[1]}; expected the same size"
-            )
+        _check_size(chunk.shape[1:3], background)
         yield chunk
+
+
+def _check_size(frame_size: tuple[int, int], background: np.ndarray) -> None:
+    """VideoError unless ``frame_size`` (H, W) is the background's."""
+    h, w = background.shape[:2]
+    if tuple(frame_size) != (h, w):
+        raise VideoError(
+            f"background is {w}×{h} pixels but the frames are "
+            f"{frame_size[1]}×{frame_size[0]}; expected the same size"
+        )
 
 
 def _chunks(frames: np.ndarray) -> Iterator[np.ndarray]:
@@ -635,9 +640,10 @@ def load_clip_masks(
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
+    # Each frame is shrunk to the working size as soon as it is decoded (as the
+    # segmentation would shrink it): a long clip in high definition is held at that
+    # size only.
     if background_path is None:  # the background is estimated from the whole clip
-        # Each frame shrunk to the working size as it is decoded (as extract_silhouettes
-        # would shrink it): a long clip in high definition is held at that size only.
         stream = FrameSampleStream(
             path,
             sample_fps,
@@ -647,10 +653,16 @@ def load_clip_masks(
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         masks = extract_silhouettes(frames, None, config)
     else:  # segmented as it is decoded
-        stream = FrameSampleStream(path, sample_fps, progress=progress)
+        # Read first: a bad image stops the query before any decoding starts.
         background = read_background(background_path)
-        chunks = _same_size(stream.chunks(CHUNK_FRAMES), background)
-        masks = _person_found(_segment(chunks, background, config), config)
+
+        def to_working_size(frame: np.ndarray) -> np.ndarray:
+            _check_size(frame.shape[:2], background)
+            return _shrink(frame[None], config)[0]
+
+        stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_working_size)
+        small = _shrink(background[None], config)[0]
+        masks = _person_found(_segment(stream.chunks(CHUNK_FRAMES), small, config), config)
     return ClipMasks(masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps)
 
 

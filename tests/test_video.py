@@ -514,6 +514,24 @@ def test_background_file_of_another_size(stick_scene, tmp_path):
 
 
 @pytest.mark.parametrize("content", [None, b"nonsense"])
+def test_a_bad_background_stops_a_video_before_it_is_decoded(tmp_path, content, rng):
+    """No decoding thread is left running when the background cannot be read: a
+    process that exits on the error while FFmpeg is inside one can abort."""
+    import threading
+
+    from eigmotion.media import write_video
+
+    frames = rng.integers(0, 256, size=(240, 120, 160, 3)).astype(np.uint8)
+    video = write_video(frames, tmp_path / "clip.mp4", 30.0)
+    background = tmp_path / "bg.png"
+    if content is not None:
+        background.write_bytes(content)
+    with pytest.raises(VideoError, match="background image not found|not a readable image"):
+        load_clip_masks(video, background)
+    assert not [t for t in threading.enumerate() if t.name == "eigmotion-decode"]
+
+
+@pytest.mark.parametrize("content", [None, b"nonsense"])
 def test_unreadable_background_file(tmp_path, content):
     path = tmp_path / "bg.png"
     if content is not None:
