@@ -640,27 +640,21 @@ def load_clip_masks(
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
-    # Each frame is shrunk to the working size as soon as it is decoded (as the
-    # segmentation would shrink it): a long clip in high definition is held at that
-    # size only.
-    if background_path is None:  # the background is estimated from the whole clip
-        stream = FrameSampleStream(
-            path,
-            sample_fps,
-            progress=progress,
-            transform=lambda frame: _shrink(frame[None], config)[0],
-        )
+    # Read first: a bad image stops the query before any decoding starts.
+    background = None if background_path is None else read_background(background_path)
+
+    def to_working_size(frame: np.ndarray) -> np.ndarray:
+        """Each frame shrunk as soon as it is decoded (as the segmentation would shrink
+        it): a long clip in high definition is held at the working size only."""
+        if background is not None:
+            _check_size(frame.shape[:2], background)
+        return _shrink(frame[None], config)[0]
+
+    stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_working_size)
+    if background is None:  # estimated from the whole clip
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         masks = extract_silhouettes(frames, None, config)
     else:  # segmented as it is decoded
-        # Read first: a bad image stops the query before any decoding starts.
-        background = read_background(background_path)
-
-        def to_working_size(frame: np.ndarray) -> np.ndarray:
-            _check_size(frame.shape[:2], background)
-            return _shrink(frame[None], config)[0]
-
-        stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_working_size)
         small = _shrink(background[None], config)[0]
         masks = _person_found(_segment(stream.chunks(CHUNK_FRAMES), small, config), config)
     return ClipMasks(masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps)
