@@ -586,7 +586,9 @@ def _filter(image: np.ndarray, config: MotionImageConfig) -> np.ndarray:
         return -cv2.Laplacian(blurred, cv2.CV_32F, ksize=3, borderType=cv2.BORDER_CONSTANT)
     gx = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3, borderType=cv2.BORDER_CONSTANT)
     gy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3, borderType=cv2.BORDER_CONSTANT)
-    return cv2.magnitude(gx, gy)
+    # Not cv2.magnitude: its result depends on where the arrays lie in memory, so the
+    # same clip would give a motion image differing in the last bits from run to run.
+    return np.hypot(gx, gy)
 
 
 def _support(mass: np.ndarray) -> tuple[int, int]:

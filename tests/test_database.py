@@ -248,13 +248,11 @@ def test_a_3d_answer_asked_for_leaves_the_answer_as_it_is(db_path):
     assert clip.fps == db.config.motion_image.sample_fps and whole.fps == whole.clip_fps
     assert len(clip.masks) < len(whole.masks) == whole.n_frames == clip.n_frames
     assert (whole.masks[clip.frame_indices] != clip.masks).any()
-    # The same silhouettes; the images and distances equal but for float32 rounding
-    # (BLAS sums depend on memory alignment).
-    np.testing.assert_allclose(sampled.motion_image, every.motion_image, atol=1e-6)
+    # The same silhouettes: the same image and distances, to the last bit.
+    np.testing.assert_array_equal(sampled.motion_image, every.motion_image)
     assert [m.entry_id for m in sampled.top] == [m.entry_id for m in every.top]
     for a, b in zip(sampled.top, every.top, strict=True):
-        assert a.distance == pytest.approx(b.distance, abs=1e-6)
-        assert a.sequence_distance == pytest.approx(b.sequence_distance, abs=1e-6)
+        assert (a.distance, a.sequence_distance) == (b.distance, b.sequence_distance)
     assert sampled.accepted == every.accepted
     assert [(s.start_frame, s.end_frame, s.label) for s in sampled.segments] == [
         (s.start_frame, s.end_frame, s.label) for s in every.segments
@@ -404,10 +402,7 @@ def test_sigkill_during_index_keeps_the_database(db_path, tmp_path, other_body, 
             db.store.check()
             again = db.query_masks(masks, 30.0)
             if db.n_entries == n_entries:
-                # Same entry; the distance may differ in the last float32 bits (BLAS
-                # threads sum in another order from run to run).
-                assert again.best.entry_id == expected.best.entry_id
-                assert again.best.distance == pytest.approx(expected.best.distance, rel=1e-5)
+                assert again.best == expected.best
             else:  # the index had committed before the kill: complete, never partial
                 assert db.store.n_motions == len(library) + 1
                 break
@@ -518,10 +513,9 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         MotionDatabase.open(tmp_path / "one.fs") as one,
     ):
         a, b = rendered.store.arrays(), given.store.arrays()
-        np.testing.assert_allclose(a.points, b.points, atol=1e-5)
+        np.testing.assert_array_equal(a.points, b.points)
         np.testing.assert_array_equal(a.motions, b.motions)
-        # Points equal to float32 rounding give a threshold equal to its last bit or so.
-        assert rendered.threshold == pytest.approx(given.threshold, rel=1e-6)
+        assert rendered.threshold == given.threshold
         assert one.store.n_motions == 1
         assert one.motion_record(0)["label"] == "wave"
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
