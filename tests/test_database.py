@@ -493,6 +493,25 @@ def test_bruteforce_reference_agrees_with_itself(db_path):
         np.testing.assert_array_equal(res.ids[:, 0], arrays.ids[:5])
 
 
+def test_a_build_is_the_same_to_the_last_bit_on_one_process_or_two(tmp_path, library):
+    """The same motions, rig and configuration give the same database, whichever
+    processes rendered it."""
+    rig = virtual_rig([0.0, 120.0, 240.0], [0.0], 64, 64)
+    config = replace(CONFIG, n_components=4, key_axes=2)
+    for workers in (1, 2):
+        build_database(
+            library[:2], rig, tmp_path / f"{workers}.fs", config, workers=workers, progress=False
+        )
+    with (
+        MotionDatabase.open(tmp_path / "1.fs") as one,
+        MotionDatabase.open(tmp_path / "2.fs") as two,
+    ):
+        a, b = one.store.arrays(), two.store.arrays()
+        for name in ("points", "ids", "motions"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+        assert one.threshold == two.threshold
+
+
 def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library):
     """build_database(views=...) stores what a rendering build stores, from the images a
     render made once (how the benchmarks build many fold databases from one render)."""
