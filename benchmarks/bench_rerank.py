@@ -25,11 +25,17 @@ settings run first and are the baseline every variant is compared with::
 
     python benchmarks/bench_rerank.py [--seed 0] [--clips-dir DIR] [--db PATH]
         [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
-        [--no-background] [--unknown]
+        [--no-background] [--silhouettes NAME=VALUE ...] [--unknown]
 
 ``--no-background`` cuts the clips as a query without an image of the empty scene
 does (the background estimated from each clip), to compare silhouette front ends by
 what they do to recognition.
+
+``--silhouettes NAME=VALUE`` (repeatable) cuts the clips with a field of
+:class:`~eigmotion.video.SilhouetteConfig` changed from what a query uses (the working
+size ``work_max_side_px``, the thresholds, the shadow test ...), to compare silhouette
+settings by what they do to recognition; VALUE is JSON (``shadow_ratio=[0.35,0.85]``)
+or text (``background=median``).
 
 ``--unknown`` also measures the rejection of unknown motions on all the clips instead
 of the holdout suite's few: each label is left out of the search in turn (every
@@ -53,6 +59,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -142,6 +149,36 @@ def parse_variant(text: str) -> dict[str, float]:
     return out
 
 
+def parse_silhouette_setting(text: str) -> tuple[str, object]:
+    """``"NAME=VALUE"`` → (NAME, value): a :class:`SilhouetteConfig` field for the cut.
+
+    VALUE is read as JSON (``2.5``, ``[0.35, 0.85]``), or taken as text when it is not
+    (``background=median``); the field and its value are checked when the clips are cut.
+    """
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise InvalidParameterError(f"--silhouettes {text!r}: expected NAME=VALUE")
+    try:
+        return name, json.loads(value)
+    except json.JSONDecodeError:
+        return name, value
+
+
+def silhouette_setting_argument(text: str) -> tuple[str, object]:
+    """:func:`parse_silhouette_setting` for argparse."""
+    try:
+        return parse_silhouette_setting(text)
+    except InvalidParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cut_config(settings: list[tuple[str, object]]) -> SilhouetteConfig:
+    """The query's silhouette configuration with ``settings`` (from ``--silhouettes``)
+    in place of its fields (InvalidParameterError naming a field or value that is wrong)."""
+    fields = {"work_max_side_px": QUERY_SILHOUETTE_SIDE_PX, **dict(settings)}
+    return SilhouetteConfig.from_dict(fields)
+
+
 def variant_argument(text: str) -> dict[str, float]:
     """:func:`parse_variant` for argparse, which then prints what is wrong."""
     try:
@@ -184,7 +221,7 @@ def held_out_clips(args) -> list[HeldOutClip]:
     folds = subject_folds(basic, bench_args) + variation_folds(basic, bench_args)
     outfits = ((), *((name,) for name in BENCHMARK_GARMENTS))
     maker = ClipMaker(args.clips_dir)
-    config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+    config = cut_config(args.silhouettes)
     clips = []
     for _, held in folds:
         held_names = tuple(sorted(m.name for m in held))
@@ -316,6 +353,15 @@ def main(argv=None) -> int:
         help="cut the clips without their empty-scene images (estimated from each clip)",
     )
     parser.add_argument(
+        "--silhouettes",
+        action="append",
+        default=[],
+        type=silhouette_setting_argument,
+        metavar="NAME=VALUE",
+        help="cut the clips with this SilhouetteConfig field changed (repeatable), e.g. "
+        "low_factor=2.5 or work_max_side_px=320",
+    )
+    parser.add_argument(
         "--unknown",
         action="store_true",
         help="also ask every clip with its label left out of the search: rejection",
@@ -330,10 +376,13 @@ def main(argv=None) -> int:
             f"{args.db}: holds {len(stored)} motions, not the library's {len(basic)} basic "
             "motions; rebuild it with `eigmotion build`"
         )
+    cut_config(args.silhouettes)  # a wrong field or value stops the run before any cut
     t0 = time.perf_counter()
     clips = held_out_clips(args)
     seconds = time.perf_counter() - t0
     how = "with their backgrounds" if args.background else "without their backgrounds"
+    if args.silhouettes:
+        how += " (" + ", ".join(f"{name}={value}" for name, value in args.silhouettes) + ")"
     print(f"{len(clips)} holdout clips (seed {args.seed}), cut out {how} in {seconds:.0f} s")
     runs = [("shipped", {})]
     runs += [(",".join(f"{k}={v:g}" for k, v in values.items()), values) for values in args.variant]

@@ -8,8 +8,10 @@ import pytest
 
 import eigmotion.database as database_module
 import eigmotion.sequences as sequences_module
+from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation import QueryOutcome
+from eigmotion.video import SilhouetteConfig
 
 
 @pytest.fixture(scope="module")
@@ -41,6 +43,27 @@ def test_a_variant_sets_constants_where_they_are_read_and_puts_them_back(bench):
     with pytest.raises(RuntimeError), bench.Variant({"SPECIFIC_MARGIN": 0.1}):
         raise RuntimeError("a failed run")
     assert database_module.SPECIFIC_MARGIN != 0.1
+
+
+def test_silhouette_settings_change_the_query_cut_and_are_checked(bench):
+    assert bench.parse_silhouette_setting("low_factor=2.5") == ("low_factor", 2.5)
+    assert bench.parse_silhouette_setting("shadow_ratio=[0.35, 0.85]") == (
+        "shadow_ratio",
+        [0.35, 0.85],
+    )
+    assert bench.parse_silhouette_setting("background=median") == ("background", "median")
+    with pytest.raises(InvalidParameterError, match="NAME=VALUE"):
+        bench.parse_silhouette_setting("low_factor")
+    # the query's own cut unless a setting changes it; the working size too
+    assert bench.cut_config([]) == SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+    changed = bench.cut_config([("low_factor", 2.5), ("shadow_ratio", [0.35, 0.85])])
+    assert (changed.low_factor, changed.shadow_ratio) == (2.5, (0.35, 0.85))
+    assert changed.work_max_side_px == QUERY_SILHOUETTE_SIDE_PX
+    assert bench.cut_config([("work_max_side_px", 320)]).work_max_side_px == 320
+    with pytest.raises(InvalidParameterError, match="low_factr"):
+        bench.cut_config([("low_factr", 2.0)])
+    with pytest.raises(InvalidParameterError, match="low_factor"):
+        bench.cut_config([("low_factor", 0.5)])
 
 
 def test_scores_count_top_1_and_top_k_per_label(bench):
