@@ -94,6 +94,13 @@ UPPER_BODY_SIDE_FRAC = 0.15
 #: by the optics, smoothed with sigma 1 px; measured 2.7–2.8 on composed scenes).
 RAW_PER_SMOOTHED_NOISE = 2.5
 
+#: The most the frames may differ from the empty scene over half of the picture: the
+#: median ΔE (smoothed as the segmentation smooths it) above which no person can be
+#: told from the scene.  Frames and the image of the same empty view differ by 1.0–1.4
+#: on the holdout clips (38 of them, with their sensor noise and video codec), by
+#: 20–73 when the image is another clip's scene.
+MAX_SCENE_DIFFERENCE = 12.0
+
 #: Pixels per frame and channel whose median ratio to the background is the exposure gain.
 GAIN_SAMPLES = 512
 
@@ -919,11 +926,27 @@ class _Levels:
 
 
 def _levels(evidence: list[_Evidence], config: SilhouetteConfig) -> _Levels:
-    """Noise levels of the whole clip: medians over the grids of all its chunks."""
+    """Noise levels of the whole clip: medians over the grids of all its chunks.
+
+    Raises
+    ------
+    VideoError
+        The frames differ from the background over most of the picture (a median
+        above :data:`MAX_SCENE_DIFFERENCE`): no threshold could tell the person from it.
+    """
     rgb_noise = float(np.sqrt(_median(np.concatenate([e.rgb_d2 for e in evidence]))))
     raw_noise = float(_median(np.concatenate([e.raw_grid for e in evidence])))
+    smooth_noise = raw_noise
     if config.smooth_sigma_px > 0.0:
         smooth_noise = float(_median(np.concatenate([e.smoothed_grid for e in evidence])))
+    if not smooth_noise <= MAX_SCENE_DIFFERENCE:
+        raise VideoError(
+            f"the frames differ from the empty scene over most of the picture (median "
+            f"colour difference {smooth_noise:.0f} ΔE; frames of the same empty view "
+            f"differ from it by about 1–3): a background image of another scene or view, "
+            f"a moving camera, or a person who fills most of the frame"
+        )
+    if config.smooth_sigma_px > 0.0:
         # A lossy codec removes the fine grain (lowering the raw median) but leaves
         # blocky low-frequency errors (raising the smoothed one): the raw noise is
         # never taken below what the smoothed noise implies.

@@ -7,6 +7,8 @@ with a cast shadow, camouflaged clothing and sensor noise.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -376,6 +378,20 @@ def test_frames_equal_to_the_background_hold_no_person():
     frames = np.repeat(background[None], 5, axis=0)
     with pytest.raises(VideoError, match="no person found"):
         extract_silhouettes(frames, background)
+
+
+def test_a_background_image_of_another_scene_is_named_as_such(stick_scene):
+    # The bundled kick clip against the walk clip's empty scene: the same size, but every
+    # pixel differs, so the noise level is the scene's difference and no person shows.
+    samples = Path(__file__).resolve().parents[1] / "database" / "samples"
+    with pytest.raises(VideoError, match=r"differ from the empty scene over most of the picture"):
+        load_clip_masks(samples / "kick.mp4", samples / "walk_3s_background.png")
+    _, frames, background, _ = stick_scene
+    other = procedural_background(*background.shape[:2], 30, np.random.default_rng(7))
+    with pytest.raises(VideoError, match=r"median colour difference \d+ ΔE"):
+        extract_silhouettes(frames, other)
+    # its own empty scene is well under the limit
+    assert extract_silhouettes(frames, background).any()
 
 
 def test_background_of_another_size_names_both_sizes(stick_scene):
