@@ -302,7 +302,7 @@ def extract_silhouettes(
     else:
         background = _check_background(background)
         masks = _segment(_same_size(_chunks(frames), background), background, config)
-    return _person_found(masks, config)
+    return _person_found(masks, config, estimated=background is None)
 
 
 def _check_background(background) -> np.ndarray:
@@ -338,12 +338,21 @@ def _chunks(frames: np.ndarray) -> Iterator[np.ndarray]:
         yield frames[start : start + CHUNK_FRAMES]
 
 
-def _person_found(masks: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
-    """``masks``, unless no frame shows a person (VideoError)."""
+def _person_found(
+    masks: np.ndarray, config: SilhouetteConfig, estimated: bool = False
+) -> np.ndarray:
+    """``masks``, unless no frame shows a person (VideoError; with ``estimated``, the
+    background was estimated from the clip, and the error says what that needs)."""
     if not masks.any():
+        why = (
+            " (no image of the empty scene was given, so it was estimated from the clip: "
+            "a person shows only by moving; give an image of the empty scene)"
+            if estimated
+            else ""
+        )
         raise VideoError(
             f"no person found in {len(masks)} frame(s): nothing that differs from the "
-            f"background covers {config.min_person_frac:.2%} of the image"
+            f"background covers {config.min_person_frac:.2%} of the image{why}"
         )
     return masks
 

@@ -380,6 +380,16 @@ def test_frames_equal_to_the_background_hold_no_person():
         extract_silhouettes(frames, background)
 
 
+def test_a_person_who_never_moves_without_a_background_image_is_told_what_is_needed(
+    stick_scene,
+):
+    _, frames, background, _ = stick_scene
+    still = np.repeat(frames[len(frames) // 2][None], 12, axis=0)
+    with pytest.raises(VideoError, match="no person found.*a person shows only by moving"):
+        extract_silhouettes(still, None)
+    assert extract_silhouettes(still, background).all(axis=0).any()  # they are there
+
+
 def test_a_background_image_of_another_scene_is_named_as_such(stick_scene):
     # The bundled kick clip against the walk clip's empty scene: the same size, but every
     # pixel differs, so the noise level is the scene's difference and no person shows.
