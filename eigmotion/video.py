@@ -945,9 +945,12 @@ def _levels(evidence: list[_Evidence], config: SilhouetteConfig) -> _Levels:
     """
     rgb_noise = float(np.sqrt(_median(np.concatenate([e.rgb_d2 for e in evidence]))))
     raw_noise = float(_median(np.concatenate([e.raw_grid for e in evidence])))
-    smooth_noise = raw_noise
-    if config.smooth_sigma_px > 0.0:
-        smooth_noise = float(_median(np.concatenate([e.smoothed_grid for e in evidence])))
+    smoothed = config.smooth_sigma_px > 0.0
+    smooth_noise = (
+        float(_median(np.concatenate([e.smoothed_grid for e in evidence])))
+        if smoothed
+        else raw_noise
+    )
     if not smooth_noise <= MAX_SCENE_DIFFERENCE:
         raise VideoError(
             f"the frames differ from the empty scene over most of the picture (median "
@@ -955,7 +958,7 @@ def _levels(evidence: list[_Evidence], config: SilhouetteConfig) -> _Levels:
             f"differ from it by about 1–3): a background image of another scene or view, "
             f"a moving camera, or a person who fills most of the frame"
         )
-    if config.smooth_sigma_px > 0.0:
+    if smoothed:
         # A lossy codec removes the fine grain (lowering the raw median) but leaves
         # blocky low-frequency errors (raising the smoothed one): the raw noise is
         # never taken below what the smoothed noise implies.
