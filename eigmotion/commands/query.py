@@ -28,7 +28,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "clip", type=Path, help="video (.mp4/.avi), folder of frames, or .npz of masks"
     )
     parser.add_argument("--db", default=None, help="database (default database/eigmotion.fs)")
-    parser.add_argument("--background", type=Path, help="image of the empty scene")
+    parser.add_argument(
+        "--background",
+        type=Path,
+        help="image of the empty scene from the same camera, the size of the frames; "
+        "without it the scene is estimated from the clip, which needs the person to move "
+        "and finds them less well",
+    )
     parser.add_argument("--top", type=int, default=3, help="distinct motions to list")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
