@@ -35,9 +35,10 @@ would run it.  Four suites:
 
 For every database a suite queries it prints the per-label top-1 / top-3 accuracy with
 counts (top-3: the true label among the first three distinct labels of the answer),
-the overall accuracy, the rejection rates, the mean query time and the confusion
-matrix (true label rows × top-1 label columns), then the in-library queries answered
-wrong.  ``--json-out`` writes the same, with every query, as JSON.
+the overall accuracy and the rejection rates (each with its 95 % confidence
+interval), the mean query time and the confusion matrix (true label rows × top-1 label
+columns), then the in-library queries answered wrong.  ``--json-out`` writes the same,
+with every query, as JSON; ``compare_runs.py`` compares two such files clip by clip.
 
 Run from the repository root::
 
@@ -436,14 +437,18 @@ def run_clips(
     -------
     list of dict
         One record per clip: the spec, ``person_px``, ``render_s`` and ``answers``
-        (target name → :func:`query`'s answer).
+        (target name → :func:`query`'s answer and ``in_library``: whether that
+        database holds the clip's label).
     """
     from tqdm import tqdm
 
     records = []
     for spec in tqdm(specs, desc=desc, unit="clip"):
         clip = maker.make(spec, items[spec.motion])
-        answers = {t.name: query(t, clip, args.background) for t in targets}
+        answers = {
+            t.name: {**query(t, clip, args.background), "in_library": spec.label in t.labels}
+            for t in targets
+        }
         records.append(
             {
                 **asdict(spec),

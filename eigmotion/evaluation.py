@@ -15,7 +15,11 @@ match, and whether the true label is one the database holds at all ("in library"
 * how well the answer's distance alone separates out-of-library from in-library
   queries (:func:`separation`), whatever threshold the database stores.
 
-:func:`format_score` prints it as Markdown tables.  Nothing here runs a query.
+Every rate comes with its 95 % confidence interval (:func:`proportion_interval`): on a
+few hundred clips a rate is known to a few points only.  :func:`paired_comparison`
+tells whether a change answered the same queries better than chance would (exact
+McNemar test).  :func:`format_score` prints a score as Markdown tables.  Nothing here
+runs a query.
 """
 
 from __future__ import annotations
@@ -30,6 +34,9 @@ from .errors import InvalidParameterError
 
 #: Cell shown for a zero count in printed confusion matrices.
 ZERO_CELL = "·"
+
+#: Confidence level of the intervals given beside every rate.
+CONFIDENCE = 0.95
 
 
 @dataclass(frozen=True)
@@ -199,6 +206,112 @@ def _json_rate(value: float) -> float | None:
     return None if math.isnan(value) else round(value, 6)
 
 
+def proportion_interval(
+    successes: int, n: int, confidence: float = CONFIDENCE
+) -> tuple[float, float]:
+    """Confidence interval of a rate ``successes / n`` (Wilson score interval).
+
+    The Wilson interval keeps its coverage near 0 and 1 (215/220, 0/8), where the
+    normal approximation runs outside [0, 1] and the exact Clopper–Pearson interval is
+    needlessly wide; computed by :func:`scipy.stats.binomtest`.
+
+    Parameters
+    ----------
+    successes, n : int
+        ``0 <= successes <= n``.
+    confidence : float
+        In (0, 1).
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        Fractions in [0, 1]; ``(nan, nan)`` when ``n`` is 0.
+    """
+    if not 0.0 < confidence < 1.0:
+        raise InvalidParameterError(f"confidence must be in (0, 1), got {confidence}")
+    if not 0 <= successes <= n:
+        raise InvalidParameterError(f"need 0 <= successes <= n, got {successes} of {n}")
+    if n == 0:
+        return float("nan"), float("nan")
+    from scipy.stats import binomtest
+
+    found = binomtest(successes, n).proportion_ci(confidence, method="wilson")
+    return float(found.low), float(found.high)
+
+
+def _json_interval(successes: int, n: int) -> list[float] | None:
+    low, high = proportion_interval(successes, n)
+    return None if math.isnan(low) else [round(low, 6), round(high, 6)]
+
+
+@dataclass(frozen=True)
+class PairedComparison:
+    """Two runs' right-or-wrong answers to the same queries, side by side.
+
+    Attributes
+    ----------
+    n : int
+        Queries both runs answered.
+    before, after : int
+        Right answers of each run.
+    gained, lost : int
+        Queries wrong before and right after, and right before and wrong after.
+    p_value : float
+        Two-sided exact McNemar test: the chance that ``gained`` and ``lost`` split at
+        least this unevenly if the change made no difference (each changed query as
+        likely to go either way); 1 when none changed.
+    """
+
+    n: int
+    before: int
+    after: int
+    gained: int
+    lost: int
+    p_value: float
+
+    def to_json(self) -> dict:
+        return {
+            "n": self.n,
+            "before": self.before,
+            "after": self.after,
+            "gained": self.gained,
+            "lost": self.lost,
+            "p_value": round(self.p_value, 6),
+        }
+
+
+def paired_comparison(before: Sequence[bool], after: Sequence[bool]) -> PairedComparison:
+    """Whether a change answered the same queries better or worse than chance would.
+
+    Only the queries whose answer changed tell: with ``d`` of them, a split of
+    ``gained`` to ``lost`` is compared with ``d`` fair coin tosses
+    (:func:`scipy.stats.binomtest`).  Ten changed queries must split 9 to 1 for p <
+    0.05; 7 to 3 (a net gain of four) has p = 0.34.
+
+    Parameters
+    ----------
+    before, after : sequence of bool
+        Per query, in the same order: right (True) or wrong, for each run.
+
+    Returns
+    -------
+    PairedComparison
+    """
+    b = np.asarray(before, dtype=bool)
+    a = np.asarray(after, dtype=bool)
+    if b.ndim != 1 or b.shape != a.shape:
+        raise InvalidParameterError(
+            f"before and after must be 1-D and of one length, got shapes {b.shape} and {a.shape}"
+        )
+    gained, lost = int(np.sum(a & ~b)), int(np.sum(b & ~a))
+    p_value = 1.0
+    if gained + lost:
+        from scipy.stats import binomtest
+
+        p_value = float(binomtest(gained, gained + lost, 0.5).pvalue)
+    return PairedComparison(len(b), int(b.sum()), int(a.sum()), gained, lost, p_value)
+
+
 @dataclass(frozen=True)
 class LabelScore:
     """The queries of one true label.
@@ -285,9 +398,11 @@ class RejectionRates:
             "n_in_library": self.n_in_library,
             "false_rejected": self.false_rejected,
             "false_rejection_rate": _json_rate(self.false_rejection_rate),
+            "false_rejection_interval": _json_interval(self.false_rejected, self.n_in_library),
             "n_out_of_library": self.n_out_of_library,
             "rejected": self.rejected,
             "rejection_rate": _json_rate(self.rejection_rate),
+            "rejection_interval": _json_interval(self.rejected, self.n_out_of_library),
         }
 
 
@@ -443,6 +558,9 @@ class Score:
             "top1_rate": _json_rate(self.top1_rate),
             "topk_rate": _json_rate(self.topk_rate),
             "top1_accepted_rate": _json_rate(self.top1_accepted_rate),
+            "confidence": CONFIDENCE,
+            "top1_interval": _json_interval(self.top1, self.n),
+            "topk_interval": _json_interval(self.topk, self.n),
             "per_label": [s.to_json() for s in self.per_label],
             "confusion": self.confusion.to_json(),
             "rejection": self.rejection.to_json(),
@@ -531,6 +649,17 @@ def _percent(value: float) -> str:
     return "—" if math.isnan(value) else f"{100 * value:.1f}%"
 
 
+def format_rate(successes: int, n: int) -> str:
+    """``"194/220 (88.2%; 95% CI 83.2–91.8%)"``: a count, its rate and interval."""
+    low, high = proportion_interval(successes, n)
+    if math.isnan(low):
+        return f"{successes}/{n} (—)"
+    return (
+        f"{successes}/{n} ({_percent(successes / n)}; {100 * CONFIDENCE:.0f}% CI "
+        f"{100 * low:.1f}–{100 * high:.1f}%)"
+    )
+
+
 def markdown_table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> list[str]:
     """A Markdown table, columns padded to their widest cell.
 
@@ -591,13 +720,11 @@ def format_score(result: Score) -> str:
     lines = markdown_table(["label", "n", "top-1", f"top-{k}", "rejected"], rows)
     lines += [
         "",
-        f"overall (in-library queries): top-1 {result.top1}/{result.n} "
-        f"({_percent(result.top1_rate)}), top-{k} {result.topk}/{result.n} "
-        f"({_percent(result.topk_rate)}), top-1 and accepted {result.top1_accepted}/"
-        f"{result.n} ({_percent(result.top1_accepted_rate)})",
-        f"rejection: out-of-library rejected {rej.rejected}/{rej.n_out_of_library} "
-        f"({_percent(rej.rejection_rate)}); in-library falsely rejected "
-        f"{rej.false_rejected}/{rej.n_in_library} ({_percent(rej.false_rejection_rate)})",
+        f"overall (in-library queries): top-1 {format_rate(result.top1, result.n)}, "
+        f"top-{k} {format_rate(result.topk, result.n)}, top-1 and accepted "
+        f"{result.top1_accepted}/{result.n} ({_percent(result.top1_accepted_rate)})",
+        f"rejection: out-of-library rejected {format_rate(rej.rejected, rej.n_out_of_library)}; "
+        f"in-library falsely rejected {format_rate(rej.false_rejected, rej.n_in_library)}",
         f"mean query time: {result.mean_query_s:.2f} s over {result.n_queries} queries",
         *_separation_lines(result.separation),
         "",

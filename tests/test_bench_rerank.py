@@ -83,6 +83,25 @@ def test_scores_count_top_1_and_top_k_per_label(bench):
     assert s["topk"]["walk"] == 1 and s["topk"]["run"] == 1  # the 4th label is not top-3
 
 
+def test_runs_are_compared_with_the_shipped_one_clip_by_clip(bench, capsys):
+    clips = [bench.HeldOutClip(str(i), "walk", ("w1",), None, 15.0) for i in range(12)]
+
+    def answers(right):
+        return [
+            QueryOutcome("walk", ("walk",) if ok else ("run", "jump", "turn"), True, True, 0.0)
+            for ok in right
+        ]
+
+    shipped = [True] * 2 + [False] * 10
+    better = [False] * 2 + [True] * 10  # 10 gained, 2 lost
+    bench.print_runs(clips, {"shipped": answers(shipped), "X=1": answers(better)})
+    out = capsys.readouterr().out
+    assert "| shipped | 2/12  | 1.00      | —" in out
+    assert "| X=1     | 10/12 | 5.00      | +10 −2             | 0.04" in out
+    assert "shipped: top-1 2/12 (16.7%; 95% CI 4.7–44.8%)" in out
+    assert "| X=1             | 10/12" in out  # per label
+
+
 def test_unknown_tables_count_rejections_per_label_left_out(bench, capsys):
     known = [QueryOutcome("walk", ("walk",), True, True, 0.0, d) for d in (0.1, 0.2, 0.3)]
     known.append(QueryOutcome("run", ("walk",), False, True, 0.0, 0.5))

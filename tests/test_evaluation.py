@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,8 @@ from eigmotion.evaluation import (
     format_confusion,
     format_score,
     markdown_table,
+    paired_comparison,
+    proportion_interval,
     ranked_labels,
     rejection_rates,
     score,
@@ -212,15 +215,70 @@ def test_score_json_is_plain_and_complete():
     assert data["rejection"]["rejected"] == 1
     assert len(data["per_label"]) == 4
     assert data["confusion"]["counts"][0] == [1, 2, 0]
+    assert data["confidence"] == 0.95
+    assert data["top1_interval"] == pytest.approx(wilson(3, 6), abs=1e-6)
+    assert data["rejection"]["rejection_interval"] == pytest.approx(wilson(1, 2), abs=1e-6)
+
+
+def wilson(successes, n, z=1.959963984540054):
+    """The Wilson score interval in closed form, to check the library's against."""
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return [centre - half, centre + half]
+
+
+@pytest.mark.parametrize(("successes", "n"), [(194, 220), (215, 220), (0, 8), (8, 8), (1, 2)])
+def test_proportion_interval_is_wilsons(successes, n):
+    low, high = proportion_interval(successes, n)
+    assert [low, high] == pytest.approx(wilson(successes, n), abs=1e-9)
+    assert 0.0 <= low <= successes / n <= high <= 1.0
+
+
+def test_proportion_interval_narrows_with_more_queries_and_less_confidence():
+    assert all(math.isnan(x) for x in proportion_interval(0, 0))
+    wide, narrow = proportion_interval(88, 100), proportion_interval(880, 1000)
+    assert narrow[1] - narrow[0] < (wide[1] - wide[0]) / 3
+    low90, high90 = proportion_interval(88, 100, confidence=0.90)
+    assert wide[0] < low90 and high90 < wide[1]
+
+
+@pytest.mark.parametrize(
+    ("successes", "n", "confidence", "message"),
+    [(5, 4, 0.95, "successes <= n"), (-1, 4, 0.95, "successes <= n"), (1, 4, 1.0, "(0, 1)")],
+)
+def test_proportion_interval_refuses_bad_input(successes, n, confidence, message):
+    with pytest.raises(InvalidParameterError, match=re.escape(message)):
+        proportion_interval(successes, n, confidence)
+
+
+@pytest.mark.parametrize(
+    ("gained", "lost", "p_value"),
+    [(9, 1, 0.021484375), (7, 3, 0.34375), (1, 9, 0.021484375), (6, 0, 0.03125), (0, 0, 1.0)],
+)
+def test_paired_comparison_is_an_exact_mcnemar_test(gained, lost, p_value):
+    # 20 queries right in both runs and 5 wrong in both never count.
+    before = [False] * gained + [True] * lost + [True] * 20 + [False] * 5
+    after = [True] * gained + [False] * lost + [True] * 20 + [False] * 5
+    found = paired_comparison(before, after)
+    assert (found.gained, found.lost) == (gained, lost)
+    assert (found.before, found.after, found.n) == (lost + 20, gained + 20, len(before))
+    assert found.p_value == pytest.approx(p_value)
+    assert json.loads(json.dumps(found.to_json()))["p_value"] == pytest.approx(p_value, abs=1e-6)
+
+
+def test_paired_comparison_refuses_runs_of_different_queries():
+    with pytest.raises(InvalidParameterError, match="one length"):
+        paired_comparison([True, False], [True])
 
 
 def test_format_score_shows_counts_rates_and_matrix():
     text = format_score(score(QUERIES, label_order=["walk", "run", "jump", "duck"]))
     assert "| walk " in text and "1/3 (33.3%)" in text
     assert "duck (out of library)" in text
-    assert "top-1 3/6 (50.0%)" in text
-    assert "out-of-library rejected 1/2 (50.0%)" in text
-    assert "falsely rejected 2/6 (33.3%)" in text
+    assert "top-1 3/6 (50.0%; 95% CI 18.8–81.2%)" in text
+    assert "out-of-library rejected 1/2 (50.0%; 95% CI 9.5–90.5%)" in text
+    assert "falsely rejected 2/6 (33.3%; 95% CI 9.7–70.0%)" in text
     assert "mean query time: 2.00 s over 8 queries" in text
     assert "| true \\ top-1 |" in text
 

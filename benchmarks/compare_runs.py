@@ -1,0 +1,207 @@
+"""Two runs of ``bench_accuracy.py`` compared clip by clip: did the change help?
+
+Each run's ``--json-out`` holds every query with its answer.  The clips both runs
+asked (the same video asked of the database of the same name) are paired, and for each
+measure — top-1 and top-k of the in-library clips, their false rejections, the
+rejection of out-of-library ones — this prints both counts, the clips the second run
+gained and lost, and the exact McNemar test's p-value of that split
+(:func:`eigmotion.evaluation.paired_comparison`): the chance of a split at least as
+uneven from a change that made no difference.  Then the clips whose top-1 answer
+changed, by name.  On the holdout suite's 220 in-library clips a single run's top-1 is
+known to about ±4 points; two runs on the same clips tell far finer differences apart,
+but only those the p-value backs::
+
+    python benchmarks/bench_accuracy.py holdout --clips-dir DIR --json-out before.json
+    (change something)
+    python benchmarks/bench_accuracy.py holdout --clips-dir DIR --json-out after.json
+    python benchmarks/compare_runs.py before.json after.json [--suite holdout]
+
+A run made before each answer recorded whether its label is in the library takes it
+from the suite's scores (a label any of them counts out of the library is out).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.evaluation import markdown_table, paired_comparison
+
+#: The rank of the top-k measure when a run does not say.
+DEFAULT_K = 3
+
+
+@dataclass(frozen=True)
+class Asked:
+    """One clip asked of one database, in one run.
+
+    Attributes
+    ----------
+    video : str
+        The clip's file name.
+    target : str
+        The database asked.
+    label : str
+        What the clip shows.
+    in_library : bool
+        The database holds ``label``.
+    ranked_labels : tuple of str
+        Distinct labels of the answer, nearest first.
+    accepted : bool
+    """
+
+    video: str
+    target: str
+    label: str
+    in_library: bool
+    ranked_labels: tuple[str, ...]
+    accepted: bool
+
+    def hit(self, k: int) -> bool:
+        return self.label in self.ranked_labels[:k]
+
+
+def load_run(path: Path) -> dict:
+    """A ``bench_accuracy.py --json-out`` file, checked to hold suites of queries."""
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InvalidParameterError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InvalidParameterError(f"{path}: not a JSON file ({exc})") from None
+    suites = data.get("suites") if isinstance(data, dict) else None
+    if not isinstance(suites, dict) or not suites:
+        raise InvalidParameterError(
+            f"{path}: holds no suites; give a file written by bench_accuracy.py --json-out"
+        )
+    for name, suite in suites.items():
+        if not isinstance(suite, dict) or not isinstance(suite.get("queries"), list):
+            raise InvalidParameterError(f"{path}: suite {name!r} holds no list of queries")
+    return data
+
+
+def asked(path: Path, suite: dict) -> tuple[dict[tuple[str, str], Asked], int]:
+    """Every (video, database) a suite asked, and the k of its top-k.
+
+    Raises
+    ------
+    InvalidParameterError
+        A query without the fields an answer needs.
+    """
+    scores = [s for s in suite.get("scores", {}).values() if isinstance(s, dict)]
+    out_of_library = {
+        row["label"]
+        for s in scores
+        for row in s.get("per_label", [])
+        if not row.get("in_library", True)
+    }
+    k = next((int(s["k"]) for s in scores if "k" in s), DEFAULT_K)
+    found: dict[tuple[str, str], Asked] = {}
+    for record in suite["queries"]:
+        try:
+            for target, answer in record["answers"].items():
+                label = record["label"]
+                in_library = answer.get("in_library", label not in out_of_library)
+                found[(record["video"], target)] = Asked(
+                    record["video"],
+                    target,
+                    label,
+                    bool(in_library),
+                    tuple(answer["ranked_labels"]),
+                    bool(answer["accepted"]),
+                )
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise InvalidParameterError(
+                f"{path}: a query lacks what an answer needs ({exc!r} in {str(record)[:80]}…)"
+            ) from None
+    return found, k
+
+
+def compare_suite(name: str, before: dict, after: dict, paths: Sequence[Path]) -> list[str]:
+    """The Markdown lines comparing one suite of two runs."""
+    first, k = asked(paths[0], before)
+    second, _ = asked(paths[1], after)
+    common = [key for key in first if key in second]
+    if not common:
+        return [f"## {name}", "", "no clip asked of the same database in both runs"]
+    # A clip's status must be the same in both runs for the pair to mean anything.
+    pairs = [(first[key], second[key]) for key in common]
+    pairs = [(a, b) for a, b in pairs if a.in_library == b.in_library]
+    inside = [(a, b) for a, b in pairs if a.in_library]
+    outside = [(a, b) for a, b in pairs if not a.in_library]
+    measures = [
+        ("top-1 (in library)", inside, lambda q: q.hit(1)),
+        (f"top-{k} (in library)", inside, lambda q: q.hit(k)),
+        ("accepted (in library)", inside, lambda q: q.accepted),
+        ("rejected (out of library)", outside, lambda q: not q.accepted),
+    ]
+    rows = []
+    for measure, group, right in measures:
+        if not group:
+            continue
+        change = paired_comparison([right(a) for a, _ in group], [right(b) for _, b in group])
+        rows.append(
+            [
+                measure,
+                f"{change.before}/{change.n}",
+                f"{change.after}/{change.n}",
+                str(change.gained),
+                str(change.lost),
+                f"{change.p_value:.3f}",
+            ]
+        )
+    only = len(first) + len(second) - 2 * len(common)
+    lines = [
+        f"## {name}",
+        "",
+        f"{len(pairs)} clips asked in both runs ({len(inside)} in library); "
+        f"{only} asked in one run only, not compared",
+        "",
+        *markdown_table(["measure", "before", "after", "gained", "lost", "p (McNemar)"], rows),
+    ]
+    changed = [(a, b) for a, b in inside if a.hit(1) != b.hit(1)]
+    for title, keep in (("top-1 gained", True), ("top-1 lost", False)):
+        shown = [(a, b) for a, b in changed if b.hit(1) == keep]
+        if shown:
+            lines += ["", f"{title}:"]
+            lines += [
+                f"  {a.video} ({a.target}): {a.ranked_labels[0]} → {b.ranked_labels[0]}"
+                for a, b in shown
+            ]
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("before", type=Path, help="the first run's --json-out")
+    parser.add_argument("after", type=Path, help="the second run's --json-out")
+    parser.add_argument("--suite", action="append", help="compare only this suite (repeatable)")
+    args = parser.parse_args(argv)
+    runs = [load_run(args.before), load_run(args.after)]
+    common = [s for s in runs[0]["suites"] if s in runs[1]["suites"]]
+    wanted = args.suite or common
+    missing = [s for s in wanted if s not in common]
+    if missing or not wanted:
+        raise InvalidParameterError(
+            f"suite(s) {', '.join(missing) or '(none)'} not in both runs; both hold: "
+            f"{', '.join(common) or 'none in common'}"
+        )
+    for i, name in enumerate(wanted):
+        if i:
+            print()
+        suites = [run["suites"][name] for run in runs]
+        print("\n".join(compare_suite(name, *suites, (args.before, args.after))))
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except EigmotionError as exc:
+        print(f"compare_runs: error: {exc}", file=sys.stderr)
+        sys.exit(2)
