@@ -8,9 +8,9 @@ without building one.  This script answers the same held-out clips (same folds,
 motions, views, bodies, garments and seeds: ``--seed``, repeatable, 220 clips per seed
 all compared together) with one database of the whole library, the fold's motions
 taken out of the search: an exact brute-force index over the entries of the motions
-the fold keeps stands in for the tree.  Everything
-else is the query as ``eigmotion query`` runs it (``MotionDatabase.query_masks`` on
-the silhouettes cut from the ``.mp4`` with its empty-scene image).
+the fold keeps stands in for the tree.  Everything else is the query as ``eigmotion
+query`` runs it (``MotionDatabase.query_masks`` on the silhouettes cut from the
+``.mp4`` with its empty-scene image).
 
 It is an approximation of the holdout benchmark, not a substitute: the motion
 eigenspace and the pose eigenspace were fitted with the held-out motions among the
@@ -482,10 +482,9 @@ def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresh
     rates = rejection_rates(known + unknown)
     alone = separation(known + unknown)
     print(
-        f"\nunknown motions rejected {rates.rejected}/{rates.n_out_of_library} "
-        f"({100 * rates.rejection_rate:.1f} %); known motions falsely rejected "
-        f"{rates.false_rejected}/{rates.n_in_library} ({100 * rates.false_rejection_rate:.1f} %, "
-        f"at the whole database's threshold)\n"
+        f"\nunknown motions rejected {format_rate(rates.rejected, rates.n_out_of_library)}; "
+        f"known motions falsely rejected {format_rate(rates.false_rejected, rates.n_in_library)} "
+        f"(at the whole database's threshold)\n"
         f"distance alone: AUC {alone.auc:.3f}; a threshold at the 95th percentile of the known "
         f"motions' distances ({alone.threshold:.3f}) rejects {alone.rejected}/"
         f"{alone.n_out_of_library} unknown ones"

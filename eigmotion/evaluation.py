@@ -15,8 +15,8 @@ match, and whether the true label is one the database holds at all ("in library"
 * how well the answer's distance alone separates out-of-library from in-library
   queries (:func:`separation`), whatever threshold the database stores.
 
-Every rate comes with its 95 % confidence interval (:func:`proportion_interval`): on a
-few hundred clips a rate is known to a few points only.  :func:`paired_comparison`
+Every overall rate comes with its 95 % confidence interval (:func:`proportion_interval`):
+on a few hundred clips a rate is known to a few points only.  :func:`paired_comparison`
 tells whether a change answered the same queries better than chance would (exact
 McNemar test).  :func:`format_score` prints a score as Markdown tables.  Nothing here
 runs a query.
@@ -268,16 +268,6 @@ class PairedComparison:
     gained: int
     lost: int
     p_value: float
-
-    def to_json(self) -> dict:
-        return {
-            "n": self.n,
-            "before": self.before,
-            "after": self.after,
-            "gained": self.gained,
-            "lost": self.lost,
-            "p_value": round(self.p_value, 6),
-        }
 
 
 def paired_comparison(before: Sequence[bool], after: Sequence[bool]) -> PairedComparison:

@@ -114,8 +114,8 @@ def test_unknown_tables_count_rejections_per_label_left_out(bench, capsys):
     out = capsys.readouterr().out
     assert "| run            | 0.310     | 0/1      | walk 1" in out
     assert "| walk           | 0.320     | 1/2      | run 1" in out
-    assert "unknown motions rejected 1/3 (33.3 %)" in out
-    assert "known motions falsely rejected 1/4 (25.0 %" in out
+    assert "unknown motions rejected 1/3 (33.3%; 95% CI 6.1–79.2%)" in out
+    assert "known motions falsely rejected 1/4 (25.0%; 95% CI 4.6–69.9%)" in out
     # distance alone: of 12 pairs, 0.6 is farther than all four known, 0.25 than two,
     # 0.2 than one and ties one: 7.5 / 12
     assert "AUC 0.625" in out

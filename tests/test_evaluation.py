@@ -264,7 +264,6 @@ def test_paired_comparison_is_an_exact_mcnemar_test(gained, lost, p_value):
     assert (found.gained, found.lost) == (gained, lost)
     assert (found.before, found.after, found.n) == (lost + 20, gained + 20, len(before))
     assert found.p_value == pytest.approx(p_value)
-    assert json.loads(json.dumps(found.to_json()))["p_value"] == pytest.approx(p_value, abs=1e-6)
 
 
 def test_paired_comparison_refuses_runs_of_different_queries():
