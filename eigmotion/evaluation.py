@@ -690,7 +690,10 @@ def format_confusion(confusion: ConfusionMatrix) -> str:
 
 
 def format_score(result: Score) -> str:
-    """A score as Markdown: per-label table, overall line, rejection, confusion matrix."""
+    """A score as Markdown: per-label table, overall line, rejection, confusion matrix.
+
+    Top-1 per label and every overall rate come with their 95 % confidence interval
+    (:func:`format_rate`): a label's 20 clips pin its rate down to ±15 points or so."""
     k = result.k
     rows = []
     for s in result.per_label:
@@ -699,7 +702,7 @@ def format_score(result: Score) -> str:
                 [
                     s.label,
                     str(s.n),
-                    f"{s.top1}/{s.n} ({_percent(s.top1_rate)})",
+                    format_rate(s.top1, s.n),
                     f"{s.topk}/{s.n} ({_percent(s.topk_rate)})",
                     f"{s.rejected}/{s.n}",
                 ]

@@ -273,7 +273,7 @@ def test_paired_comparison_refuses_runs_of_different_queries():
 
 def test_format_score_shows_counts_rates_and_matrix():
     text = format_score(score(QUERIES, label_order=["walk", "run", "jump", "duck"]))
-    assert "| walk " in text and "1/3 (33.3%)" in text
+    assert "| walk " in text and "1/3 (33.3%; 95% CI 6.1–79.2%)" in text
     assert "duck (out of library)" in text
     assert "top-1 3/6 (50.0%; 95% CI 18.8–81.2%)" in text
     assert "out-of-library rejected 1/2 (50.0%; 95% CI 9.5–90.5%)" in text
