@@ -26,44 +26,16 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 from eigmotion.errors import EigmotionError, InvalidParameterError
-from eigmotion.evaluation import markdown_table, paired_comparison
+from eigmotion.evaluation import QueryOutcome, markdown_table, paired_comparison
 
 #: The rank of the top-k measure when a run does not say.
 DEFAULT_K = 3
 
-
-@dataclass(frozen=True)
-class Asked:
-    """One clip asked of one database, in one run.
-
-    Attributes
-    ----------
-    video : str
-        The clip's file name.
-    target : str
-        The database asked.
-    label : str
-        What the clip shows.
-    in_library : bool
-        The database holds ``label``.
-    ranked_labels : tuple of str
-        Distinct labels of the answer, nearest first.
-    accepted : bool
-    """
-
-    video: str
-    target: str
-    label: str
-    in_library: bool
-    ranked_labels: tuple[str, ...]
-    accepted: bool
-
-    def hit(self, k: int) -> bool:
-        return self.label in self.ranked_labels[:k]
+#: One clip asked of one database: (the clip's video file name, the database's name).
+Key = tuple[str, str]
 
 
 def load_run(path: Path) -> dict:
@@ -85,8 +57,9 @@ def load_run(path: Path) -> dict:
     return data
 
 
-def asked(path: Path, suite: dict) -> tuple[dict[tuple[str, str], Asked], int]:
-    """Every (video, database) a suite asked, and the k of its top-k.
+def asked(path: Path, suite: dict) -> tuple[dict[Key, QueryOutcome], int]:
+    """Every clip a suite asked of each database, as a query outcome, and the k of its
+    top-k.
 
     Raises
     ------
@@ -101,21 +74,19 @@ def asked(path: Path, suite: dict) -> tuple[dict[tuple[str, str], Asked], int]:
         if not row.get("in_library", True)
     }
     k = next((int(s["k"]) for s in scores if "k" in s), DEFAULT_K)
-    found: dict[tuple[str, str], Asked] = {}
+    found: dict[Key, QueryOutcome] = {}
     for record in suite["queries"]:
         try:
             for target, answer in record["answers"].items():
                 label = record["label"]
-                in_library = answer.get("in_library", label not in out_of_library)
-                found[(record["video"], target)] = Asked(
-                    record["video"],
-                    target,
+                found[(record["video"], target)] = QueryOutcome(
                     label,
-                    bool(in_library),
                     tuple(answer["ranked_labels"]),
                     bool(answer["accepted"]),
+                    bool(answer.get("in_library", label not in out_of_library)),
+                    float(answer.get("query_s", 0.0)),
                 )
-        except (KeyError, TypeError, AttributeError) as exc:
+        except (KeyError, TypeError, AttributeError, ValueError) as exc:
             raise InvalidParameterError(
                 f"{path}: a query lacks what an answer needs ({exc!r} in {str(record)[:80]}…)"
             ) from None
@@ -130,8 +101,8 @@ def compare_suite(name: str, before: dict, after: dict, paths: Sequence[Path]) -
     if not common:
         return [f"## {name}", "", "no clip asked of the same database in both runs"]
     # A clip's status must be the same in both runs for the pair to mean anything.
-    pairs = [(first[key], second[key]) for key in common]
-    pairs = [(a, b) for a, b in pairs if a.in_library == b.in_library]
+    keys = [key for key in common if first[key].in_library == second[key].in_library]
+    pairs = [(first[key], second[key]) for key in keys]
     inside = [(a, b) for a, b in pairs if a.in_library]
     outside = [(a, b) for a, b in pairs if not a.in_library]
     measures = [
@@ -159,19 +130,23 @@ def compare_suite(name: str, before: dict, after: dict, paths: Sequence[Path]) -
     lines = [
         f"## {name}",
         "",
-        f"{len(pairs)} clips asked in both runs ({len(inside)} in library); "
-        f"{only} asked in one run only, not compared",
+        f"{len(pairs)} clips asked in both runs ({len(inside)} in library); not compared: "
+        f"{only} asked in one run only, {len(common) - len(pairs)} in the library in one "
+        "run only",
         "",
         *markdown_table(["measure", "before", "after", "gained", "lost", "p (McNemar)"], rows),
     ]
-    changed = [(a, b) for a, b in inside if a.hit(1) != b.hit(1)]
+    changed = [
+        key for key in keys if first[key].in_library and first[key].hit(1) != second[key].hit(1)
+    ]
     for title, keep in (("top-1 gained", True), ("top-1 lost", False)):
-        shown = [(a, b) for a, b in changed if b.hit(1) == keep]
+        shown = [key for key in changed if second[key].hit(1) == keep]
         if shown:
             lines += ["", f"{title}:"]
             lines += [
-                f"  {a.video} ({a.target}): {a.ranked_labels[0]} → {b.ranked_labels[0]}"
-                for a, b in shown
+                f"  {video} ({target}): {first[video, target].predicted} → "
+                f"{second[video, target].predicted}"
+                for video, target in shown
             ]
     return lines
 

@@ -53,7 +53,10 @@ def test_runs_are_paired_by_clip_and_database(compare, tmp_path, capsys):
     paths = write_run(tmp_path / "a.json", before), write_run(tmp_path / "b.json", after)
     assert compare.main([str(p) for p in paths]) == 0
     out = capsys.readouterr().out
-    assert "13 clips asked in both runs (11 in library); 2 asked in one run only" in out
+    assert (
+        "13 clips asked in both runs (11 in library); not compared: 2 asked in one run "
+        "only, 0 in the library in one run only"
+    ) in out
     # 9 walks gained, the run lost at top-1: p = 20/1024 (two-sided).
     assert "| top-1 (in library)        | 1/11   | 9/11  | 9      | 1    | 0.021" in out
     assert "| top-3 (in library)        | 11/11  | 10/11 | 0      | 1    | 1.000" in out
@@ -68,7 +71,9 @@ def test_a_clip_whose_library_status_changed_is_not_compared(compare, tmp_path, 
     after = [record("a.mp4", "walk", ["walk"], in_library=False)]
     paths = write_run(tmp_path / "a.json", before), write_run(tmp_path / "b.json", after)
     compare.main([str(p) for p in paths])
-    assert "0 clips asked in both runs" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "0 clips asked in both runs (0 in library); not compared: 0 asked in one run" in out
+    assert "1 in the library in one run only" in out
 
 
 @pytest.mark.parametrize(
@@ -78,6 +83,11 @@ def test_a_clip_whose_library_status_changed_is_not_compared(compare, tmp_path, 
         ('{"suites": {}}', "holds no suites"),
         ('{"suites": {"holdout": {"queries": 3}}}', "holds no list of queries"),
         ('{"suites": {"holdout": {"queries": [{"video": "a.mp4"}]}}}', "lacks what an answer"),
+        (
+            '{"suites": {"holdout": {"queries": [{"video": "a.mp4", "label": "walk", '
+            '"answers": {"db": {"ranked_labels": [], "accepted": true}}}]}}}',
+            "at least one label",
+        ),
     ],
 )
 def test_bad_runs_are_named(compare, tmp_path, text, message):
