@@ -77,6 +77,16 @@ SKIN_CHUNK_FRAMES = 16
 DEFAULT_LOW_POLY_FACES = 4000
 
 
+def check_body_shape(height_m: float | None, girth: float) -> None:
+    """Raise :class:`InvalidParameterError` unless ``height_m`` (metres, or ``None`` for
+    the avatar's own) lies in [0.5, 2.5] and ``girth`` in [0.7, 1.8] (see
+    :meth:`Avatar.with_shape`)."""
+    if not (np.isfinite(girth) and 0.7 <= girth <= 1.8):
+        raise InvalidParameterError(f"girth must lie in [0.7, 1.8], got {girth!r}")
+    if height_m is not None and not (np.isfinite(height_m) and 0.5 <= height_m <= 2.5):
+        raise InvalidParameterError(f"height_m must lie in [0.5, 2.5] metres, got {height_m!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class Avatar:
     """A body mesh skinned to a skeleton (by default the canonical one).
@@ -398,10 +408,7 @@ class Avatar:
         -------
         Avatar
         """
-        if not (np.isfinite(girth) and 0.7 <= girth <= 1.8):
-            raise InvalidParameterError(f"girth must lie in [0.7, 1.8], got {girth!r}")
-        if height_m is not None and not (np.isfinite(height_m) and 0.5 <= height_m <= 2.5):
-            raise InvalidParameterError(f"height_m must lie in [0.5, 2.5] metres, got {height_m!r}")
+        check_body_shape(height_m, girth)
         vertices = self.vertices.astype(np.float64)
         if girth != 1.0:
             vertices = vertices + (girth - 1.0) * self._radial_offsets()

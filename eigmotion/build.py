@@ -28,6 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .avatar import check_body_shape
 from .cameras import CameraRig
 from .errors import InvalidParameterError, VideoError
 from .library import LibraryMotion
@@ -115,6 +116,8 @@ class BuildConfig:
         if not self.body_shapes:
             raise InvalidParameterError("body_shapes must hold at least one (height_m, girth)")
         shapes = tuple((None if h is None else float(h), float(g)) for h, g in self.body_shapes)
+        for height, girth in shapes:
+            check_body_shape(height, girth)
         object.__setattr__(self, "body_shapes", shapes)
         object.__setattr__(self, "garments", _outfits(self.garments))
 

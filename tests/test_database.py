@@ -453,6 +453,7 @@ def test_queries_run_while_an_index_commits(db_path, tmp_path, other_body, libra
         (["query", "{clip}", "--db", "{db}", "--top", "0"], "--top"),
         (["index", "{tmp}/none.bvh", "--label", "x", "--db", "{db}"], "none.bvh"),
         (["build", "--rig", "{tmp}/none.toml", "--db", "{tmp}/x.fs"], "none.toml"),
+        (["build", "--girth", "1", "--girth", "2", "--db", "{tmp}/x.fs"], "girth"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(db_path, tmp_path, argv, message):
@@ -468,6 +469,40 @@ def test_bad_input_is_one_line_and_exit_2(db_path, tmp_path, argv, message):
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and message.split("/")[-1] in lines[0], err
     assert "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_build_with_girths_renders_every_girth_in_every_outfit(tmp_path):
+    motions = REPO / "database" / "motions"
+    manifest = tmp_path / "library.toml"
+    manifest.write_text(
+        "".join(
+            f"""
+[[motion]]
+name = "{name}"
+label = "{label}"
+source = ["{motions}/cmu/amc/16_35.amc", "{motions}/cmu/asf/16.asf"]
+frame_range = [{start}, {start + 80}]
+performer = "cmu_16"
+variation = "v"
+licence = "l"
+attribution = "a"
+"""
+            for name, label, start in (("x", "run", 0), ("y", "walk", 80))
+        )
+    )
+    db = tmp_path / "girths.fs"
+    rig = REPO / "virtual_cameras" / "ring6.toml"
+    argv = ["build", "--motions", manifest, "--rig", rig, "--db", db, "--components", "8"]
+    proc = _eigmotion(*map(str, argv), "--girth", "0.85", "--girth", "1.25", "--quiet")
+    _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    with MotionDatabase.open(db) as built:
+        assert built.config.body_shapes == ((None, 0.85), (None, 1.25))
+        outfits = len(BuildConfig().garments)
+        for motion_id in np.unique(built.store.arrays().motions):
+            renderings = built.store.sequences(int(motion_id)).lengths
+            assert len(renderings) == 6 * 2 * outfits  # views × girths × outfits
 
 
 def test_empty_clip_is_refused(db_path, tmp_path):

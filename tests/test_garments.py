@@ -311,6 +311,19 @@ def test_build_config_refuses_bad_garments(garments, match):
         BuildConfig(garments=garments)
 
 
+@pytest.mark.parametrize(
+    "shapes, match",
+    [
+        (((None, 0.5),), "girth .*0.5"),
+        (((3.0, 1.0),), "height_m .*3.0"),
+        (((None, np.nan),), "girth"),
+    ],
+)
+def test_build_config_refuses_bad_body_shapes(shapes, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        BuildConfig(body_shapes=shapes)
+
+
 def test_build_renders_every_body_shape_in_every_outfit():
     from eigmotion.library import LibraryMotion
 

@@ -4,6 +4,7 @@ Examples::
 
     eigmotion build                                   # bundled library and rig
     eigmotion build --motions my_library.toml --rig virtual_cameras/ring6.toml --db my.fs
+    eigmotion build --girth 1 --girth 0.85 --girth 1.25 --db bodies.fs   # three builds
 """
 
 from __future__ import annotations
@@ -35,6 +36,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--components", type=int, default=None, help="eigen-dimensions k (default from config)"
     )
+    parser.add_argument(
+        "--girth",
+        type=float,
+        action="append",
+        help="a body girth factor: every motion is rendered, in every outfit, on a body of "
+        "each girth given (repeatable; 0.7-1.8; default 1.0 alone, the avatar's own build)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -60,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
     config = BuildConfig()
     if args.components is not None:
         config = replace(config, n_components=args.components)
+    if args.girth:
+        config = replace(config, body_shapes=tuple((None, girth) for girth in args.girth))
     uri = args.db or DEFAULT_DB_PATH
     report = build_database(
         library, rig, uri, config, workers=args.workers, progress=not args.quiet
