@@ -41,7 +41,12 @@ DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
 #: Outfits of the default build: tuples of garment names (see
 #: :mod:`eigmotion.garments`); ``()`` is the plain body.  Database garments only: the
 #: benchmark's (:data:`eigmotion.garments.BENCHMARK_GARMENTS`) stay unseen.
-DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = ((), ("short_skirt",), ("jacket", "wide_shorts"))
+DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = (
+    (),
+    ("short_skirt",),
+    ("jacket", "wide_shorts"),
+    ("cropped_trousers",),
+)
 #: A sliding window shows a motion's action (:attr:`LibraryMotion.action
 #: <eigmotion.library.LibraryMotion.action>`) when the action fills at least this share
 #: of the window, or of the action when that is shorter than a window: a window is

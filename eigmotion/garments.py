@@ -175,6 +175,7 @@ GARMENTS: dict[str, Garment] = {
         Garment("short_skirt", "skirt", 0.28, 0.1, rgb=(0.2, 0.45, 0.3)),
         Garment("jacket", "coat", 0.05, 0.02, 0.9, (0.35, 0.38, 0.2)),
         Garment("wide_shorts", "trousers", 0.4, 0.05, rgb=(0.45, 0.38, 0.25)),
+        Garment("cropped_trousers", "trousers", 0.75, 0.04, rgb=(0.25, 0.25, 0.3)),
     )
 }
 #: Garments held out of databases, for the benchmark.
