@@ -42,7 +42,7 @@ from .sequences import (
     view_reach,
 )
 from .store import Store, parse_uri
-from .video import ClipMasks, SilhouetteConfig, load_clip_masks
+from .video import ClipMasks, SilhouetteConfig, load_clip_masks, worker_threads
 
 #: Where ``eigmotion build`` with no options writes.
 DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.fs"
@@ -524,6 +524,9 @@ class QueryResult:
         The same, summed over the searches of the sliding windows (segments).
     db_entries : int
     timing_ms : dict of str to float
+        Wall time of the query's steps, ms: ``motion_images`` (the whole clip's),
+        ``search`` (the whole clip's; the windows' motion images and searches run
+        beside it and the next step), ``sequences`` (the candidates ranked), ``total``.
     motion_image : (D,) float32
         The clip's motion image.
     """
@@ -667,29 +670,25 @@ class MotionDatabase:
         cfg = self.config
         windows = window_bounds(len(masks), fps, cfg.window_s, cfg.window_step_s)
         images = ClipMotionImages(masks, cfg.motion_image, clip_fps=fps)
-        vectors, kept = [], []
-        for start, stop in windows:
-            try:
-                vectors.append(images.window(start, stop))
-                kept.append((int(start), int(stop)))
-            except VideoError:
-                if start == 0 and stop == len(masks):
-                    raise  # the whole clip shows no person or no motion
+        whole_vector = images.window(*windows[0])  # no person or no motion: raised here
+        # The windows' search and the clip's silhouette sequence do not wait for the
+        # whole clip's search: they run beside it.
+        workers = worker_threads()
+        windowed_job = workers.submit(self._search_windows, images, windows[1:])
+        sequence_job = workers.submit(
+            lambda: pose_coordinates(self.pose_space, sequence_frames(images))
+        )
+        point = self.eigenspace.transform(whole_vector[None].astype(np.float32))
         t1 = time.perf_counter()
         timing["motion_images"] = (t1 - t0) * 1e3
-        points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
-        whole = self.index.search(points[:1], top_k=min(CANDIDATE_ENTRIES, self.n_entries))
-        windowed = (
-            self.index.search(points[1:], top_k=min(WINDOW_CANDIDATES, self.n_entries))
-            if len(points) > 1
-            else None
-        )
+        whole = self.index.search(point, top_k=min(CANDIDATE_ENTRIES, self.n_entries))
         t2 = time.perf_counter()
         timing["search"] = (t2 - t1) * 1e3
         nearest = self._nearest_motions(whole.ids[0], whole.distances[0])
         candidates = candidate_motions(nearest)
-        ranked = self._ranked_by_sequence(sequence_frames(images), candidates)
+        ranked = self._ranked_by_sequence(sequence_job.result(), candidates)
         timing["sequences"] = (time.perf_counter() - t2) * 1e3
+        kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         top = (ranked + [m for m in nearest if m.motion_id not in compared])[:top_k]
         segments = self._segments(kept, windowed, len(masks), top[0])
@@ -708,8 +707,37 @@ class MotionDatabase:
             examined_windows,
             self.n_entries,
             timing,
-            np.asarray(vectors[0]),
+            whole_vector,
         )
+
+    def _search_windows(self, images: ClipMotionImages, windows: np.ndarray):
+        """The :data:`WINDOW_CANDIDATES` nearest entries of each window's motion image.
+
+        Parameters
+        ----------
+        images : ClipMotionImages
+            The clip's.
+        windows : (W, 2) int
+            Frame bounds ``[start, stop)`` of the windows (the whole clip's excluded).
+
+        Returns
+        -------
+        kept : list of (int, int)
+            The bounds of the windows that show a person moving, in order.
+        SearchResult or None
+            Their search, one row per kept window; None when none is kept.
+        """
+        vectors, kept = [], []
+        for start, stop in windows:
+            try:
+                vectors.append(images.window(start, stop))
+                kept.append((int(start), int(stop)))
+            except VideoError:
+                continue  # no person or no motion in this window: not a segment
+        if not vectors:
+            return kept, None
+        points = self.eigenspace.transform(np.asarray(vectors, dtype=np.float32))
+        return kept, self.index.search(points, top_k=min(WINDOW_CANDIDATES, self.n_entries))
 
     def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
         """The nearest entry of each distinct motion among ``entry_ids`` (nearest
@@ -726,13 +754,15 @@ class MotionDatabase:
             nearest.append(self._match(entry_id, dist))
         return nearest
 
-    def _ranked_by_sequence(self, frames: np.ndarray, nearest: list[Match]) -> list[Match]:
+    def _ranked_by_sequence(self, query: np.ndarray, nearest: list[Match]) -> list[Match]:
         """The candidate motions ranked by motion image and silhouette sequence together.
 
         Parameters
         ----------
-        frames : (F, SEQUENCE_SIZE**2 + 1) float32
-            The clip's silhouette sequence (:func:`~eigmotion.sequences.sequence_frames`).
+        query : (F, p + 1) float32
+            The clip's silhouette sequence in pose coordinates
+            (:func:`~eigmotion.sequences.pose_coordinates` of
+            :func:`~eigmotion.sequences.sequence_frames`).
         nearest : list of Match
             Each candidate motion's nearest entry, nearest first.
 
@@ -745,20 +775,20 @@ class MotionDatabase:
             (:func:`~eigmotion.sequences.pace_factors`) — in order of
             :func:`~eigmotion.sequences.fused_scores`.
         """
-        query = pose_coordinates(self.pose_space, frames)
         parts, lengths, speeds, owners = [], [], [], []
         for candidate, match in enumerate(nearest):
-            stored, starts, stored_speeds = self._stored_sequences(match.motion_id)
-            for r in np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg)):
-                parts.append(stored.frames[starts[r] : starts[r + 1]])
-                lengths.append(stored.lengths[r])
-                speeds.append(stored_speeds[r])
-                owners.append(candidate)
+            stored, stored_speeds = self._stored_sequences(match.motion_id)
+            near = view_reach(stored.azimuth_deg, match.azimuth_deg)
+            parts.append(stored.frames[np.repeat(near, stored.lengths)])
+            lengths.append(stored.lengths[near])
+            speeds.append(stored_speeds[near])
+            owners.append(np.full(np.count_nonzero(near), candidate))
+        lengths = np.concatenate(lengths) if lengths else np.zeros(0, np.int64)
         compared = np.full(len(nearest), np.inf)
-        if parts:
-            found = sequence_distances(query, np.concatenate(parts), np.asarray(lengths))
-            found *= pace_factors(pose_speeds(query, [len(query)])[0], np.asarray(speeds))
-            np.minimum.at(compared, np.asarray(owners), found)
+        if lengths.size:
+            found = sequence_distances(query, np.concatenate(parts), lengths)
+            found *= pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds))
+            np.minimum.at(compared, np.concatenate(owners), found)
         order = np.argsort(
             fused_scores(np.array([m.distance for m in nearest]), np.array(compared)),
             kind="stable",
@@ -772,15 +802,14 @@ class MotionDatabase:
         ]
 
     def _stored_sequences(self, motion_id: int):
-        """A motion's :class:`~eigmotion.store.MotionSequences`, the (R + 1,) first
-        frame of each rendering and their (R,) pose speeds
-        (:func:`~eigmotion.sequences.pose_speeds`), read from the store once, then kept."""
+        """A motion's :class:`~eigmotion.store.MotionSequences` and its renderings' (R,)
+        pose speeds (:func:`~eigmotion.sequences.pose_speeds`), read from the store
+        once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
-            starts = np.concatenate([[0], np.cumsum(stored.lengths)])
             speeds = pose_speeds(stored.frames, stored.lengths)
-            found = self._sequences[motion_id] = (stored, starts, speeds)
+            found = self._sequences[motion_id] = (stored, speeds)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:
@@ -813,7 +842,7 @@ class MotionDatabase:
             return [Segment(0, n_frames, best.label, best.distance)]
         segments: list[Segment] = []
         for (start, stop), entry_id, dist in zip(
-            kept[1:], windowed.ids[:, 0], windowed.distances[:, 0], strict=True
+            kept, windowed.ids[:, 0], windowed.distances[:, 0], strict=True
         ):
             label = self._label_of(int(entry_id))
             if segments and segments[-1].label == label and start < segments[-1].end_frame:

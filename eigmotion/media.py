@@ -269,8 +269,7 @@ class FrameSampleStream:
             # However the reading ends (an error, or the caller giving up early), the
             # decoder is stopped and waited for: a process that exits while FFmpeg is
             # still inside a decoding thread can abort instead of exiting cleanly.
-            self._stop.set()
-            self._decoder.join()
+            self.close()
             if bar is not None:
                 bar.close()
         if not held:
@@ -279,6 +278,13 @@ class FrameSampleStream:
         held = [(index, frame) for index, frame in held if index in wanted]
         if held:
             yield self._stacked(held)
+
+    def close(self) -> None:
+        """Stop the decoding thread and wait for it (for a stream given up before its
+        :meth:`chunks` are read; reading them to their end, or an error, closes it)."""
+        if self._decoder is not None:
+            self._stop.set()
+            self._decoder.join()
 
     def _stacked(self, frames: list[tuple[int, np.ndarray]]) -> np.ndarray:
         return _stack([frame for _, frame in frames], self.path)

@@ -126,6 +126,14 @@ DEFAULT_NPZ_FPS = 30.0
 #: threads and of the pipeline with a video's decoding.  The masks do not depend on it.
 CHUNK_FRAMES = 8
 
+#: The second pass segments only a chunk's person region: the box of the pixels that
+#: could seed a person, grown by this share of its longer side on each side (weak
+#: pixels reach out from the seeds: camouflaged legs below a torso) …
+REGION_MARGIN_FRAC = 0.25
+#: … unless that region covers more than this share of the frame (the whole frame is
+#: then as quick).
+MAX_REGION_FRAC = 0.6
+
 
 @dataclass(frozen=True)
 class SilhouetteConfig:
@@ -500,7 +508,7 @@ def _commonest_colours(sample: np.ndarray) -> np.ndarray:
     out = np.empty((h * w, 3), np.float32)
     pixels = np.ascontiguousarray(sample).reshape(f, h * w, 3)
     kernel = _kernels().largest_cluster_means
-    workers = _workers()
+    workers = worker_threads()
     bounds = np.linspace(0, h * w, (os.cpu_count() or 1) + 1).astype(np.int64)
     jobs = [
         workers.submit(kernel, pixels[:, lo:hi], radius, out[lo:hi])
@@ -656,8 +664,6 @@ def load_clip_masks(
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)
         return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
-    # Read first: a bad image stops the query before any decoding starts.
-    background = None if background_path is None else read_background(background_path)
 
     def to_working_size(frame: np.ndarray) -> np.ndarray:
         """Each frame shrunk as soon as it is decoded (as the segmentation would shrink
@@ -667,6 +673,11 @@ def load_clip_masks(
         return _shrink(frame[None], config)[0]
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_working_size)
+    try:  # read while the video starts decoding
+        background = None if background_path is None else read_background(background_path)
+    except BaseException:
+        stream.close()
+        raise
     if background is None:  # estimated from the whole clip
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         masks = extract_silhouettes(frames, None, config)
@@ -777,7 +788,7 @@ def _segment(
     """
     scene = _scene(background, config)
     _kernels()  # compiled here, before the workers call them
-    workers = _workers()
+    workers = worker_threads()
     pending = [workers.submit(_evidence, chunk, scene, config) for chunk in chunks]
     evidence = [job.result() for job in pending]
     levels = _levels(evidence, config)
@@ -786,13 +797,15 @@ def _segment(
 
 
 @lru_cache(maxsize=1)
-def _workers() -> ThreadPoolExecutor:
-    """The threads chunks of frames are segmented on, one per CPU."""
+def worker_threads() -> ThreadPoolExecutor:
+    """The threads, one per CPU, that chunks of frames are segmented on and a query's
+    independent steps run on (work that releases the GIL: OpenCV, compiled loops).
+    A task running on them must not wait for another task it submits to them."""
     return ThreadPoolExecutor(max_workers=os.cpu_count() or 1, thread_name_prefix="eigmotion-seg")
 
 
 # A forked child has none of its parent's threads: it starts a pool of its own.
-os.register_at_fork(after_in_child=_workers.cache_clear)
+os.register_at_fork(after_in_child=worker_threads.cache_clear)
 
 
 @dataclass(frozen=True)
@@ -804,7 +817,10 @@ class _Scene:
     colours for the shadow test, ``bright`` (H, W) their length and ``inv_norm2``
     (H, W) one over its square; ``gain_pixels`` what :func:`_gain_pixels` picks.  A
     stack of ``k`` frames has ``sep + k·tile`` rows: ``sep`` empty rows, then per
-    frame its ``H`` rows and ``sep`` empty ones.
+    frame its ``H`` rows and ``sep`` empty ones.  ``frame`` is the (H, W) of a whole
+    frame at the working size: a scene cropped to a person region
+    (:func:`_cropped_scene`) keeps the whole frame's (the smallest person is a share
+    of its area).
     """
 
     rgb: np.ndarray
@@ -817,6 +833,7 @@ class _Scene:
     close_d: int
     reach: int
     gain_pixels: list
+    frame: tuple[int, int]
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -845,7 +862,7 @@ def _scene(background: np.ndarray, config: SilhouetteConfig) -> _Scene:
     rgb = background.astype(np.float32)
     return _Scene(
         rgb, _lab(background[None])[0], soft, np.sqrt(norm2), 1.0 / norm2, sep, h + sep,
-        close_d, reach, _gain_pixels(rgb),
+        close_d, reach, _gain_pixels(rgb), background.shape[:2],
     )  # fmt: skip
 
 
@@ -975,49 +992,192 @@ def _chunk_masks(
 ) -> np.ndarray:
     """The second pass over a chunk: its masks (n, H, W) bool from its evidence.
 
-    The shadow test runs once; the person's components are found, and found again
-    when :func:`_clear_upper_body_shadow` takes the test back anywhere beside them;
-    then they are made into the masks (holes filled, the rim refined) once."""
+    Only the chunk's person region is segmented (:func:`_person_region`), the masks
+    being the same as over the whole frames: nothing outside it can seed a person.
+    Where what lies beyond the region could change them (:func:`_region_masks`), or
+    the region is most of the frame (:data:`MAX_REGION_FRAC`), the whole frames are
+    segmented.
+    """
     kernels = _kernels()
-    n, (h, w), sep, tile = evidence.n, scene.shape, scene.sep, scene.tile
-    rows = sep + n * tile
-    shadow = np.zeros((rows, w), np.bool_)
+    n, (h, w) = evidence.n, scene.shape
+    shadow = np.zeros(evidence.raw.shape, np.bool_)
     kernels.cast_shadows(
         _frames_of(evidence.soft, scene, n).reshape(n, -1), scene.soft.ravel(),
         scene.inv_norm2.ravel(), scene.bright.ravel(), *np.float32(config.shadow_ratio),
         np.float32(config.shadow_chroma), np.float32(levels.rgb_noise),
         _frames_of(shadow, scene, n).reshape(n, -1),
     )  # fmt: skip
+    region = _person_region(evidence, scene, levels, shadow)
+    if region is None:  # no pixel strong enough to seed a person
+        return np.zeros((n, h, w), bool)
+    y0, y1, x0, x1 = region
+    if (y1 - y0) * (x1 - x0) <= MAX_REGION_FRAC * h * w:
+        part = _cropped_scene(scene, region)
+        masks = _region_masks(
+            _cropped_evidence(evidence, scene, part, region), part, levels, config,
+            _cropped_stack(shadow, scene, part, region, n), region,
+        )  # fmt: skip
+        if masks is not None:
+            out = np.zeros((n, h, w), bool)
+            out[:, y0:y1, x0:x1] = masks
+            return out
+    return _region_masks(evidence, scene, levels, config, shadow, (0, h, 0, w))
+
+
+def _region_masks(
+    evidence: _Evidence, scene: _Scene, levels: _Levels, config: SilhouetteConfig,
+    shadow: np.ndarray, region: tuple[int, int, int, int],
+) -> np.ndarray | None:  # fmt: skip
+    """The masks (n, H', W') bool of a chunk's frames, or of the region of them that
+    ``evidence``, ``scene`` and ``shadow`` (S, W') bool, the cast-shadow pixels, were
+    cropped to (``region`` (y0, y1, x0, x1) of the whole frame, ``scene.frame``).
+
+    The person's components are found, and found again when
+    :func:`_clear_upper_body_shadow` takes the shadow test back anywhere beside them
+    (``shadow`` is changed); then they are made into the masks (holes filled, the rim
+    refined) once.
+
+    None when what lies beyond an edge of the region that is not the frame's could
+    change the masks: a component within :func:`_guard_px` of it, or the upper body's
+    shadow test taken back across it.
+    """
+    n, h = evidence.n, scene.shape[0]
     labels, boxes, keep = _person_components_given_shadow(evidence, scene, levels, config, shadow)
-    if config.upper_body_frac > 0.0 and _clear_upper_body_shadow(
-        boxes[keep], shadow, scene, n, config.upper_body_frac
-    ):
-        labels, boxes, keep = _person_components_given_shadow(
-            evidence, scene, levels, config, shadow
-        )
+    if config.upper_body_frac > 0.0:
+        beside = _beside_upper_body(boxes[keep], scene, n, config.upper_body_frac)
+        if _across_inner_edge(beside, scene, region):
+            return None
+        if _clear_upper_body_shadow(beside, shadow, scene, n):
+            labels, boxes, keep = _person_components_given_shadow(
+                evidence, scene, levels, config, shadow
+            )
+    if _near_inner_edge(boxes[1:], scene, region):
+        return None
     person = _person_mask(evidence, scene, levels, config, shadow, labels, boxes, keep)
     return _frames_of(person, scene, n)[:, :h].copy()
 
 
-def _clear_upper_body_shadow(
-    person_boxes: np.ndarray, shadow: np.ndarray, scene: _Scene, n: int, upper_frac: float
-) -> bool:
-    """Take back the shadow test where a cast shadow cannot be: beside the upper body.
+def _guard_px(scene: _Scene) -> int:
+    """How near, pixels, a component may come to an edge of a person region before
+    what lies beyond could change the masks: more than the closing, the hole test's
+    erosion and the boundary refinement's 7×7 window reach."""
+    return max(scene.close_d, 2 * scene.reach + 1, 7) + 1
 
-    A cast shadow lies on the floor, around and behind the feet; clothing darker
-    than the wall behind it with the wall's hue passes the same test.  In each frame,
-    ``shadow`` is cleared over the top ``upper_frac`` of the box of the person's
-    components, in its columns widened by :data:`UPPER_BODY_SIDE_FRAC` of its height
-    on each side.
+
+def _person_region(
+    evidence: _Evidence, scene: _Scene, levels: _Levels, shadow: np.ndarray
+) -> tuple[int, int, int, int] | None:
+    """The part of a chunk's frames that can hold the person: (y0, y1, x0, x1), pixels.
+
+    Every component of a mask holds a seed: a pixel whose smoothed difference exceeds
+    the high threshold and that is not in a cast shadow (``shadow`` (S, W) bool, as
+    the stack; :func:`_seeds`).  The region is the box of the chunk's seeds, grown on
+    each side by :data:`REGION_MARGIN_FRAC` of its longer side (at least twice
+    :func:`_guard_px`), clipped to the frame.  None when there is no seed.
+    """
+    n, (h, w) = evidence.n, scene.shape
+    seeds = _frames_of(evidence.smoothed, scene, n)[:, :h] > levels.high
+    seeds &= ~_frames_of(shadow, scene, n)[:, :h]
+    rows, cols = np.flatnonzero(seeds.any(axis=(0, 2))), np.flatnonzero(seeds.any(axis=(0, 1)))
+    if rows.size == 0:
+        return None
+    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    grow = max(2 * _guard_px(scene), math.ceil(REGION_MARGIN_FRAC * max(y1 - y0, x1 - x0)))
+    return max(0, y0 - grow), min(h, y1 + grow), max(0, x0 - grow), min(w, x1 + grow)
+
+
+def _near_inner_edge(boxes: np.ndarray, scene: _Scene, region: tuple[int, int, int, int]) -> bool:
+    """Whether any component's box comes within :func:`_guard_px` of an edge of
+    ``region`` (y0, y1, x0, x1) that is not an edge of the whole frame.
+
+    Parameters
+    ----------
+    boxes : (K, 5) int64
+        Area, x0, y0, x1, y1 of the components in the stack of the region's frames,
+        less its first ``scene.sep`` rows (frame ``f`` from row ``f·tile``).
+    """
+    if len(boxes) == 0:
+        return False
+    y0, y1, x0, x1 = region
+    (h, w), (frame_h, frame_w), guard = scene.shape, scene.frame, _guard_px(scene)
+    top = boxes[:, 2] % scene.tile
+    bottom = top + boxes[:, 4] - boxes[:, 2]
+    return bool(
+        (x0 > 0 and np.any(boxes[:, 1] < guard))
+        or (x1 < frame_w and np.any(boxes[:, 3] >= w - guard))
+        or (y0 > 0 and np.any(top < guard))
+        or (y1 < frame_h and np.any(bottom >= h - guard))
+    )
+
+
+def _across_inner_edge(
+    beside: tuple[np.ndarray, ...], scene: _Scene, region: tuple[int, int, int, int]
+) -> bool:
+    """Whether a box of :func:`_beside_upper_body` reaches across the left or right
+    edge of ``region`` (y0, y1, x0, x1) where that is not the whole frame's."""
+    _, _, _, left, right = beside
+    if len(left) == 0:
+        return False
+    x0, x1, frame_w = region[2], region[3], scene.frame[1]
+    return bool((x0 > 0 and left.min() < 0) or (x1 < frame_w and right.max() > scene.shape[1]))
+
+
+def _cropped_scene(scene: _Scene, region: tuple[int, int, int, int]) -> _Scene:
+    """The scene of the ``region`` (y0, y1, x0, x1) of its frames, stacked the same way
+    (the exposure gains' pixels are the first pass's and are left out)."""
+    y0, y1, x0, x1 = region
+
+    def crop(image: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(image[y0:y1, x0:x1])
+
+    return replace(
+        scene, rgb=crop(scene.rgb), lab=crop(scene.lab), soft=crop(scene.soft),
+        bright=crop(scene.bright), inv_norm2=crop(scene.inv_norm2), tile=y1 - y0 + scene.sep,
+        gain_pixels=[],
+    )  # fmt: skip
+
+
+def _cropped_evidence(
+    evidence: _Evidence, scene: _Scene, part: _Scene, region: tuple[int, int, int, int]
+) -> _Evidence:
+    """A chunk's evidence over the ``region`` (y0, y1, x0, x1) of its frames, stacked
+    as the cropped scene ``part`` stacks them (the grids, first-pass only, left out)."""
+    n = evidence.n
+
+    def crop(stack: np.ndarray) -> np.ndarray:
+        return _cropped_stack(stack, scene, part, region, n)
+
+    empty = np.zeros(0, np.float32)
+    return _Evidence(
+        n, crop(evidence.corrected), crop(evidence.soft), crop(evidence.raw),
+        crop(evidence.smoothed), empty, empty, empty,
+    )  # fmt: skip
+
+
+def _cropped_stack(
+    stack: np.ndarray, scene: _Scene, part: _Scene, region: tuple[int, int, int, int], n: int
+) -> np.ndarray:
+    """The ``region`` (y0, y1, x0, x1) of each of the ``n`` frames of ``stack`` (S, W, ...),
+    stacked as the cropped scene ``part`` stacks them (empty separator rows)."""
+    y0, y1, x0, x1 = region
+    out = np.zeros((part.sep + n * part.tile, x1 - x0, *stack.shape[2:]), stack.dtype)
+    _frames_of(out, part, n)[:, : y1 - y0] = _frames_of(stack, scene, n)[:, y0:y1, x0:x1]
+    return out
+
+
+def _beside_upper_body(
+    person_boxes: np.ndarray, scene: _Scene, n: int, upper_frac: float
+) -> tuple[np.ndarray, ...]:
+    """Where a cast shadow cannot be: beside the upper body, per frame with a person.
+
+    The top ``upper_frac`` of the box of the person's components, in its columns
+    widened by :data:`UPPER_BODY_SIDE_FRAC` of its height on each side.
 
     Parameters
     ----------
     person_boxes : (K, 5) int64
         Area, x0, y0, x1, y1 of the person's components in the stack less its first
         ``scene.sep`` rows (frame ``f`` from row ``f·tile``).
-    shadow : (S, W) bool
-        The stacked frames' shadow pixels, changed in place.
-    scene : _Scene
     n : int
         Frames in the stack.
     upper_frac : float
@@ -1025,17 +1185,38 @@ def _clear_upper_body_shadow(
 
     Returns
     -------
+    frames, top, bottom, left, right : (P,) int64
+        The frames with a person and their boxes: rows ``[top, bottom)`` of the frame,
+        columns ``[left, right)``, not clipped to the frame.
+    """
+    area, x0, y0, x1, y1 = _per_frame_boxes(person_boxes, scene.tile, n)
+    frames = np.flatnonzero(area > 0)
+    height = (y1 - y0 + 1)[frames]
+    top = y0[frames] - frames * scene.tile
+    side = np.rint(UPPER_BODY_SIDE_FRAC * height).astype(np.int64)
+    bottom = top + np.rint(upper_frac * height).astype(np.int64)
+    return frames, top, bottom, x0[frames] - side, x1[frames] + side + 1
+
+
+def _clear_upper_body_shadow(
+    beside: tuple[np.ndarray, ...], shadow: np.ndarray, scene: _Scene, n: int
+) -> bool:
+    """Take back the shadow test where a cast shadow cannot be: beside the upper body.
+
+    A cast shadow lies on the floor, around and behind the feet; clothing darker
+    than the wall behind it with the wall's hue passes the same test.  ``shadow``
+    (S, W) bool, the stacked frames' shadow pixels, is cleared in place over the
+    boxes ``beside`` (:func:`_beside_upper_body`) of its ``n`` frames.
+
+    Returns
+    -------
     bool
         Whether any shadow pixel was cleared.
     """
     shadows = _frames_of(shadow, scene, n)[:, : scene.shape[0]]
-    area, x0, y0, x1, y1 = _per_frame_boxes(person_boxes, scene.tile, n)
     cleared = False
-    for f in np.flatnonzero(area > 0):
-        top, height = y0[f] - f * scene.tile, y1[f] - y0[f] + 1
-        side = int(round(UPPER_BODY_SIDE_FRAC * height))
-        region = shadows[f, top : top + int(round(upper_frac * height)),
-                         max(0, x0[f] - side) : x1[f] + side + 1]  # fmt: skip
+    for f, top, bottom, left, right in zip(*beside, strict=True):
+        region = shadows[f, top:bottom, max(0, left) : right]
         if region.any():
             region[:] = False
             cleared = True
@@ -1062,10 +1243,10 @@ def _person_components_given_shadow(
     import cv2
 
     kernels = _kernels()
-    n, (h, w), sep, tile = evidence.n, scene.shape, scene.sep, scene.tile
+    n, w, sep, tile = evidence.n, scene.shape[1], scene.sep, scene.tile
     rows = sep + n * tile
     # Hysteresis: weak pixels connected to strong ones, specks dropped.
-    min_area = config.min_person_frac * h * w
+    min_area = config.min_person_frac * scene.frame[0] * scene.frame[1]
     weak = np.empty((rows, w), np.uint8)
     strong = np.empty((rows, w), np.bool_)
     kernels.seeds(

@@ -186,6 +186,47 @@ def test_masks_do_not_depend_on_the_chunks_frames_are_segmented_in(
         np.testing.assert_array_equal(extract_silhouettes(frames, given), reference)
 
 
+@pytest.mark.parametrize("background_given", [True, False], ids=["background", "estimated"])
+def test_masks_cut_in_the_person_region_equal_those_of_the_whole_frames(
+    avatar_scene, monkeypatch, background_given
+):
+    """The second pass segments only the region of a chunk that can hold the person;
+    where a region proves too tight the chunk is segmented again over the whole
+    frames.  Either way the masks are those of the whole frames."""
+    frames, background, _ = avatar_scene
+    given = background if background_given else None
+    outcomes = []  # per second pass: (over a region, masks found)
+    region_masks = video._region_masks
+
+    def recorded(evidence, scene, levels, config, shadow, region):
+        masks = region_masks(evidence, scene, levels, config, shadow, region)
+        outcomes.append((scene.shape != tuple(scene.frame), masks is not None))
+        return masks
+
+    monkeypatch.setattr(video, "_region_masks", recorded)
+    cut = extract_silhouettes(frames, given)
+    assert (True, True) in outcomes
+    outcomes.clear()
+    with monkeypatch.context() as whole_frames:
+        whole_frames.setattr(video, "MAX_REGION_FRAC", 0.0)
+        np.testing.assert_array_equal(extract_silhouettes(frames, given), cut)
+    assert outcomes and all(not in_region for in_region, _ in outcomes)
+    # Regions shrunk to the seeds' box: the components reach past their edges.
+    person_region = video._person_region
+
+    def tight(evidence, scene, levels, shadow):
+        y0, y1, x0, x1 = person_region(evidence, scene, levels, shadow)
+        h, w = scene.shape
+        cut_in = 2 * video._guard_px(scene)
+        return (y0 + cut_in * (y0 > 0), y1 - cut_in * (y1 < h),
+                x0 + cut_in * (x0 > 0), x1 - cut_in * (x1 < w))  # fmt: skip
+
+    outcomes.clear()
+    monkeypatch.setattr(video, "_person_region", tight)
+    np.testing.assert_array_equal(extract_silhouettes(frames, given), cut)
+    assert (True, False) in outcomes
+
+
 def test_a_large_clip_without_a_background_is_shrunk_as_it_is_decoded(avatar_scene, tmp_path):
     """Frames four times the working size give the masks of the whole clip read at full
     size and cut out at once (the frames are shrunk per chunk instead of all together)."""
@@ -540,9 +581,10 @@ def test_background_file_of_another_size(stick_scene, tmp_path):
 
 
 @pytest.mark.parametrize("content", [None, b"nonsense"])
-def test_a_bad_background_stops_a_video_before_it_is_decoded(tmp_path, content, rng):
-    """No decoding thread is left running when the background cannot be read: a
-    process that exits on the error while FFmpeg is inside one can abort."""
+def test_a_bad_background_stops_the_decoding_of_its_video(tmp_path, content, rng):
+    """The video starts decoding while the background is read; no decoding thread is
+    left running when that cannot be read: a process that exits on the error while
+    FFmpeg is inside one can abort."""
     import threading
 
     from eigmotion.media import write_video
