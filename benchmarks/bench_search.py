@@ -335,6 +335,10 @@ def main(argv=None) -> int:
         bench_eigenspace(*args.eigenspace, rng)
         return 0
     faiss_ok = have_faiss()
+    # The tree's search loops are compiled on first use: compile them before timing.
+    warm, points = Tree(), motion_like(CLUSTER, args.dims, np.random.default_rng(args.seed))
+    warm.build(points, np.arange(CLUSTER))
+    warm.search(points[:2])
 
     print(
         f"k = {args.dims} eigen-coordinates, {args.queries} known-motion queries per size, "

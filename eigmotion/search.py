@@ -23,34 +23,36 @@ record):
   on its squared distance to anything inside, far tighter than the section
   boundaries alone, and it covers the axes beyond K;
 * for searching, each node's children are its highest descendants holding at most
-  1/16 of its entries (or leaves), so a query takes a few wide, vectorised steps
-  however deep the built tree is.
+  1/16 of its entries (or leaves).
 
-A query (all steps vectorised over queries and nodes with numpy):
+A query:
 
-1. *Key lookup*: the query's own key (the patent's step) finds the deepest occupied
-   key prefix; below it the child with the smallest bound is followed until at most
-   8 leaves' worth of entries remain; their distances give a first k-th best.
-2. *Pruned descent*: from the root, step by step, every child whose bound does not
-   exceed the current k-th best is kept; leaves are collected.
-3. *Leaves in bound order*: each query's leaves are examined nearest bound first, in
-   batches of 2, 8, 32, …; after each batch the k-th best shrinks and leaves whose
-   bound exceeds it are dropped.
+1. *Key lookup* (vectorised over queries with numpy): the query's own key (the
+   patent's step) finds the deepest occupied key prefix; below it the child with the
+   smallest bound is followed until at most 8 leaves' worth of entries remain; their
+   distances give a first k-th best.
+2. *Nearest bound first* (a compiled loop per query, which releases the GIL): from
+   the root, nodes are taken from a heap in order of their bound; a leaf's entries
+   are measured, an inner node's children whose bound does not exceed the current
+   k-th best go on the heap; the search ends when the nearest bound left exceeds the
+   k-th best.
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
 
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
-``Σ_a (p_a − h_a)²`` in float32 by one function shared with :class:`BruteForceIndex`,
-and a bound is the same sum with each ``p_a`` replaced by the box's nearest
-coordinate.  Rounding is monotonic, so bound ≤ distance holds in floating point, no
-entry that brute force would return is ever pruned, and the answers agree bit for
-bit.
+``Σ_a (p_a − h_a)²`` summed in order in float32 by one function shared with
+:class:`BruteForceIndex`, and a bound is the same sum with each ``p_a`` replaced by the
+box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance holds in
+floating point, no entry that brute force would return is ever pruned, and the
+answers agree bit for bit.
 """
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
+from functools import lru_cache
 from numbers import Integral, Real
 
 import numpy as np
@@ -93,13 +95,160 @@ class SearchResult:
 def _pair_sq_distances(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """Squared distances of row pairs, (m, k) and (m, k) or (k,) float32 → (m,) float32.
 
-    The single distance formula of this module: brute force and the tree both call it,
-    so equal pairs give bit-identical distances.  ``points`` must be a fresh array (a
-    gather): it is overwritten.
+    The single distance formula of this module: brute force and the tree both use it
+    (:func:`_row_sq_distance`, the coordinates' squared differences summed in order in
+    float32), so equal pairs give bit-identical distances.
     """
-    points -= queries
-    points *= points
-    return points.sum(axis=1)
+    points = np.ascontiguousarray(points, dtype=np.float32)
+    queries = np.ascontiguousarray(np.atleast_2d(queries), dtype=np.float32)
+    out = np.empty(points.shape[0], np.float32)
+    _kernels().pair_sq_distances(points, queries, out)
+    return out
+
+
+def _row_sq_distance(point, query):  # pragma: no cover - JIT
+    """``Σ_a (point_a − query_a)²`` of two (k,) float32 rows, summed in order in float32."""
+    total = np.float32(0.0)
+    for a in range(point.shape[0]):
+        d = point[a] - query[a]
+        total += d * d
+    return total
+
+
+def _row_box_bound(lo, hi, query):  # pragma: no cover - JIT
+    """The same sum with each ``point_a`` replaced by the box ``[lo, hi]``'s coordinate
+    nearest the query's: never more than :func:`_row_sq_distance` to a point inside."""
+    total = np.float32(0.0)
+    for a in range(query.shape[0]):
+        near = min(max(lo[a], query[a]), hi[a])
+        d = near - query[a]
+        total += d * d
+    return total
+
+
+def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
+    """``out`` (m,) float32: :func:`_row_sq_distance` of each row of ``points`` (m, k)
+    to the same row of ``queries`` (m, k), or to its one row (1, k)."""
+    one = queries.shape[0] == 1
+    for i in range(points.shape[0]):
+        out[i] = _row_sq_distance(points[i], queries[0] if one else queries[i])
+
+
+def _best_first(
+    points, ids, lo, hi, first, count, children, is_leaf, start, end, queries, starts_at,
+    slack, best_sq, best_ids, examined,
+):  # fmt: skip  # pragma: no cover - JIT
+    """Exact k nearest entries of each query, nearest lower bound first.
+
+    ``best_sq`` (Q, k) float64 and ``best_ids`` (Q, k) int64 hold each query's running
+    best, nearest first (empty slots: the cutoff and ``_SENTINEL``); ``examined`` (Q,)
+    int64 gets the entries measured.  Each query first measures the entries of its
+    node ``starts_at`` (the key lookup's), then pops nodes from a heap ordered by
+    lower bound, skipping what that node held, and stops when the nearest bound left
+    exceeds its k-th best.  An entry enters the best when its (squared distance, id)
+    is smaller than the k-th best's.
+    """
+    n_nodes = lo.shape[0]
+    top_k = best_sq.shape[1]
+    heap_bound = np.empty(n_nodes, np.float32)
+    heap_node = np.empty(n_nodes, np.int64)
+    for qi in range(queries.shape[0]):
+        query = queries[qi]
+        sq_row, id_row = best_sq[qi], best_ids[qi]
+        g = starts_at[qi]
+        g_start, g_end = start[g], end[g]
+        measured = 0
+        for e in range(g_start, g_end):
+            _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
+        measured += g_end - g_start
+        size = 0
+        heap_bound[0], heap_node[0] = np.float32(0.0), 0
+        size = 1
+        while size > 0:
+            bound, node = heap_bound[0], heap_node[0]
+            size -= 1
+            if size > 0:  # the last item sifts down from the top
+                last_bound, last_node = heap_bound[size], heap_node[size]
+                i = 0
+                while True:
+                    child = 2 * i + 1
+                    if child >= size:
+                        break
+                    if child + 1 < size and heap_bound[child + 1] < heap_bound[child]:
+                        child += 1
+                    if heap_bound[child] >= last_bound:
+                        break
+                    heap_bound[i], heap_node[i] = heap_bound[child], heap_node[child]
+                    i = child
+                heap_bound[i], heap_node[i] = last_bound, last_node
+            if bound > sq_row[top_k - 1] * slack:
+                break  # every bound left is at least as far
+            if is_leaf[node]:
+                if start[node] >= g_start and end[node] <= g_end:
+                    continue  # measured first
+                for e in range(start[node], end[node]):
+                    _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
+                measured += end[node] - start[node]
+                continue
+            for c in range(first[node], first[node] + count[node]):
+                kid = children[c]
+                if start[kid] >= g_start and end[kid] <= g_end:
+                    continue
+                kid_bound = _row_box_bound(lo[kid], hi[kid], query)
+                if kid_bound > sq_row[top_k - 1] * slack:
+                    continue
+                i = size  # sift up
+                size += 1
+                while i > 0:
+                    parent = (i - 1) // 2
+                    if heap_bound[parent] <= kid_bound:
+                        break
+                    heap_bound[i], heap_node[i] = heap_bound[parent], heap_node[parent]
+                    i = parent
+                heap_bound[i], heap_node[i] = kid_bound, kid
+        examined[qi] = measured
+
+
+def _offer(sq, entry_id, sq_row, id_row):  # pragma: no cover - JIT
+    """Put (``sq``, ``entry_id``) into the sorted best (k,) rows if it is smaller than
+    the k-th best (by distance, then id), dropping the k-th."""
+    last = sq_row.shape[0] - 1
+    if sq > sq_row[last] or (sq == sq_row[last] and entry_id >= id_row[last]):
+        return
+    i = last
+    while i > 0 and (sq < sq_row[i - 1] or (sq == sq_row[i - 1] and entry_id < id_row[i - 1])):
+        sq_row[i], id_row[i] = sq_row[i - 1], id_row[i - 1]
+        i -= 1
+    sq_row[i], id_row[i] = sq, entry_id
+
+
+_COMPILING = threading.Lock()
+
+
+def _kernels():
+    """The compiled loops (numba is imported and they are compiled on first use, once,
+    whichever thread asks first)."""
+    with _COMPILING:
+        return _compiled_kernels()
+
+
+@lru_cache(maxsize=1)
+def _compiled_kernels():
+    """The row helpers are compiled first and put in place of their Python sources, so
+    the kernels calling them find compiled functions.  No fast-math: every sum is
+    taken in order, the same in brute force and in the tree."""
+    from types import SimpleNamespace
+
+    from numba import njit
+
+    global _row_sq_distance, _row_box_bound, _offer
+    jit = njit(cache=True, nogil=True)
+    _row_sq_distance = jit(_row_sq_distance)
+    _row_box_bound = jit(_row_box_bound)
+    _offer = jit(_offer)
+    return SimpleNamespace(
+        pair_sq_distances=jit(_pair_sq_distances_kernel), best_first=jit(_best_first)
+    )
 
 
 def _check_points(points, name: str = "points") -> np.ndarray:
@@ -754,11 +903,10 @@ class TreeIndex:
         )
 
     def _lower_bounds(self, nodes: np.ndarray, rows: np.ndarray, queries: np.ndarray):
-        """(m,) float32 squared distance from query ``rows`` to the boxes of ``nodes``.
-
-        The box's nearest point minus the query, squared and summed: term by term the
-        same arithmetic as the distance to any entry inside, so never larger.
-        """
+        """(m,) float32 squared distance from query ``rows`` to the boxes of ``nodes``
+        (the box's nearest point minus the query, squared and summed), vectorised: it
+        only picks where the key lookup descends, so its summation order may differ
+        from :func:`_row_box_bound`'s."""
         qq = queries[0] if queries.shape[0] == 1 else np.take(queries, rows, axis=0)
         near = np.take(self._lo, nodes, axis=0)  # np.take gathers faster than indexing
         np.maximum(near, qq, out=near)
@@ -766,14 +914,6 @@ class TreeIndex:
         near -= qq
         near *= near
         return near.sum(axis=1)
-
-    def _examine(self, best: _TopK, rows: np.ndarray, nodes: np.ndarray, queries) -> None:
-        counts = self._size[nodes]
-        entries = _expand_ranges(self._start[nodes], counts)
-        rows = np.repeat(rows, counts)
-        qq = queries[0] if queries.shape[0] == 1 else np.take(queries, rows, axis=0)
-        sq = _pair_sq_distances(np.take(self.points, entries, axis=0), qq)
-        best.add(rows, sq, np.take(self.ids, entries))
 
     #: The first node a query examines holds at most this many leaves' worth of entries.
     _GREEDY_LEAVES = 8
@@ -815,46 +955,10 @@ class TreeIndex:
         return current
 
     def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> SearchResult:
-        n_q = queries.shape[0]
-        best = _TopK(n_q, top_k, max_sq)
-        rows = np.arange(n_q)
-        greedy = self._greedy(queries, top_k)
-        self._examine(best, rows, greedy, queries)
-        if self._is_leaf[0] or np.all(self._size[greedy] == self.n_entries):
-            return best.result()
-        g_start, g_end = self._start[greedy], self._end[greedy]
-        bound = best.bound() * _SLACK
-
-        # Pruned descent: keep every child whose box may hold a better entry.
-        leaf_rows, leaf_nodes, leaf_bounds = [], [], []
-        f_rows, f_nodes = rows, np.zeros(n_q, dtype=np.int64)
-        while f_rows.size:
-            counts = self._child_count[f_nodes]
-            c_nodes = self._child_list[_expand_ranges(self._child_first[f_nodes], counts)]
-            c_rows = np.repeat(f_rows, counts)
-            lb = self._lower_bounds(c_nodes, c_rows, queries)
-            keep = lb <= bound[c_rows]
-            c_rows, c_nodes, lb = c_rows[keep], c_nodes[keep], lb[keep]
-            leaf = self._is_leaf[c_nodes]
-            leaf_rows.append(c_rows[leaf])
-            leaf_nodes.append(c_nodes[leaf])
-            leaf_bounds.append(lb[leaf])
-            f_rows, f_nodes = c_rows[~leaf], c_nodes[~leaf]
-
-        # Leaves nearest bound first, in growing batches, re-pruning after each; the
-        # leaves inside the first node were examined already.
-        l_rows, l_nodes, l_bounds = map(np.concatenate, (leaf_rows, leaf_nodes, leaf_bounds))
-        fresh = (self._start[l_nodes] < g_start[l_rows]) | (self._end[l_nodes] > g_end[l_rows])
-        l_rows, l_nodes, l_bounds = l_rows[fresh], l_nodes[fresh], l_bounds[fresh]
-        order = np.lexsort((l_bounds, l_rows))
-        l_rows, l_nodes, l_bounds = l_rows[order], l_nodes[order], l_bounds[order]
-        batch = 2
-        while l_rows.size:
-            take = _rank_in_groups(l_rows) < batch
-            self._examine(best, l_rows[take], l_nodes[take], queries)
-            bound = best.bound() * _SLACK
-            rest = ~take
-            rest[rest] = l_bounds[rest] <= bound[l_rows[rest]]
-            l_rows, l_nodes, l_bounds = l_rows[rest], l_nodes[rest], l_bounds[rest]
-            batch *= 4
+        best = _TopK(queries.shape[0], top_k, max_sq)
+        _kernels().best_first(
+            self.points, self.ids, self._lo, self._hi, self._child_first, self._child_count,
+            self._child_list, self._is_leaf, self._start, self._end, queries,
+            self._greedy(queries, top_k), _SLACK, best.sq, best.ids, best.examined,
+        )  # fmt: skip
         return best.result()
