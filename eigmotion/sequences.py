@@ -143,9 +143,16 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
 def _compiled_warp():
     from numba import njit
 
-    @njit(cache=True)
-    def warp(cost: np.ndarray, starts: np.ndarray, out: np.ndarray) -> None:
-        n = cost.shape[0]
+    @njit(cache=True, nogil=True)
+    def warp(dots, query_norms, frame_norms, starts, out):
+        """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
+        cheapest monotone alignment of the query's frames with its frames, summed
+        frame distances over ``n + m``.  A frame distance is ``sqrt(max(‖a‖² + ‖b‖² −
+        2 a·b, 0))`` in float32, from ``dots`` (n, M) float32 ``a·b`` and the squared
+        norms (n,) and (M,)."""
+        n = dots.shape[0]
+        two = np.float32(-2.0)
+        zero = np.float32(0.0)
         for r in range(len(starts) - 1):
             lo, m = starts[r], starts[r + 1] - starts[r]
             previous = np.full(m + 1, np.inf)
@@ -154,8 +161,10 @@ def _compiled_warp():
             for i in range(n):
                 current[0] = np.inf
                 for j in range(1, m + 1):
+                    cost = dots[i, lo + j - 1] * two + query_norms[i]
+                    cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
                     step = min(previous[j], current[j - 1], previous[j - 1])
-                    current[j] = cost[i, lo + j - 1] + step
+                    current[j] = cost + step
                 previous, current = current, previous
             out[r] = previous[m] / (n + m)
 
@@ -189,16 +198,15 @@ def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarra
     query = np.ascontiguousarray(query, dtype=np.float32)
     frames = np.ascontiguousarray(frames, dtype=np.float32)
     # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
-    # (float32: distances of pose coordinates of order 1 come out within about 1e-3).
-    cost = query @ frames.T
-    cost *= -2.0
-    cost += np.einsum("ij,ij->i", query, query)[:, None]
-    cost += np.einsum("ij,ij->i", frames, frames)[None, :]
-    np.maximum(cost, 0.0, out=cost)
-    np.sqrt(cost, out=cost)
+    # (float32: distances of pose coordinates of order 1 come out within about 1e-3);
+    # the rest of each frame distance is taken inside the warp, as it is needed.
+    dots = query @ frames.T
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     out = np.empty(len(lengths))
-    _WARP(cost, starts, out)
+    _WARP(
+        dots, np.einsum("ij,ij->i", query, query), np.einsum("ij,ij->i", frames, frames),
+        starts, out,
+    )  # fmt: skip
     return out
 
 
