@@ -157,12 +157,10 @@ def _best_first(
         sq_row, id_row = best_sq[qi], best_ids[qi]
         g = starts_at[qi]
         g_start, g_end = start[g], end[g]
-        measured = 0
         for e in range(g_start, g_end):
             _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
-        measured += g_end - g_start
-        size = 0
-        heap_bound[0], heap_node[0] = np.float32(0.0), 0
+        measured = g_end - g_start
+        heap_bound[0], heap_node[0] = np.float32(0.0), 0  # the root
         size = 1
         while size > 0:
             bound, node = heap_bound[0], heap_node[0]
