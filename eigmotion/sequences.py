@@ -151,7 +151,7 @@ def _compiled_warp():
         2 a·b, 0))`` in float32, from ``dots`` (n, M) float32 ``a·b`` and the squared
         norms (n,) and (M,)."""
         n = dots.shape[0]
-        two = np.float32(-2.0)
+        minus_two = np.float32(-2.0)
         zero = np.float32(0.0)
         for r in range(len(starts) - 1):
             lo, m = starts[r], starts[r + 1] - starts[r]
@@ -161,7 +161,7 @@ def _compiled_warp():
             for i in range(n):
                 current[0] = np.inf
                 for j in range(1, m + 1):
-                    cost = dots[i, lo + j - 1] * two + query_norms[i]
+                    cost = dots[i, lo + j - 1] * minus_two + query_norms[i]
                     cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
                     step = min(previous[j], current[j - 1], previous[j - 1])
                     current[j] = cost + step
