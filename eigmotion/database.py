@@ -678,7 +678,7 @@ class MotionDatabase:
         sequence_job = workers.submit(
             lambda: pose_coordinates(self.pose_space, sequence_frames(images))
         )
-        point = self.eigenspace.transform(whole_vector[None].astype(np.float32))
+        point = self.eigenspace.transform(whole_vector[None])  # (1, D) float32 already
         t1 = time.perf_counter()
         timing["motion_images"] = (t1 - t0) * 1e3
         whole = self.index.search(point, top_k=min(CANDIDATE_ENTRIES, self.n_entries))

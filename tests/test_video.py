@@ -215,7 +215,10 @@ def test_masks_cut_in_the_person_region_equal_those_of_the_whole_frames(
     person_region = video._person_region
 
     def tight(evidence, scene, levels, shadow):
-        y0, y1, x0, x1 = person_region(evidence, scene, levels, shadow)
+        region = person_region(evidence, scene, levels, shadow)
+        if region is None:
+            return None
+        y0, y1, x0, x1 = region
         h, w = scene.shape
         cut_in = 2 * video._guard_px(scene)
         return (y0 + cut_in * (y0 > 0), y1 - cut_in * (y1 < h),
