@@ -42,7 +42,13 @@ from .sequences import (
     view_reach,
 )
 from .store import Store, parse_uri
-from .video import ClipMasks, SilhouetteConfig, load_clip_masks, worker_threads
+from .video import (
+    ClipMasks,
+    SilhouetteConfig,
+    load_clip_masks,
+    opencv_in_calling_threads,
+    worker_threads,
+)
 
 #: Where ``eigmotion build`` with no options writes.
 DEFAULT_DB_PATH = Path(__file__).resolve().parents[1] / "database" / "eigmotion.fs"
@@ -643,6 +649,7 @@ class MotionDatabase:
             label = self._entry_labels[entry_id] = self.store.entry(entry_id)["label"]
         return label
 
+    @opencv_in_calling_threads()
     def query_masks(self, masks: np.ndarray, fps: float, top_k: int = 3) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -786,7 +793,9 @@ class MotionDatabase:
         lengths = np.concatenate(lengths) if lengths else np.zeros(0, np.int64)
         compared = np.full(len(nearest), np.inf)
         if lengths.size:
-            found = sequence_distances(query, np.concatenate(parts), lengths)
+            found = sequence_distances(
+                query, np.concatenate(parts), lengths, workers=worker_threads()
+            )
             found *= pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds))
             np.minimum.at(compared, np.concatenate(owners), found)
         order = np.argsort(

@@ -10,11 +10,19 @@ sequences are exactly this intrinsic convention.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .errors import InvalidParameterError
 
 _AXES = {"X", "Y", "Z"}
+
+
+def _rotation_class():
+    """:class:`scipy.spatial.transform.Rotation`, imported on first use: importing
+    ``scipy.spatial`` takes about 0.14 s, which a query that writes no motion never
+    needs."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
 
 
 def check_euler_order(order: str) -> str:
@@ -43,7 +51,9 @@ def euler_to_matrix(angles_deg: np.ndarray, order: str) -> np.ndarray:
     """
     angles_deg = np.asarray(angles_deg, dtype=np.float64)
     shape = angles_deg.shape[:-1]
-    rot = Rotation.from_euler(check_euler_order(order), angles_deg.reshape(-1, 3), degrees=True)
+    rot = _rotation_class().from_euler(
+        check_euler_order(order), angles_deg.reshape(-1, 3), degrees=True
+    )
     return rot.as_matrix().reshape(*shape, 3, 3)
 
 
@@ -61,7 +71,7 @@ def matrix_to_euler(matrices: np.ndarray, order: str) -> np.ndarray:
     """
     matrices = np.asarray(matrices, dtype=np.float64)
     shape = matrices.shape[:-2]
-    rot = Rotation.from_matrix(matrices.reshape(-1, 3, 3))
+    rot = _rotation_class().from_matrix(matrices.reshape(-1, 3, 3))
     with np.errstate(all="ignore"):
         import warnings
 
@@ -147,7 +157,7 @@ def align_vectors(source: np.ndarray, target: np.ndarray, weights: np.ndarray | 
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        rot, _ = Rotation.align_vectors(target, source, weights=weights)
+        rot, _ = _rotation_class().align_vectors(target, source, weights=weights)
     return rot.as_matrix()
 
 
@@ -163,7 +173,8 @@ def slerp_matrices(r0: np.ndarray, r1: np.ndarray, t: np.ndarray) -> np.ndarray:
     -------
     (N, 3, 3) float64
     """
-    q0 = Rotation.from_matrix(r0)
-    rel = q0.inv() * Rotation.from_matrix(r1)
-    step = Rotation.from_rotvec(rel.as_rotvec() * np.asarray(t, dtype=np.float64)[:, None])
+    rotation = _rotation_class()
+    q0 = rotation.from_matrix(r0)
+    rel = q0.inv() * rotation.from_matrix(r1)
+    step = rotation.from_rotvec(rel.as_rotvec() * np.asarray(t, dtype=np.float64)[:, None])
     return (q0 * step).as_matrix()

@@ -51,6 +51,8 @@ another seed).
 
 from __future__ import annotations
 
+from concurrent.futures import Executor
+
 import numpy as np
 
 from .eigenspace import Eigenspace
@@ -174,7 +176,9 @@ def _compiled_warp():
 _WARP = None
 
 
-def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+def sequence_distances(
+    query: np.ndarray, frames: np.ndarray, lengths: np.ndarray, workers: Executor | None = None
+) -> np.ndarray:
     """Dynamic time warping of one sequence against several.
 
     Parameters
@@ -185,6 +189,10 @@ def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarra
         The frames of every sequence compared with, one after the other.
     lengths : (R,) int
         Frames of each of those R sequences, summing to ``M``; each >= 1.
+    workers : Executor, optional
+        Threads to warp the later half of the sequences on while the calling thread
+        warps the first (the compiled loop releases the GIL); the distances are the
+        same either way.  Not to be called from one of those threads.
 
     Returns
     -------
@@ -203,10 +211,19 @@ def sequence_distances(query: np.ndarray, frames: np.ndarray, lengths: np.ndarra
     dots = query @ frames.T
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     out = np.empty(len(lengths))
-    _WARP(
-        dots, np.einsum("ij,ij->i", query, query), np.einsum("ij,ij->i", frames, frames),
-        starts, out,
-    )  # fmt: skip
+    query_norms = np.einsum("ij,ij->i", query, query)
+    frame_norms = np.einsum("ij,ij->i", frames, frames)
+
+    def warp(first: int, stop: int) -> None:  # sequences [first, stop)
+        _WARP(dots, query_norms, frame_norms, starts[first : stop + 1], out[first:stop])
+
+    half = int(np.searchsorted(starts, starts[-1] / 2.0))
+    if workers is None or not 0 < half < len(lengths):
+        warp(0, len(lengths))
+    else:
+        later = workers.submit(warp, half, len(lengths))
+        warp(0, half)
+        later.result()
     return out
 
 

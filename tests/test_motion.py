@@ -46,6 +46,16 @@ def test_rotation_helpers(rng):
     np.testing.assert_allclose(align_vectors(a[:5], a[:5] @ true.T), true, atol=1e-9)
 
 
+def test_the_query_path_imports_no_scipy_rotations():
+    import subprocess
+    import sys
+
+    # scipy.spatial costs a query that writes no motion about 0.14 s to import.
+    code = "import sys, eigmotion.database; print('scipy.spatial' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "False"
+
+
 def test_trim_and_resample(rng):
     m = _random_motion(rng, n_frames=31)
     assert m.trim(5, 15).n_frames == 10

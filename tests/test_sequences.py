@@ -73,6 +73,20 @@ def test_warping_is_symmetric_and_orders_by_similarity():
     assert sequence_distances(a, near, one)[0] < sequence_distances(a, far, one)[0]
 
 
+def test_warping_on_two_threads_gives_the_same_distances_to_the_bit():
+    from concurrent.futures import ThreadPoolExecutor
+
+    rng = np.random.default_rng(3)
+    query = rng.random((20, 8)).astype(np.float32)
+    lengths = rng.integers(1, 40, size=31)
+    frames = rng.random((int(lengths.sum()), 8)).astype(np.float32)
+    with ThreadPoolExecutor(max_workers=1) as workers:
+        both = sequence_distances(query, frames, lengths, workers=workers)
+        one = sequence_distances(query, frames[: lengths[0]], lengths[:1], workers=workers)
+    np.testing.assert_array_equal(both, sequence_distances(query, frames, lengths))
+    np.testing.assert_array_equal(one, sequence_distances(query, frames[: lengths[0]], lengths[:1]))
+
+
 def test_warping_equals_the_path_cost_by_hand():
     a = np.array([[0.0], [1.0]])
     b = np.array([[0.0], [2.0], [1.0]])

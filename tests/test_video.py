@@ -320,6 +320,46 @@ def test_exposure_change_against_a_given_background(stick_scene, gain):
     assert iou(extract_silhouettes(brighter, background), masks).mean() > 0.85
 
 
+def test_exposure_gains_are_undone_as_opencv_lookup_tables_would(rng):
+    frames = rng.integers(0, 256, size=(3, 7, 5, 3), dtype=np.uint8)
+    tables = video._gain_tables(np.array([[0.8, 1.0, 1.3], [1.1, 0.9, 0.6], [2.0, 0.5, 1.0]]))
+    out = np.zeros((3, 9 * 5 * 3), np.uint8)  # each frame followed by two rows left alone
+    video._kernels().level_tables(frames.reshape(3, -1), tables, out)
+    for frame, table, got in zip(frames, tables, out, strict=True):
+        np.testing.assert_array_equal(got[: 7 * 5 * 3], cv2.LUT(frame, table[None]).ravel())
+        assert not got[7 * 5 * 3 :].any()
+
+
+def test_opencv_runs_on_the_calling_threads_only_inside_the_scope():
+    import threading
+
+    before = cv2.getNumThreads()
+    try:
+        cv2.setNumThreads(2)
+        entered = threading.Barrier(2)
+        leave = threading.Event()
+        inside = []
+
+        def hold():
+            with video.opencv_in_calling_threads():
+                entered.wait()
+                leave.wait()
+
+        other = threading.Thread(target=hold)
+        other.start()
+        with video.opencv_in_calling_threads():
+            entered.wait()
+            with video.opencv_in_calling_threads():  # nested
+                inside.append(cv2.getNumThreads())
+            leave.set()
+            other.join()  # the other scope ends first: still inside this one
+            inside.append(cv2.getNumThreads())
+        assert inside == [1, 1]
+        assert cv2.getNumThreads() == 2
+    finally:
+        cv2.setNumThreads(before)
+
+
 @pytest.mark.parametrize("method, limit", [("median", 6.0), ("grabcut", 4.0), ("mog2", 12.0)])
 def test_background_estimate(stick_scene, method, limit):
     """Mean absolute error of the estimated empty scene, 0–255 levels."""
