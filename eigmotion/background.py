@@ -24,6 +24,8 @@ the scene (:meth:`StillBody.person_log_ratio`).
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -151,11 +153,8 @@ def find_still_body(
     person = _histogram(frames[core] if core.any() else frames[first_masks])
     scene = _histogram(commonest[ring])
     log_ratio = _log_ratio(person, scene, commonest)
-    mask = _pieces_reaching(
-        _grabcut(commonest, envelope, log_ratio, cv2),
-        _near_most_frames(first_masks, height, cv2),
-        cv2,
-    )
+    near = _near_most_frames(first_masks, height, cv2)  # counted on the workers meanwhile
+    mask = _pieces_reaching(_grabcut(commonest, envelope, log_ratio, cv2), near(), cv2)
     if mask.any():
         mask &= ~_like_surroundings(commonest, mask, person, height, cv2)
     if mask.any():
@@ -213,24 +212,42 @@ def _grabcut(image: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2
     return out
 
 
-def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> np.ndarray:
+def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> Callable[[], np.ndarray]:
     """(H, W) bool: pixels near the moving person in at least :data:`MIN_NEAR_FRAC` of
     the frames that show them.  A still body is part of the person in every frame; a
-    person who crosses the picture is near any one place only for a while."""
+    person who crosses the picture is near any one place only for a while.
+
+    The frames are counted on the worker threads (:func:`eigmotion.video.worker_threads`;
+    the dilations release the GIL), in one share per thread; the call returns at once,
+    and what it returns waits for the counts and gives the pixels.
+    """
+    from .video import worker_threads
+
     near = _disk(NEAR_PER_HEIGHT * height, cv2)
     reach = near.shape[0] // 2
     shown = [mask for mask in first_masks if mask.any()]
-    count = np.zeros(first_masks.shape[1:], np.int32)
-    for mask in shown:
-        # Nothing beyond reach of the mask's box is near it: the mask is dilated
-        # within that box only, with the same result.
-        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-        box = (
-            slice(max(0, rows[0] - reach), rows[-1] + 1 + reach),
-            slice(max(0, cols[0] - reach), cols[-1] + 1 + reach),
-        )
-        count[box] += cv2.dilate(np.ascontiguousarray(mask[box]).view(np.uint8), near)
-    return count >= MIN_NEAR_FRAC * len(shown)
+
+    def count_near(masks: list[np.ndarray]) -> np.ndarray:
+        count = np.zeros(first_masks.shape[1:], np.int32)
+        for mask in masks:
+            # Nothing beyond reach of the mask's box is near it: the mask is dilated
+            # within that box only, with the same result.
+            rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+            box = (
+                slice(max(0, rows[0] - reach), rows[-1] + 1 + reach),
+                slice(max(0, cols[0] - reach), cols[-1] + 1 + reach),
+            )
+            count[box] += cv2.dilate(np.ascontiguousarray(mask[box]).view(np.uint8), near)
+        return count
+
+    shares = os.cpu_count() or 1
+    parts = [worker_threads().submit(count_near, shown[i::shares]) for i in range(shares)]
+
+    def pixels() -> np.ndarray:
+        count = sum(part.result() for part in parts)  # integers: the same in any order
+        return count >= MIN_NEAR_FRAC * len(shown)
+
+    return pixels
 
 
 def _pieces_reaching(cut: np.ndarray, near: np.ndarray, cv2) -> np.ndarray:

@@ -305,10 +305,11 @@ def extract_silhouettes(
         # more often than clothing, so the shadow test stands everywhere.
         config = replace(config, upper_body_frac=0.0)
         frames = _shrink(frames, config)
-        masks = _segment(_chunks(frames), estimate_background(frames, config), config)
-        if config.background == "median":
-            refined = estimate_background(frames, config, exclude=masks)
-            masks = _segment(_chunks(frames), refined, config)
+        with opencv_in_calling_threads():  # the estimate's steps run on the workers too
+            masks = _segment(_chunks(frames), estimate_background(frames, config), config)
+            if config.background == "median":
+                refined = estimate_background(frames, config, exclude=masks)
+                masks = _segment(_chunks(frames), refined, config)
     else:
         background = _check_background(background)
         masks = _segment(_same_size(_chunks(frames), background), background, config)
@@ -565,9 +566,23 @@ def _masked_quantile(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.n
 
     Returns
     -------
-    (H, W, C) float32
+    (H, W, C) float64
         NaN where every frame is excluded.
+
+    The rows are split between the worker threads (NumPy's sort releases the GIL).
     """
+    h = sample.shape[1]
+    bounds = np.linspace(0, h, (os.cpu_count() or 1) + 1).astype(np.int64)
+    parts = [
+        worker_threads().submit(_masked_quantile_rows, sample[:, lo:hi], excluded[:, lo:hi], q)
+        for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
+        if hi > lo
+    ]
+    return np.concatenate([part.result() for part in parts])
+
+
+def _masked_quantile_rows(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.ndarray:
+    """:func:`_masked_quantile` of some of the rows."""
     # Excluded values sort after every real one; a sort along time then gives the
     # quantile inside each pixel's valid prefix (10x faster than nanmedian).
     values = sample.astype(np.float32)

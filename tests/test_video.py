@@ -395,6 +395,21 @@ def test_commonest_colour_is_the_scene_where_a_person_covers_it_more_often_than_
     assert np.median(frames, axis=0)[2:6, 2:6].min() > 150  # the median takes the person
 
 
+@pytest.mark.parametrize("q", [0.5, 0.8])
+def test_masked_quantile_is_the_quantile_of_the_samples_left(rng, q):
+    sample = rng.integers(0, 256, size=(9, 7, 5, 3), dtype=np.uint8)
+    excluded = rng.random((9, 7, 5)) < 0.4
+    excluded[:, 2, 3] = True  # a pixel no sample is left of
+    found = video._masked_quantile(sample, excluded, q)
+    for y in range(7):
+        for x in range(5):
+            left = sample[~excluded[:, y, x], y, x].astype(np.float64)
+            if len(left) == 0:
+                assert np.isnan(found[y, x]).all()
+            else:
+                np.testing.assert_allclose(found[y, x], np.quantile(left, q, axis=0))
+
+
 def test_commonest_colour_is_the_mean_of_the_largest_cluster_by_its_definition(rng):
     """The compiled kernel against every pair compared in numpy: the first sample (in
     frame order) with the most samples within the radius in every channel, and the
