@@ -213,13 +213,13 @@ def _grabcut(image: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2
 
 
 def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> Callable[[], np.ndarray]:
-    """(H, W) bool: pixels near the moving person in at least :data:`MIN_NEAR_FRAC` of
-    the frames that show them.  A still body is part of the person in every frame; a
+    """The pixels near the moving person in at least :data:`MIN_NEAR_FRAC` of the
+    frames that show them.  A still body is part of the person in every frame; a
     person who crosses the picture is near any one place only for a while.
 
     The frames are counted on the worker threads (:func:`eigmotion.video.worker_threads`;
-    the dilations release the GIL), in one share per thread; the call returns at once,
-    and what it returns waits for the counts and gives the pixels.
+    the dilations release the GIL), in one share per thread.  The call returns at once;
+    calling what it returns waits for the counts and gives the pixels, (H, W) bool.
     """
     from .video import worker_threads
 

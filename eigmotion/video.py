@@ -962,7 +962,8 @@ def _evidence(chunk: np.ndarray, scene: _Scene, config: SilhouetteConfig) -> _Ev
     if np.all(np.abs(gains - 1.0) < 0.5 / 255.0):
         stacked[:, :h] = frames  # no level would change
     else:
-        kernels.level_tables(frames.reshape(n, -1), _gain_tables(gains), stacked.reshape(n, -1))
+        for frame, table, out in zip(frames, _gain_tables(gains), stacked, strict=True):
+            cv2.LUT(frame, table, dst=out[:h])
     grid = _grid_step(h, w)
     sample = stacked[:, :h:grid, ::grid].astype(np.float32) - scene.rgb[::grid, ::grid]
     rgb_d2 = np.einsum("...c,...c->...", sample, sample).ravel()
@@ -1603,11 +1604,11 @@ def _grid_step(h: int, w: int) -> int:
 
 
 def _gain_tables(gains: np.ndarray) -> np.ndarray:
-    """(F, 256, 3) uint8 lookup tables (:func:`_level_tables`): per frame, level →
-    level / gain of each channel, rounded."""
+    """(F, 1, 256, 3) uint8 lookup tables (``cv2.LUT``): per frame, level → level / gain
+    of each channel, rounded."""
     levels = np.arange(256, dtype=np.float32)
     tables = levels[None, :, None] / gains[:, None, :]
-    return np.clip(np.rint(tables), 0, 255).astype(np.uint8)
+    return np.clip(np.rint(tables), 0, 255).astype(np.uint8)[:, None]
 
 
 @lru_cache(maxsize=1)
@@ -1628,7 +1629,6 @@ def _kernels():
         component_boxes=jit(_component_boxes),
         frame_boxes=jit(_frame_boxes),
         chosen=jit(_chosen),
-        level_tables=jit(_level_tables),
         largest_cluster_means=jit(_largest_cluster_means),
     )
 
@@ -1736,20 +1736,6 @@ def _cast_shadows(
                 & (alpha <= hi_ratio)
                 & (cr * cr + cg * cg + cb * cb <= limit * limit)
             )
-
-
-def _level_tables(frames, tables, out):  # pragma: no cover - JIT
-    """``out`` (F, M·3): each frame of ``frames`` (F, P·3) uint8 RGB through its own
-    tables ``tables`` (F, 256, 3) uint8, one per channel (``M >= P``: stacked frames,
-    only the first ``P`` pixels of each are written)."""
-    n, p = frames.shape[0], frames.shape[1] // 3
-    for f in range(n):
-        src, table, dst = frames[f], tables[f], out[f]
-        for i in range(p):
-            k = 3 * i
-            dst[k] = table[src[k], 0]
-            dst[k + 1] = table[src[k + 1], 1]
-            dst[k + 2] = table[src[k + 2], 2]
 
 
 def _lengths(vectors, out):  # pragma: no cover - JIT

@@ -320,14 +320,20 @@ def test_exposure_change_against_a_given_background(stick_scene, gain):
     assert iou(extract_silhouettes(brighter, background), masks).mean() > 0.85
 
 
-def test_exposure_gains_are_undone_as_opencv_lookup_tables_would(rng):
-    frames = rng.integers(0, 256, size=(3, 7, 5, 3), dtype=np.uint8)
-    tables = video._gain_tables(np.array([[0.8, 1.0, 1.3], [1.1, 0.9, 0.6], [2.0, 0.5, 1.0]]))
-    out = np.zeros((3, 9 * 5 * 3), np.uint8)  # each frame followed by two rows left alone
-    video._kernels().level_tables(frames.reshape(3, -1), tables, out)
-    for frame, table, got in zip(frames, tables, out, strict=True):
-        np.testing.assert_array_equal(got[: 7 * 5 * 3], cv2.LUT(frame, table[None]).ravel())
-        assert not got[7 * 5 * 3 :].any()
+def test_exposure_gains_are_the_median_ratios_to_the_background(rng):
+    background = rng.integers(0, 256, size=(30, 40, 3), dtype=np.uint8)
+    background[..., 2] = 5  # too dark: the channel is left at gain 1
+    frames = np.clip(background * np.float32([0.9, 1.2, 1.0]), 0, 255).astype(np.uint8)
+    frames = np.stack([frames, background, rng.integers(0, 256, (30, 40, 3), np.uint8)])
+    scene = video._scene(background, SilhouetteConfig())
+    found = video._exposure_gains(frames, scene)
+    pixels = frames.reshape(3, -1, 3)
+    for c, pick in enumerate(scene.gain_pixels[:2]):
+        picked, bg = pick
+        ratios = pixels[:, picked, c] / bg
+        np.testing.assert_array_equal(found[:, c], np.clip(np.median(ratios, axis=1), 0.5, 2.0))
+    assert scene.gain_pixels[2] is None and (found[:, 2] == 1.0).all()
+    np.testing.assert_allclose(found[:2, :2], [[0.9, 1.2], [1.0, 1.0]], atol=0.01)
 
 
 def test_opencv_runs_on_the_calling_threads_only_inside_the_scope():
