@@ -24,7 +24,6 @@ the scene (:meth:`StillBody.person_log_ratio`).
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -221,7 +220,7 @@ def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> Callable[[],
     the dilations release the GIL), in one share per thread.  The call returns at once;
     calling what it returns waits for the counts and gives the pixels, (H, W) bool.
     """
-    from .video import worker_threads
+    from .video import worker_shares, worker_threads
 
     near = _disk(NEAR_PER_HEIGHT * height, cv2)
     reach = near.shape[0] // 2
@@ -240,7 +239,7 @@ def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> Callable[[],
             count[box] += cv2.dilate(np.ascontiguousarray(mask[box]).view(np.uint8), near)
         return count
 
-    shares = os.cpu_count() or 1
+    shares = len(worker_shares(len(shown)))  # frames taken in turn: one share per thread
     parts = [worker_threads().submit(count_near, shown[i::shares]) for i in range(shares)]
 
     def pixels() -> np.ndarray:

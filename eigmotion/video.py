@@ -512,11 +512,9 @@ def _commonest_colours(sample: np.ndarray) -> np.ndarray:
     pixels = np.ascontiguousarray(sample).reshape(f, h * w, 3)
     kernel = _kernels().largest_cluster_means
     workers = worker_threads()
-    bounds = np.linspace(0, h * w, (os.cpu_count() or 1) + 1).astype(np.int64)
     jobs = [
         workers.submit(kernel, pixels[:, lo:hi], radius, out[lo:hi])
-        for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
-        if hi > lo
+        for lo, hi in worker_shares(h * w)
     ]
     for job in jobs:
         job.result()
@@ -571,12 +569,9 @@ def _masked_quantile(sample: np.ndarray, excluded: np.ndarray, q: float) -> np.n
 
     The rows are split between the worker threads (NumPy's sort releases the GIL).
     """
-    h = sample.shape[1]
-    bounds = np.linspace(0, h, (os.cpu_count() or 1) + 1).astype(np.int64)
     parts = [
         worker_threads().submit(_masked_quantile_rows, sample[:, lo:hi], excluded[:, lo:hi], q)
-        for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)
-        if hi > lo
+        for lo, hi in worker_shares(sample.shape[1])
     ]
     return np.concatenate([part.result() for part in parts])
 
@@ -856,6 +851,13 @@ def worker_threads() -> ThreadPoolExecutor:
     independent steps run on (work that releases the GIL: OpenCV, compiled loops).
     A task running on them must not wait for another task it submits to them."""
     return ThreadPoolExecutor(max_workers=os.cpu_count() or 1, thread_name_prefix="eigmotion-seg")
+
+
+def worker_shares(length: int) -> list[tuple[int, int]]:
+    """Bounds ``[lo, hi)`` that split ``length`` items into one share per worker thread
+    (:func:`worker_threads`), in order; empty shares are left out."""
+    bounds = np.linspace(0, length, (os.cpu_count() or 1) + 1).astype(np.int64)
+    return [(int(lo), int(hi)) for lo, hi in zip(bounds[:-1], bounds[1:], strict=True) if hi > lo]
 
 
 # A forked child has none of its parent's threads: it starts a pool of its own.
