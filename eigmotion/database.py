@@ -784,17 +784,20 @@ class MotionDatabase:
         """
         parts, lengths, speeds, owners = [], [], [], []
         for candidate, match in enumerate(nearest):
-            stored, stored_speeds = self._stored_sequences(match.motion_id)
-            near = view_reach(stored.azimuth_deg, match.azimuth_deg)
-            parts.append(stored.frames[np.repeat(near, stored.lengths)])
-            lengths.append(stored.lengths[near])
-            speeds.append(stored_speeds[near])
-            owners.append(np.full(np.count_nonzero(near), candidate))
-        lengths = np.concatenate(lengths) if lengths else np.zeros(0, np.int64)
+            stored, starts, stored_speeds = self._stored_sequences(match.motion_id)
+            near = np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg))
+            # The renderings are kept in order of azimuth: those in reach are one run,
+            # or two where the reach wraps around 0°.
+            for run in np.split(near, np.flatnonzero(np.diff(near) > 1) + 1):
+                if run.size:
+                    parts.append(stored.frames[starts[run[0]] : starts[run[-1] + 1]])
+                    lengths.append(stored.lengths[run])
+                    speeds.append(stored_speeds[run])
+                    owners.append(np.full(run.size, candidate))
         compared = np.full(len(nearest), np.inf)
-        if lengths.size:
+        if lengths:
             found = sequence_distances(
-                query, np.concatenate(parts), lengths, workers=worker_threads()
+                query, np.concatenate(parts), np.concatenate(lengths), workers=worker_threads()
             )
             found *= pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds))
             np.minimum.at(compared, np.concatenate(owners), found)
@@ -811,14 +814,25 @@ class MotionDatabase:
         ]
 
     def _stored_sequences(self, motion_id: int):
-        """A motion's :class:`~eigmotion.store.MotionSequences` and its renderings' (R,)
-        pose speeds (:func:`~eigmotion.sequences.pose_speeds`), read from the store
-        once, then kept."""
+        """A motion's :class:`~eigmotion.store.MotionSequences` with its renderings in
+        order of azimuth, the (R + 1,) first frame of each rendering (then the number
+        of frames), and their (R,) pose speeds (:func:`~eigmotion.sequences.
+        pose_speeds`): read from the store once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
+            order = np.argsort(stored.azimuth_deg, kind="stable")
+            ends = np.cumsum(stored.lengths)
+            stored = dataclasses.replace(
+                stored, azimuth_deg=stored.azimuth_deg[order],
+                elevation_deg=stored.elevation_deg[order], lengths=stored.lengths[order],
+                frames=np.concatenate(
+                    [stored.frames[ends[r] - stored.lengths[r] : ends[r]] for r in order]
+                ),
+            )  # fmt: skip
+            starts = np.concatenate([[0], np.cumsum(stored.lengths)])
             speeds = pose_speeds(stored.frames, stored.lengths)
-            found = self._sequences[motion_id] = (stored, speeds)
+            found = self._sequences[motion_id] = (stored, starts, speeds)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:

@@ -135,7 +135,7 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
     (F, p + 1) float32
         The silhouettes' pose coordinates, then the rise × :data:`RISE_WEIGHT`.
     """
-    frames = np.asarray(frames, dtype=np.float32)
+    frames = np.ascontiguousarray(frames, dtype=np.float32)
     silhouettes = pose_space.transform(frames[:, : SEQUENCE_SIZE**2])
     return np.concatenate(
         [silhouettes, RISE_WEIGHT * frames[:, SEQUENCE_SIZE**2 :]], axis=1, dtype=np.float32
@@ -190,9 +190,10 @@ def sequence_distances(
     lengths : (R,) int
         Frames of each of those R sequences, summing to ``M``; each >= 1.
     workers : Executor, optional
-        Threads to warp the later half of the sequences on while the calling thread
-        warps the first (the compiled loop releases the GIL); the distances are the
-        same either way.  Not to be called from one of those threads.
+        Threads to warp the later half of the sequences on (its matrix product
+        included) while the calling thread warps the first (BLAS and the compiled
+        loop release the GIL); the distances are the same either way.  Not to be
+        called from one of those threads.
 
     Returns
     -------
@@ -205,21 +206,27 @@ def sequence_distances(
         _WARP = _compiled_warp()
     query = np.ascontiguousarray(query, dtype=np.float32)
     frames = np.ascontiguousarray(frames, dtype=np.float32)
-    # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
-    # (float32: distances of pose coordinates of order 1 come out within about 1e-3);
-    # the rest of each frame distance is taken inside the warp, as it is needed.
-    dots = query @ frames.T
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     out = np.empty(len(lengths))
     query_norms = np.einsum("ij,ij->i", query, query)
-    frame_norms = np.einsum("ij,ij->i", frames, frames)
 
     def warp(first: int, stop: int) -> None:  # sequences [first, stop)
-        _WARP(dots, query_norms, frame_norms, starts[first : stop + 1], out[first:stop])
+        # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
+        # (float32: distances of pose coordinates of order 1 come out within about
+        # 1e-3); the rest of each frame distance is taken inside the warp, as needed.
+        part = frames[starts[first] : starts[stop]]
+        dots = query @ part.T
+        norms = np.einsum("ij,ij->i", part, part)
+        _WARP(dots, query_norms, norms, starts[first : stop + 1] - starts[first], out[first:stop])
 
+    # Always the same two halves, whether or not the later one runs on a worker: the
+    # distances do not depend on the threads.
     half = int(np.searchsorted(starts, starts[-1] / 2.0))
-    if workers is None or not 0 < half < len(lengths):
+    if not 0 < half < len(lengths):
         warp(0, len(lengths))
+    elif workers is None:
+        warp(0, half)
+        warp(half, len(lengths))
     else:
         later = workers.submit(warp, half, len(lengths))
         warp(0, half)

@@ -798,9 +798,13 @@ def _segment(
     evidence (:func:`_evidence`), then — with the clip's noise level, taken over all
     of its frames — the masks (:func:`_chunk_masks`).
     """
-    scene = _scene(background, config)
-    _kernels()  # compiled here, before the workers call them
     workers = worker_threads()
+    # The first L*a*b* conversion in a process builds OpenCV's tables (about 0.2 s,
+    # the GIL released): the scene is prepared on a worker while this thread loads
+    # the compiled loops (the GIL held), which the workers must not compile.
+    scene_job = workers.submit(_scene, background, config)
+    _kernels()
+    scene = scene_job.result()
     with opencv_in_calling_threads():
         pending = [workers.submit(_evidence, chunk, scene, config) for chunk in chunks]
         evidence = [job.result() for job in pending]

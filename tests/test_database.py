@@ -198,6 +198,35 @@ def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
     assert [m.motion for m in ranked_two.top[2:]] == [m.motion for m in by_image[2:]]
 
 
+def test_a_candidate_is_warped_against_its_renderings_within_reach_of_its_view(db_path):
+    from eigmotion.sequences import pace_factors, pose_speeds, sequence_distances, view_reach
+
+    with MotionDatabase.open(db_path) as db:
+        motion_id = min(db.store.motion_ids())
+        stored = db.store.sequences(motion_id)
+        starts = np.concatenate([[0], np.cumsum(stored.lengths)])
+        # The query: the motion's own rendering seen from 300°, within reach of 0°.
+        (seen,) = np.flatnonzero(stored.azimuth_deg == 300.0)[:1]
+        query = stored.frames[starts[seen] : starts[seen + 1]]
+        pace = pace_factors(
+            pose_speeds(query, [len(query)])[0], pose_speeds(stored.frames, stored.lengths)
+        )
+        found = {}
+        for azimuth in (0.0, 120.0):
+            match = Match("any", "any", motion_id, 0, 0.1, azimuth, 0.0, (0, 30))
+            (ranked,) = db._ranked_by_sequence(query, [match])
+            # Each rendering in reach on its own, in the store's order.
+            expected = min(
+                sequence_distances(query, stored.frames[starts[r] : starts[r + 1]], [length])[0]
+                * pace[r]
+                for r, length in enumerate(stored.lengths)
+                if view_reach(stored.azimuth_deg[r : r + 1], azimuth)[0]
+            )
+            assert ranked.sequence_distance == pytest.approx(expected, rel=1e-6)
+            found[azimuth] = ranked.sequence_distance
+    assert found[0.0] < 1e-3 < found[120.0]  # the reach across 0° holds the query's own
+
+
 def test_candidates_are_the_nearest_motions_and_the_nearest_of_each_further_label(
     monkeypatch,
 ):
