@@ -109,7 +109,7 @@ from eigmotion.video import SilhouetteConfig, load_clip_masks  # noqa: E402
 QUERY_CONSTANTS = {
     "sequences": (
         "PACE_WEIGHT", "PACE_FLOOR", "PACE_SMOOTHING_PASSES", "SEQUENCE_WEIGHT",
-        "VIEW_REACH_DEG", "CANDIDATE_MOTIONS",
+        "VIEW_REACH_DEG", "CANDIDATE_MOTIONS", "WARP_BAND",
     ),
     "database": (
         "CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS", "WINDOW_CANDIDATES", "SPECIFIC_MARGIN",

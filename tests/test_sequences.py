@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.errors import VideoError
+from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.sequences import (
     LOWER_BODY_WEIGHT,
@@ -28,25 +28,46 @@ from eigmotion.sequences import (
 )
 
 
-def reference_warp(a: np.ndarray, b: np.ndarray) -> float:
-    """Dynamic time warping written out from its definition, for comparison."""
+def reference_warp(a: np.ndarray, b: np.ndarray, band: float = 1.0) -> float:
+    """Dynamic time warping written out from its definition, for comparison: the path
+    keeps within ``band · max(n, m)`` frames of the diagonal."""
     n, m = len(a), len(b)
     cost = np.full((n + 1, m + 1), np.inf)
     cost[0, 0] = 0.0
     for i in range(1, n + 1):
+        diagonal = (i - 0.5) * m / n + 0.5
         for j in range(1, m + 1):
+            if abs(j - diagonal) > band * max(n, m):
+                continue
             step = min(cost[i - 1, j], cost[i, j - 1], cost[i - 1, j - 1])
             cost[i, j] = float(np.linalg.norm(a[i - 1] - b[j - 1])) + step
     return cost[n, m] / (n + m)
 
 
-def test_warping_equals_its_definition():
+@pytest.mark.parametrize("band", [1.0, 0.3, 0.1])
+def test_warping_equals_its_definition(band):
     rng = np.random.default_rng(0)
     query = rng.random((9, 6)).astype(np.float32)
-    others = [rng.random((n, 6)).astype(np.float32) for n in (1, 4, 13, 9)]
-    found = sequence_distances(query, np.concatenate(others), np.array([len(o) for o in others]))
-    expected = [reference_warp(query.astype(np.float64), o.astype(np.float64)) for o in others]
+    others = [rng.random((n, 6)).astype(np.float32) for n in (1, 4, 13, 9, 30)]
+    lengths = np.array([len(o) for o in others])
+    found = sequence_distances(query, np.concatenate(others), lengths, band=band)
+    expected = [reference_warp(query.astype(np.float64), o.astype(float), band) for o in others]
     np.testing.assert_allclose(found, expected, rtol=1e-5)
+
+
+def test_the_band_keeps_the_path_near_the_diagonal():
+    # The same path after a long pause: a free path waits out the pause at no cost;
+    # one that keeps near the diagonal must pay for leaving it.
+    t = np.linspace(0.0, 1.0, 20)
+    path = np.stack([np.sin(3 * t), np.cos(2 * t), t], axis=1).astype(np.float32)
+    paused = np.concatenate([np.repeat(path[:1], 20, axis=0), path])
+    free = sequence_distances(path, paused, np.array([40]), band=1.0)[0]
+    banded = sequence_distances(path, paused, np.array([40]), band=0.1)[0]
+    assert free == pytest.approx(0.0, abs=1e-3)
+    assert banded > 0.05
+    assert sequence_distances(path, paused, np.array([40]))[0] >= free
+    with pytest.raises(InvalidParameterError, match="band"):
+        sequence_distances(path, paused, np.array([40]), band=0.0)
 
 
 def test_a_slower_performance_is_nearer_than_another_motion():
