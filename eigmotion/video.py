@@ -800,8 +800,8 @@ def _segment(
     """
     workers = worker_threads()
     # The first L*a*b* conversion in a process builds OpenCV's tables (about 0.2 s,
-    # the GIL released): the scene is prepared on a worker while this thread loads
-    # the compiled loops (the GIL held), which the workers must not compile.
+    # the GIL released): the scene is prepared on a worker while this thread imports
+    # numba and loads the compiled loops (the GIL held), before any worker calls them.
     scene_job = workers.submit(_scene, background, config)
     _kernels()
     scene = scene_job.result()
