@@ -141,7 +141,7 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
     (F, p + 1) float32
         The silhouettes' pose coordinates, then the rise × :data:`RISE_WEIGHT`.
     """
-    frames = np.ascontiguousarray(frames, dtype=np.float32)
+    frames = np.asarray(frames, dtype=np.float32)
     silhouettes = pose_space.transform(frames[:, : SEQUENCE_SIZE**2])
     return np.concatenate(
         [silhouettes, RISE_WEIGHT * frames[:, SEQUENCE_SIZE**2 :]], axis=1, dtype=np.float32
