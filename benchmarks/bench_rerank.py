@@ -284,12 +284,13 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
     answers, thresholds = {}, {}
     with MotionDatabase.open(db_path) as db:
         entries = EntryTable(db)
-        whole = entries.whole(db)
+        whole, body = entries.calibration(db)
         for label in sorted({c.label for c in clips}):
             without = entries.label != label
             thresholds[label] = leave_one_motion_out_threshold(
-                entries.points[without], entries.performance[without], whole[without]
-            )
+                entries.points[without], entries.performance[without], whole[without],
+                None if body is None else body[without],
+            )  # fmt: skip
             for held in sorted({c.held_out for c in clips if c.label == label}):
                 entries.search_only(db, without & ~np.isin(entries.motion, held))
                 db.threshold = thresholds[label]
@@ -315,14 +316,18 @@ class EntryTable:
         originals = [self._meta[m].get("mirror_of") or self._meta[m]["name"] for m in motions]
         self.performance = np.unique(originals, return_inverse=True)[1]
 
-    def whole(self, db: MotionDatabase) -> np.ndarray:
-        """(N,) bool: the entries that cover their whole motion (every entry record
-        read from the store, so only when the threshold is calibrated again)."""
-        return np.array(
+    def calibration(self, db: MotionDatabase) -> tuple[np.ndarray, np.ndarray | None]:
+        """What the threshold is calibrated on, from every entry record (read from
+        the store, so only when the threshold is calibrated again): (N,) bool, the
+        entries that cover their whole motion, and (N,) int, the body each was
+        rendered on (None for a database stored without it)."""
+        records = [db.store.entry(i) for i in self.arrays.ids.tolist()]
+        whole = np.array(
             [self._meta[int(m)]["n_frames"] == e["end_frame"] and e["start_frame"] == 0
-             for m, e in zip(self.arrays.motions, map(db.store.entry, self.arrays.ids.tolist()),
-                             strict=True)]
+             for m, e in zip(self.arrays.motions, records, strict=True)]
         )  # fmt: skip
+        bodies = [e.get("body") for e in records]
+        return whole, None if None in bodies else np.array(bodies)
 
     def search_only(self, db: MotionDatabase, kept: np.ndarray) -> None:
         """Point ``db``'s search at the ``kept`` (N,) bool entries, by brute force."""

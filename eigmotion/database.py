@@ -149,6 +149,7 @@ class BuildReport:
 class _Collected:
     vectors: list = field(default_factory=list)
     motion: list = field(default_factory=list)
+    body: list = field(default_factory=list)
     azimuth: list = field(default_factory=list)
     elevation: list = field(default_factory=list)
     start: list = field(default_factory=list)
@@ -166,6 +167,7 @@ class _Collected:
             )
         self.vectors.append(view.vectors)
         self.motion += [view.motion_index] * n
+        self.body += [view.shape_index] * n
         self.azimuth += [cam.azimuth_deg] * n
         self.elevation += [cam.elevation_deg] * n
         self.start += view.windows[:, 0].tolist()
@@ -176,6 +178,7 @@ class _Collected:
         return (
             np.concatenate(self.vectors).astype(np.float32),
             np.asarray(self.motion, dtype=np.int64),
+            np.asarray(self.body, dtype=np.int64),
             np.asarray(self.azimuth, dtype=np.float64),
             np.asarray(self.elevation, dtype=np.float64),
             np.asarray(self.start, dtype=np.int64),
@@ -185,15 +188,19 @@ class _Collected:
 
 
 def leave_one_motion_out_threshold(
-    points: np.ndarray, performance_of: np.ndarray, whole: np.ndarray
+    points: np.ndarray,
+    performance_of: np.ndarray,
+    whole: np.ndarray,
+    body_of: np.ndarray | None = None,
 ) -> float:
     """The "unknown" threshold from the database itself.
 
     Each whole-motion entry is queried as a query would be, against every entry of
-    the OTHER performances (as if that performance were new): its nearest distance
-    is what a known motion done by someone else looks like, and the threshold is the
-    :data:`THRESHOLD_QUANTILE` of those distances — about that share of new
-    performances of library motions is accepted.
+    the OTHER performances rendered on the OTHER bodies (as if that performance were
+    new, by someone whose body and clothes the database does not hold, as in every
+    real query): its nearest distance is what a known motion done by someone else
+    looks like, and the threshold is the :data:`THRESHOLD_QUANTILE` of those
+    distances — about that share of new performances of library motions is accepted.
 
     Parameters
     ----------
@@ -204,6 +211,10 @@ def leave_one_motion_out_threshold(
         the right).
     whole : (N,) bool
         Entries that cover a whole motion.
+    body_of : (N,) int, optional
+        The body (shape and outfit, an index into ``BuildConfig.bodies``) each entry
+        was rendered on.  Not given, or one body in all: every body of the other
+        performances is compared with.
 
     Returns
     -------
@@ -217,12 +228,16 @@ def leave_one_motion_out_threshold(
         # is wide.
         return float(2.0 * np.linalg.norm(points - points.mean(axis=0), axis=1).max())
     points = np.asarray(points)
+    several_bodies = body_of is not None and len(np.unique(body_of)) > 1
+    body_of = np.asarray(body_of) if several_bodies else np.zeros(len(points), np.int64)
     found = []
     for performance in np.unique(performance_of[whole]):
-        queries = np.flatnonzero(whole & (performance_of == performance))
-        others = points[performance_of != performance]
-        for block in np.array_split(queries, -(-len(queries) // _QUERY_BLOCK)):
-            found.append(_nearest_distances(points[block], others))
+        mine = performance_of == performance
+        for body in np.unique(body_of[whole & mine]):
+            queries = np.flatnonzero(whole & mine & (body_of == body))
+            others = points[~mine & (body_of != body) if several_bodies else ~mine]
+            for block in np.array_split(queries, -(-len(queries) // _QUERY_BLOCK)):
+                found.append(_nearest_distances(points[block], others))
     return float(np.quantile(np.concatenate(found), THRESHOLD_QUANTILE))
 
 
@@ -295,7 +310,7 @@ def build_database(
         views = render_views(library, rig, config, workers=workers, progress=progress)
     for view in views:
         collected.add(view, rig)
-    X, motion_of, az, el, start, stop, labels = collected.arrays()
+    X, motion_of, body_of, az, el, start, stop, labels = collected.arrays()
     if not collected.sequences:
         raise InvalidParameterError("no rendering of the library shows a person: nothing to build")
     space = Eigenspace(config.n_components, config.explained_variance).fit(X)
@@ -307,7 +322,7 @@ def build_database(
     whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
     originals = [m.mirror_of or m.name for m in library]
     performance = np.unique(originals, return_inverse=True)[1]
-    threshold = leave_one_motion_out_threshold(points, performance[motion_of], whole)
+    threshold = leave_one_motion_out_threshold(points, performance[motion_of], whole, body_of)
     recon = space.reconstruction_error(X)
     stored_config = {
         "build": config.to_dict(),
@@ -322,9 +337,8 @@ def build_database(
             with store.transaction():
                 store.initialise(stored_config, space, quantizer, pose_space)
                 motion_ids = [_add_motion(store, m) for m in library]
-                store.add_entries(
-                    np.asarray(motion_ids)[motion_of], points, keys, az, el, start, stop, labels
-                )
+                of_entry = np.asarray(motion_ids)[motion_of]
+                store.add_entries(of_entry, points, keys, az, el, start, stop, labels, body_of)
                 _add_sequences(store, motion_ids, collected.sequences, pose_space)
         finally:
             store.close()
@@ -965,15 +979,14 @@ class MotionDatabase:
         collected = _Collected()
         for view in render_views([item], self.rig, self.config, workers=None, progress=progress):
             collected.add(view, self.rig)
-        X, _, az, el, start, stop, labels = collected.arrays()
+        X, _, body_of, az, el, start, stop, labels = collected.arrays()
         points = self.eigenspace.transform(X).astype(np.float32)
         keys = self.store.quantizer().keys(points)
         error = float(np.median(self.eigenspace.reconstruction_error(X)))
         with self.store.transaction():
             motion_id = _add_motion(self.store, item)
-            self.store.add_entries(
-                np.full(len(points), motion_id), points, keys, az, el, start, stop, labels
-            )
+            of_entry = np.full(len(points), motion_id)
+            self.store.add_entries(of_entry, points, keys, az, el, start, stop, labels, body_of)
             _add_sequences(self.store, [motion_id], collected.sequences, self.pose_space)
         self._load_index()
         return IndexReport(

@@ -31,7 +31,9 @@ breaks a stored database)::
 
 An entry record is ``{"motion": int, "label": str, "view_azimuth_deg": float,
 "view_elevation_deg": float, "start_frame": int, "end_frame": int, "key": int,
-"point": bytes (k float32, little-endian)}``.  Entry ids count up from 0, so the
+"point": bytes (k float32, little-endian)}``, with ``"body": int`` (which of the
+build's bodies the motion image was rendered on) where it was stored; databases built
+before 2026-11-27 lack it.  Entry ids count up from 0, so the
 columns are in id order; they repeat the records' ids, keys and points in packed form
 so that opening a database of a million entries reads a few dozen objects instead of
 unpickling a million records.  A motion's sequences record is ``{"azimuth": bytes (R
@@ -535,6 +537,7 @@ class Store:
         start_frame,
         end_frame,
         labels=None,
+        bodies=None,
     ) -> np.ndarray:
         """Store N entries (motion images' points) under their keys.
 
@@ -554,6 +557,9 @@ class Store:
         labels : sequence of N str, optional
             Each entry's label; default its motion's (a window outside a motion's
             action carries the filler's).
+        bodies : (N,) int, optional
+            The body each motion image was rendered on (an index into the build
+            configuration's ``bodies``, >= 0); stored as the record's ``body``.
 
         Returns
         -------
@@ -595,6 +601,9 @@ class Store:
         elevation = column(view_elevation_deg, "view_elevation_deg", False)
         start = column(start_frame, "start_frame", True)
         end = column(end_frame, "end_frame", True)
+        body = None if bodies is None else column(bodies, "bodies", True)
+        if body is not None and np.any(body < 0):
+            raise InvalidParameterError(f"bodies must be >= 0, got {int(body.min())}")
         if np.any(start < 0) or np.any(end < start):
             row = int(np.flatnonzero((start < 0) | (end < start))[0])
             raise InvalidParameterError(
@@ -622,21 +631,23 @@ class Store:
         first = int(counters["next_entry"])
         ids = np.arange(first, first + n, dtype=np.int64)
         point_bytes = pts.astype("<f4")
-        root["entries"].update(
+        records = [
             {
-                int(ids[i]): {
-                    "motion": int(motions[i]),
-                    "label": labels[i],
-                    "view_azimuth_deg": float(azimuth[i]),
-                    "view_elevation_deg": float(elevation[i]),
-                    "start_frame": int(start[i]),
-                    "end_frame": int(end[i]),
-                    "key": int(keys[i]),
-                    "point": point_bytes[i].tobytes(),
-                }
-                for i in range(n)
+                "motion": int(motions[i]),
+                "label": labels[i],
+                "view_azimuth_deg": float(azimuth[i]),
+                "view_elevation_deg": float(elevation[i]),
+                "start_frame": int(start[i]),
+                "end_frame": int(end[i]),
+                "key": int(keys[i]),
+                "point": point_bytes[i].tobytes(),
             }
-        )
+            for i in range(n)
+        ]
+        if body is not None:
+            for record, index in zip(records, body.tolist(), strict=True):
+                record["body"] = index
+        root["entries"].update(dict(zip(ids.tolist(), records, strict=True)))
         tree = root["keys"]
         order = np.argsort(keys, kind="stable")
         unique, starts = np.unique(keys[order], return_index=True)

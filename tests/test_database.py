@@ -110,9 +110,54 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     ]
     # entry by entry, in the points' float32: the same to the last bit
     assert leave_one_motion_out_threshold(points, performance, whole) == np.quantile(found, 0.95)
+    # rendered on three bodies: each entry against the other performances' entries on
+    # the other bodies only, which lie farther
+    body = rng.integers(0, 3, size=700)
+    found_elsewhere = [
+        np.linalg.norm(
+            points[(performance != performance[i]) & (body != body[i])] - points[i], axis=1
+        ).min()
+        for i in np.flatnonzero(whole)
+    ]
+    assert leave_one_motion_out_threshold(points, performance, whole, body) == np.quantile(
+        found_elsewhere, 0.95
+    )
+    assert np.quantile(found_elsewhere, 0.95) > np.quantile(found, 0.95)
+    # one body in all: as without bodies
+    same = np.full(700, 2)
+    assert leave_one_motion_out_threshold(points, performance, whole, same) == np.quantile(
+        found, 0.95
+    )
     one = np.zeros(700, dtype=int)
     radius = np.linalg.norm(points - points.mean(axis=0), axis=1).max()
     assert leave_one_motion_out_threshold(points, one, whole) == pytest.approx(2 * radius)
+
+
+def test_a_build_calibrates_each_entry_against_the_other_bodies(tmp_path):
+    """Two motions on two bodies: every entry record keeps its body, and the stored
+    threshold compares each whole-motion entry with the other motion on the other
+    body only, which lies farther than on its own."""
+    from dataclasses import replace as with_fields
+
+    by_name = {m.name: m for m in load_library()}
+    two = [with_fields(by_name[n], motion=by_name[n].motion.trim(0, 60)) for n in MOTIONS[1:3]]
+    path = tmp_path / "bodies.fs"
+    rig = virtual_rig([0.0, 90.0], [0.0], 64, 64)
+    config = replace(CONFIG, n_components=4, key_axes=2, garments=((), ("wide_shorts",)))
+    build_database(two, rig, path, config, workers=1, progress=False)
+    with MotionDatabase.open(path) as db:
+        arrays = db.store.arrays()
+        records = [db.store.entry(i) for i in arrays.ids.tolist()]
+        frames = {m: db.motion(m).n_frames for m in set(arrays.motions.tolist())}
+        threshold = db.threshold
+    body = np.array([r["body"] for r in records])
+    whole = np.array([r["start_frame"] == 0 and r["end_frame"] == frames[r["motion"]]
+                      for r in records])  # fmt: skip
+    assert np.bincount(body).tolist() == [len(body) // 2] * 2
+    assert whole.sum() == 2 * 2 * len(rig)  # motions × bodies × views
+    elsewhere = leave_one_motion_out_threshold(arrays.points, arrays.motions, whole, body)
+    assert threshold == elsewhere
+    assert elsewhere > leave_one_motion_out_threshold(arrays.points, arrays.motions, whole)
 
 
 def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_script):
@@ -121,12 +166,13 @@ def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_s
     motions' entries out."""
     with benchmark_script("bench_rerank") as bench, MotionDatabase.open(db_path) as db:
         table = bench.EntryTable(db)
-        whole = table.whole(db)
+        whole, body = table.calibration(db)
         n_views = len(CONFIG.bodies) * len(db.rig)
         assert whole.sum() == n_views * len(MOTIONS)
+        assert np.bincount(body).tolist() == [len(body) // len(CONFIG.bodies)] * len(CONFIG.bodies)
         assert set(table.motion) == set(MOTIONS)
         assert len(set(table.performance)) == len(MOTIONS)  # no mirror images here
-        threshold = leave_one_motion_out_threshold(table.points, table.performance, whole)
+        threshold = leave_one_motion_out_threshold(table.points, table.performance, whole, body)
         assert threshold == db.threshold
         kept = table.label != "wave"
         table.search_only(db, kept)

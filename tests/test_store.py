@@ -249,6 +249,8 @@ def test_read_only_and_transaction_rules(tmp_path, fitted):
         ({"points": "wide"}, r"\(N, 6\)"),
         ({"end_frame": -1}, "time window"),
         ({"view_azimuth_deg": np.nan}, "view_azimuth_deg"),
+        ({"bodies": -1}, "bodies must be >= 0"),
+        ({"bodies": 0.5}, "bodies must be integers"),
     ],
 )
 def test_add_entries_validates(fitted, change, match):
@@ -399,3 +401,17 @@ def test_a_damaged_fitted_state_is_named(fitted, key, read, what):
                 del state[name]  # as a torn write would leave it
         with pytest.raises(DatabaseError, match=f"stored {what} is damaged"):
             read(store)
+
+
+def test_an_entry_keeps_the_body_it_was_rendered_on(fitted):
+    space, quantizer, points, pose = fitted
+    with Store.create("memory://") as store, store.transaction():
+        store.initialise({}, space, quantizer, pose)
+        motion = store.add_motion("m", "s", BVH_TEXT)
+        part = points[:3]
+        args = (np.full(3, motion), part, quantizer.keys(part), [0.0] * 3, [0.0] * 3, [0] * 3)
+        with_bodies = store.add_entries(*args, [5] * 3, ["m"] * 3, [2, 0, 1])
+        without = store.add_entries(*args, [5] * 3)
+        assert [store.entry(i)["body"] for i in with_bodies] == [2, 0, 1]
+        assert all("body" not in store.entry(i) for i in without)
+        store.check()
