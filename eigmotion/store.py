@@ -631,23 +631,22 @@ class Store:
         first = int(counters["next_entry"])
         ids = np.arange(first, first + n, dtype=np.int64)
         point_bytes = pts.astype("<f4")
-        records = [
+        root["entries"].update(
             {
-                "motion": int(motions[i]),
-                "label": labels[i],
-                "view_azimuth_deg": float(azimuth[i]),
-                "view_elevation_deg": float(elevation[i]),
-                "start_frame": int(start[i]),
-                "end_frame": int(end[i]),
-                "key": int(keys[i]),
-                "point": point_bytes[i].tobytes(),
+                int(ids[i]): {
+                    "motion": int(motions[i]),
+                    "label": labels[i],
+                    "view_azimuth_deg": float(azimuth[i]),
+                    "view_elevation_deg": float(elevation[i]),
+                    "start_frame": int(start[i]),
+                    "end_frame": int(end[i]),
+                    "key": int(keys[i]),
+                    "point": point_bytes[i].tobytes(),
+                    **({} if body is None else {"body": int(body[i])}),
+                }
+                for i in range(n)
             }
-            for i in range(n)
-        ]
-        if body is not None:
-            for record, index in zip(records, body.tolist(), strict=True):
-                record["body"] = index
-        root["entries"].update(dict(zip(ids.tolist(), records, strict=True)))
+        )
         tree = root["keys"]
         order = np.argsort(keys, kind="stable")
         unique, starts = np.unique(keys[order], return_index=True)
