@@ -28,11 +28,15 @@ the clips a variant gained and lost, and the exact McNemar test's p-value of tha
 
     python benchmarks/bench_rerank.py [--seed 0 [--seed 1 ...]] [--clips-dir DIR] [--db PATH]
         [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
-        [--no-background] [--silhouettes NAME=VALUE ...] [--unknown]
+        [--no-background [--compare-cuts]] [--silhouettes NAME=VALUE ...] [--unknown]
 
 ``--no-background`` cuts the clips as a query without an image of the empty scene
 does (the background estimated from each clip), to compare silhouette front ends by
 what they do to recognition.
+
+``--compare-cuts`` (with ``--no-background``) also cuts each clip with its empty-scene
+image and prints, per label, how the estimated silhouettes agree with those
+(:func:`mask_agreement`): where the estimate loses recognition, and what it misses.
 
 ``--silhouettes NAME=VALUE`` (repeatable) cuts the clips with a field of
 :class:`~eigmotion.video.SilhouetteConfig` changed from what a query uses (the working
@@ -125,7 +129,9 @@ class HeldOutClip:
 
     ``name``: the clip's file stem; ``held_out``: the names of its fold's motions;
     ``masks``: (F, H, W) bool, the frames the motion image samples, at the query's
-    working size; ``fps``: their rate, frames/s.
+    working size; ``fps``: their rate, frames/s; ``given_masks``: the same frames cut
+    with the clip's empty-scene image, where ``masks`` were cut without it and both
+    were asked for (``--compare-cuts``), else None.
     """
 
     name: str
@@ -133,6 +139,7 @@ class HeldOutClip:
     held_out: tuple[str, ...]
     masks: np.ndarray
     fps: float
+    given_masks: np.ndarray | None = None
 
 
 def parse_variant(text: str) -> dict[str, float]:
@@ -244,7 +251,12 @@ def _held_out_clips(args, seed: int) -> list[HeldOutClip]:
             clip = maker.make(spec, items[spec.motion])
             background = clip.background if args.background else None
             cut = load_clip_masks(clip.video, background, config, args.sample_fps)
-            clips.append(HeldOutClip(clip.video.stem, spec.label, held_names, cut.masks, cut.fps))
+            given = None
+            if args.compare_cuts:
+                given = load_clip_masks(clip.video, clip.background, config, args.sample_fps).masks
+            clips.append(
+                HeldOutClip(clip.video.stem, spec.label, held_names, cut.masks, cut.fps, given)
+            )
     return clips
 
 
@@ -376,6 +388,12 @@ def main(argv=None) -> int:
         help="cut the clips without their empty-scene images (estimated from each clip)",
     )
     parser.add_argument(
+        "--compare-cuts",
+        action="store_true",
+        help="with --no-background: also cut each clip with its empty-scene image and print "
+        "how the estimated silhouettes agree with those, per label",
+    )
+    parser.add_argument(
         "--silhouettes",
         action="append",
         default=[],
@@ -391,6 +409,8 @@ def main(argv=None) -> int:
     )
     args = parser.parse_args(argv)
     args.seeds = sorted(set(args.seeds or [0]))
+    if args.compare_cuts and args.background:
+        raise InvalidParameterError("--compare-cuts compares cuts made with --no-background")
     with MotionDatabase.open(args.db) as db:
         args.sample_fps = db.config.motion_image.sample_fps
         stored = set(motion_names(db).values())
@@ -418,6 +438,8 @@ def main(argv=None) -> int:
             outcomes[name] = answer_all(args.db, clips)
         print(f"{name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     print_runs(clips, outcomes)
+    if args.compare_cuts:
+        print_mask_agreement(clips)
     if args.unknown:
         print_unknown(outcomes["shipped"], *unknown_all(args.db, clips))
     return 0
@@ -468,6 +490,68 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     ]
     print()
     print("\n".join(markdown_table(["top-1 per label", *labels], per_label)))
+
+
+@dataclass(frozen=True)
+class MaskAgreement:
+    """How a clip's silhouettes cut without its empty-scene image agree with those cut
+    with it (the reference), over all of its frames.
+
+    ``iou``: intersection over union; ``missed``, ``added``: the reference's pixels
+    the estimate lacks, and the estimate's pixels outside the reference, as fractions
+    of the reference's; ``still``: pixels of the reference's still body (in its masks
+    in at least :data:`STILL_FRAC` of the frames); ``still_missed``: how many of those
+    the estimate shows in fewer than half of the frames.
+    """
+
+    iou: float
+    missed: float
+    added: float
+    still: int
+    still_missed: int
+
+
+#: A pixel in the reference masks in at least this fraction of the frames is part of
+#: the person's still body.
+STILL_FRAC = 0.8
+
+
+def mask_agreement(estimated: np.ndarray, given: np.ndarray) -> MaskAgreement:
+    """Agreement of (F, H, W) bool silhouettes ``estimated`` with ``given`` (the same
+    frames, cut with the empty-scene image)."""
+    if estimated.shape != given.shape:
+        raise InvalidParameterError(
+            f"the two cuts differ in shape: {estimated.shape} and {given.shape}"
+        )
+    area = max(int(given.sum()), 1)
+    union = int((estimated | given).sum())
+    still = given.mean(axis=0) >= STILL_FRAC
+    return MaskAgreement(
+        int((estimated & given).sum()) / max(union, 1),
+        int((given & ~estimated).sum()) / area,
+        int((estimated & ~given).sum()) / area,
+        int(still.sum()),
+        int((still & (estimated.mean(axis=0) < 0.5)).sum()),
+    )
+
+
+def print_mask_agreement(clips: list[HeldOutClip]) -> None:
+    """The ``--compare-cuts`` table: per label, the mean over its clips of
+    :func:`mask_agreement`'s fractions, and the share of the still body missed
+    (pooled over the clips)."""
+    found = [(clip.label, mask_agreement(clip.masks, clip.given_masks)) for clip in clips]
+    rows = []
+    for label in [*sorted({label for label, _ in found}), "all"]:
+        part = [a for name, a in found if label in (name, "all")]
+        still = sum(a.still for a in part)
+        rows.append(
+            [label, str(len(part)), f"{np.mean([a.iou for a in part]):.2f}",
+             f"{np.mean([a.missed for a in part]):.2f}", f"{np.mean([a.added for a in part]):.2f}",
+             f"{sum(a.still_missed for a in part) / still:.2f}" if still else "—"]
+        )  # fmt: skip
+    header = ["label", "clips", "IoU", "missed", "added", "still body missed"]
+    print("\nThe silhouettes cut without the empty-scene image against those cut with it:\n")
+    print("\n".join(markdown_table(header, rows)))
 
 
 def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresholds: dict):

@@ -4,6 +4,7 @@ test_database.py)."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import eigmotion.database as database_module
@@ -119,3 +120,44 @@ def test_unknown_tables_count_rejections_per_label_left_out(bench, capsys):
     # distance alone: of 12 pairs, 0.6 is farther than all four known, 0.25 than two,
     # 0.2 than one and ties one: 7.5 / 12
     assert "AUC 0.625" in out
+
+
+def test_mask_agreement_counts_what_the_estimate_missed_and_added(bench):
+    given = np.zeros((10, 8, 6), bool)
+    given[:, 2:6, 2:4] = True  # a still body of 8 pixels, in every frame
+    given[:5, 0, 0] = True  # a limb in half of the frames
+    estimated = given.copy()
+    estimated[:, 2:4, 2:4] = False  # its upper half missed throughout
+    estimated[:3, 5, 2:4] = False  # and its lower row in 3 frames of 10: still shown
+    estimated[:, 7, 5] = True  # a speck of scene in every frame
+    found = bench.mask_agreement(estimated, given)
+    reference = 10 * 8 + 5
+    kept = reference - 40 - 6
+    assert found.iou == pytest.approx(kept / (reference + 10))
+    assert found.missed == pytest.approx(46 / reference)
+    assert found.added == pytest.approx(10 / reference)
+    assert (found.still, found.still_missed) == (8, 4)
+    assert bench.mask_agreement(given, given) == bench.MaskAgreement(1.0, 0.0, 0.0, 8, 0)
+    with pytest.raises(InvalidParameterError, match="differ in shape"):
+        bench.mask_agreement(given[:9], given)
+
+
+def test_mask_agreement_is_tabled_per_label(bench, capsys):
+    given = np.zeros((4, 5, 5), bool)
+    given[:, 1:4, 2] = True
+    half = given.copy()
+    half[:, 1, 2] = False
+    clips = [
+        bench.HeldOutClip("a", "wave", ("w",), half, 15.0, given),
+        bench.HeldOutClip("b", "walk", ("w",), given.copy(), 15.0, given),
+    ]
+    bench.print_mask_agreement(clips)
+    out = capsys.readouterr().out
+    assert "| walk  | 1     | 1.00 | 0.00   | 0.00  | 0.00" in out
+    assert "| wave  | 1     | 0.67 | 0.33   | 0.00  | 0.33" in out
+    assert "| all   | 2     | 0.83 | 0.17   | 0.00  | 0.17" in out
+
+
+def test_compare_cuts_asks_for_cuts_without_the_empty_scene(bench):
+    with pytest.raises(InvalidParameterError, match="--no-background"):
+        bench.main(["--compare-cuts"])
