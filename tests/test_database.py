@@ -272,8 +272,9 @@ def test_a_candidate_is_warped_against_its_renderings_within_reach_of_its_view(d
             # call (``sequence_distances``): the query's distance to its own
             # rendering, about 1e-4, is rounding, and it changes with the grouping of
             # the sums (the renderings in reach in one product here, one by one
-            # there) by up to 1e-5 on some CPUs.
-            assert ranked.sequence_distance == pytest.approx(expected, rel=1e-6, abs=1e-4)
+            # there) by up to 1e-5 on some CPUs.  Any other distance: to 1e-6.
+            rounding = 1e-4 if expected < 1e-3 else 0.0
+            assert ranked.sequence_distance == pytest.approx(expected, rel=1e-6, abs=rounding)
             found[azimuth] = ranked.sequence_distance
     assert found[0.0] < 1e-3 < found[120.0]  # the reach across 0° holds the query's own
 
