@@ -315,7 +315,8 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
 class EntryTable:
     """What each entry of a database is, as arrays (N,): ``motion`` (its motion's
     name), ``label``, ``performance`` (an index; a motion and its mirror image are
-    one), and ``points`` (N, k); :meth:`whole` reads which cover a whole motion."""
+    one), and ``points`` (N, k); :meth:`calibration` reads which cover a whole motion,
+    and the body each was rendered on."""
 
     def __init__(self, db: MotionDatabase):
         self.arrays = db.store.arrays()

@@ -33,11 +33,11 @@ An entry record is ``{"motion": int, "label": str, "view_azimuth_deg": float,
 "view_elevation_deg": float, "start_frame": int, "end_frame": int, "key": int,
 "point": bytes (k float32, little-endian)}``, with ``"body": int`` (which of the
 build's bodies the motion image was rendered on) where it was stored; databases built
-before 2026-11-27 lack it.  Entry ids count up from 0, so the
-columns are in id order; they repeat the records' ids, keys and points in packed form
-so that opening a database of a million entries reads a few dozen objects instead of
-unpickling a million records.  A motion's sequences record is ``{"azimuth": bytes (R
-float64), "elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
+before 2026-11-27 lack it.  Entry ids count up from 0, so the columns are in id order;
+they repeat the records' ids, keys and points in packed form so that opening a database
+of a million entries reads a few dozen objects instead of unpickling a million
+records.  A motion's sequences record is ``{"azimuth": bytes (R float64),
+"elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
 (sum of lengths × (p + 1) float16)}``: one row per rendering (body × view) of the
 whole motion, each frame its p coordinates in the pose eigenspace and its weighted rise
 (:func:`eigmotion.sequences.pose_coordinates`); it is read
