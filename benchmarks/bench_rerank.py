@@ -29,6 +29,7 @@ the clips a variant gained and lost, and the exact McNemar test's p-value of tha
     python benchmarks/bench_rerank.py [--seed 0 [--seed 1 ...]] [--clips-dir DIR] [--db PATH]
         [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
         [--no-background [--compare-cuts]] [--silhouettes NAME=VALUE ...] [--unknown]
+        [--segments]
 
 ``--no-background`` cuts the clips as a query without an image of the empty scene
 does (the background estimated from each clip), to compare silhouette front ends by
@@ -43,6 +44,14 @@ image and prints, per label, how the estimated silhouettes agree with those
 size ``work_max_side_px``, the thresholds, the shadow test ...), to compare silhouette
 settings by what they do to recognition; VALUE is JSON (``shadow_ratio=[0.35,0.85]``)
 or text (``background=median``).
+
+``--segments`` also scores the clips' ``segments`` for every run: each clip alone (one
+part: its label), and each clip followed by another of a different label (two parts;
+the partner drawn with a fixed seed, both folds out of the search).  Per run: the
+share of frames whose segment has their part's label, the share given another
+specific action (:func:`~eigmotion.evaluation.segment_agreement`), the segmental F1
+at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` is the
+segmentation that gives each window its nearest entry's label.  About 20 s per run.
 
 ``--unknown`` also measures the rejection of unknown motions on all the clips instead
 of the holdout suite's few: each label is left out of the search in turn (every
@@ -69,6 +78,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import argparse  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import random  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
@@ -96,15 +106,17 @@ from eigmotion.database import (  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation import (  # noqa: E402
     QueryOutcome,
+    SegmentAgreement,
     format_rate,
     markdown_table,
     paired_comparison,
     ranked_labels,
     rejection_rates,
+    segment_agreement,
     separation,
 )
 from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
-from eigmotion.library import load_library  # noqa: E402
+from eigmotion.library import FILLER_LABELS, load_library  # noqa: E402
 from eigmotion.search import BruteForceIndex  # noqa: E402
 from eigmotion.video import SilhouetteConfig, load_clip_masks  # noqa: E402
 
@@ -117,7 +129,7 @@ QUERY_CONSTANTS = {
     ),
     "database": (
         "CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS", "WINDOW_CANDIDATES", "SPECIFIC_MARGIN",
-        "MIN_SPECIFIC_WINDOWS",
+        "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
     ),
 }  # fmt: skip
 MODULES = {"sequences": sequences_module, "database": database_module}
@@ -408,6 +420,11 @@ def main(argv=None) -> int:
         action="store_true",
         help="also ask every clip with its label left out of the search: rejection",
     )
+    parser.add_argument(
+        "--segments",
+        action="store_true",
+        help="also score the segments of each clip alone and of two clips one after the other",
+    )
     args = parser.parse_args(argv)
     args.seeds = sorted(set(args.seeds or [0]))
     if args.compare_cuts and args.background:
@@ -432,13 +449,18 @@ def main(argv=None) -> int:
     print(f"{len(clips)} holdout clips (seed {seeds}), cut out {how} in {seconds:.0f} s")
     runs = [("shipped", {})]
     runs += [(",".join(f"{k}={v:g}" for k, v in values.items()), values) for values in args.variant]
-    outcomes = {}
+    outcomes, segmented = {}, {}
+    pairs = composite_pairs(clips)
     for name, values in runs:
         t0 = time.perf_counter()
         with Variant(values):
             outcomes[name] = answer_all(args.db, clips)
+            if args.segments:
+                segmented[name] = segment_all(args.db, clips, pairs)
         print(f"{name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     print_runs(clips, outcomes)
+    if args.segments:
+        print_segments(segmented)
     if args.compare_cuts:
         print_mask_agreement(clips)
     if args.unknown:
@@ -491,6 +513,75 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     ]
     print()
     print("\n".join(markdown_table(["top-1 per label", *labels], per_label)))
+
+
+def composite_pairs(clips: list[HeldOutClip], seed: int = 0) -> list[tuple[int, int]]:
+    """For each clip (by index), a partner of another label cut at the same size and
+    rate, drawn with ``seed``: the two, one after the other, make a clip of two parts."""
+    rng = random.Random(seed)
+    pairs = []
+    for i, first in enumerate(clips):
+        others = [
+            j for j, other in enumerate(clips)
+            if other.label != first.label and other.masks.shape[1:] == first.masks.shape[1:]
+            and other.fps == first.fps
+        ]  # fmt: skip
+        if others:
+            pairs.append((i, rng.choice(others)))
+    return pairs
+
+
+def segment_all(
+    db_path: Path, clips: list[HeldOutClip], pairs: list[tuple[int, int]]
+) -> dict[str, list[SegmentAgreement]]:
+    """The segments of each clip alone (``"alone"``) and of each pair one after the
+    other (``"pairs"``), against the parts they show; the folds of the clips asked
+    are out of the search."""
+    found: dict[str, list[SegmentAgreement]] = {"alone": [], "pairs": []}
+    asked = [([i], found["alone"]) for i in range(len(clips))]
+    asked += [(list(pair), found["pairs"]) for pair in pairs]
+    with MotionDatabase.open(db_path) as db:
+        entries = EntryTable(db)
+        for parts, into in asked:
+            held = [name for i in parts for name in clips[i].held_out]
+            entries.search_only(db, ~np.isin(entries.motion, held))
+            result = db.query_masks(
+                np.concatenate([clips[i].masks for i in parts]), clips[parts[0]].fps
+            )
+            ends = np.cumsum([len(clips[i].masks) for i in parts]).tolist()
+            starts = [0, *ends[:-1]]
+            truth = [(a, b, clips[i].label) for a, b, i in zip(starts, ends, parts, strict=True)]
+            shown = [(s.start_frame, s.end_frame, s.label) for s in result.segments]
+            into.append(segment_agreement(shown, truth, FILLER_LABELS))
+    return found
+
+
+def print_segments(segmented: dict[str, dict[str, list[SegmentAgreement]]]) -> None:
+    """The ``--segments`` table: per run and kind of clip, the frames given their
+    part's label and another specific action's, the segmental F1 and the segments per
+    clip, each beside the first (shipped) run's as a ratio."""
+
+    def figures(found: list[SegmentAgreement]) -> list[float]:
+        frames = sum(a.frames for a in found)
+        hits = sum(a.found for a in found)
+        shown = hits + sum(a.extra for a in found)
+        return [
+            sum(a.right for a in found) / frames,
+            sum(a.wrong for a in found) / frames,
+            2 * hits / (shown + hits + sum(a.missed for a in found)),
+            shown / len(found),
+        ]
+
+    shipped = next(iter(segmented.values()))
+    rows = []
+    for name, found in segmented.items():
+        for kind, clips_of_kind in found.items():
+            pairs = zip(figures(clips_of_kind), figures(shipped[kind]), strict=True)
+            cells = [f"{v:.3f} ({v / f:.2f})" if f else f"{v:.3f}" for v, f in pairs]
+            rows.append([name, f"{kind} ({len(clips_of_kind)})", *cells])
+    header = ["setting", "clips", "frames right", "frames wrong", "F1@50", "segments per clip"]
+    print("\nSegments (÷ shipped in brackets):\n")
+    print("\n".join(markdown_table(header, rows)))
 
 
 @dataclass(frozen=True)

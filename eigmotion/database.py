@@ -66,6 +66,11 @@ WINDOW_CANDIDATES = 8
 #: Windows that must show the same specific action for it to override filler: one
 #: window alone is as often a walk's stride matched to a walking turn's.
 MIN_SPECIFIC_WINDOWS = 2
+#: What a change of label between consecutive windows costs the clip's segments, as a
+#: fraction of the database's threshold: one window that matches another action
+#: than its neighbours is more often a poor match than an action of its own
+#: (:func:`window_label_path`).
+SEGMENT_SWITCH_COST = 0.15
 #: Nearest entries the whole clip's search returns: enough to hold the
 #: :data:`~eigmotion.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
 #: ranked again by their silhouette sequences (a motion's renderings from neighbouring
@@ -468,6 +473,60 @@ class Match:
         if self.sequence_distance is not None:
             out["sequence_distance"] = round(self.sequence_distance, 6)
         return out
+
+
+def window_label_path(
+    labels: Sequence[Sequence[str]], distances: np.ndarray, switch_cost: float
+) -> tuple[list[str], np.ndarray]:
+    """One label per window of a clip: the labelling whose windows lie nearest their
+    labels, each change of label between consecutive windows counted as
+    ``switch_cost`` more (a Viterbi path).
+
+    The labels to choose from are those of the windows' nearest entries: a label that
+    is no window's nearest does not take over the clip for coming second everywhere.
+    A label's distance from a window is that of the window's nearest entry of the
+    label; where none of the window's searched entries has the label, the farthest of
+    them stands in (the label is at least that far).  With ``switch_cost`` 0 every
+    window takes the label of its nearest entry.
+
+    Parameters
+    ----------
+    labels : sequence of W sequences of K str
+        The labels of each window's K nearest entries, nearest first.
+    distances : (W, K) float
+        Their distances, eigenspace units.
+    switch_cost : float
+        Eigenspace units, >= 0.
+
+    Returns
+    -------
+    path : list of W str
+    distances : (W,) float64
+        Each window's distance from its label in ``path``.
+    """
+    distances = np.asarray(distances, dtype=np.float64)
+    if distances.ndim != 2 or distances.shape[0] != len(labels) or not len(labels):
+        raise InvalidParameterError(
+            f"distances must be (W, K) for {len(labels)} windows, got {distances.shape}"
+        )
+    candidates = list(dict.fromkeys(row[0] for row in labels))
+    cost = np.repeat(distances[:, -1:], len(candidates), axis=1)  # (W, L)
+    for w, row in enumerate(labels):
+        for label, dist in zip(reversed(row), distances[w, ::-1], strict=True):
+            if label in candidates:
+                cost[w, candidates.index(label)] = dist  # the nearest written last
+    total = cost[0].copy()
+    came_from = np.empty(cost.shape, np.int64)
+    for w in range(1, len(cost)):
+        switch = total.min() + switch_cost
+        stays = total <= switch  # a tie keeps the label
+        came_from[w] = np.where(stays, np.arange(len(candidates)), total.argmin())
+        total = np.where(stays, total, switch) + cost[w]
+    chosen = [int(total.argmin())]
+    for w in range(len(cost) - 1, 0, -1):
+        chosen.append(int(came_from[w, chosen[-1]]))
+    chosen.reverse()
+    return [candidates[c] for c in chosen], cost[np.arange(len(cost)), chosen]
 
 
 def candidate_motions(nearest: Sequence[Match]) -> list[Match]:
@@ -874,27 +933,27 @@ class MotionDatabase:
         return self._match(entry_id, dist)
 
     def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
-        """Consecutive windows with the same nearest label, merged."""
+        """The clip's parts: consecutive windows with the same label
+        (:func:`window_label_path`), merged; overlapping windows of different labels
+        are split at the midpoint of their overlap."""
         if windowed is None:
             return [Segment(0, n_frames, best.label, best.distance)]
+        labels = [[self._label_of(int(i)) for i in ids] for ids in windowed.ids]
+        path, costs = window_label_path(
+            labels, windowed.distances, SEGMENT_SWITCH_COST * self.threshold
+        )
         segments: list[Segment] = []
-        for (start, stop), entry_id, dist in zip(
-            kept, windowed.ids[:, 0], windowed.distances[:, 0], strict=True
-        ):
-            label = self._label_of(int(entry_id))
+        for (start, stop), label, dist in zip(kept, path, costs.tolist(), strict=True):
             if segments and segments[-1].label == label and start < segments[-1].end_frame:
                 last = segments[-1]
-                segments[-1] = Segment(
-                    last.start_frame, stop, label, min(last.distance, float(dist))
-                )
+                segments[-1] = Segment(last.start_frame, stop, label, min(last.distance, dist))
             else:
                 if segments and start < segments[-1].end_frame:
-                    # Overlapping windows of different labels: split at the midpoint.
                     last = segments[-1]
                     cut = (start + last.end_frame) // 2
                     segments[-1] = Segment(last.start_frame, cut, last.label, last.distance)
                     start = cut
-                segments.append(Segment(start, stop, label, float(dist)))
+                segments.append(Segment(start, stop, label, dist))
         return segments
 
     def query_clip(

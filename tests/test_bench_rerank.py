@@ -161,3 +161,37 @@ def test_mask_agreement_is_tabled_per_label(bench, capsys):
 def test_compare_cuts_asks_for_cuts_without_the_empty_scene(bench):
     with pytest.raises(InvalidParameterError, match="--no-background"):
         bench.main(["--compare-cuts"])
+
+
+def test_pairs_join_clips_of_other_labels_of_one_size(bench):
+    masks = np.zeros((3, 4, 5), bool)
+    clips = [
+        bench.HeldOutClip("a", "walk", ("w",), masks, 15.0),
+        bench.HeldOutClip("b", "walk", ("w",), masks, 15.0),
+        bench.HeldOutClip("c", "wave", ("v",), masks, 15.0),
+        bench.HeldOutClip("d", "punch", ("p",), np.zeros((3, 8, 5), bool), 15.0),
+    ]
+    pairs = bench.composite_pairs(clips)
+    assert pairs[:3] == [(0, 2), (1, 2), (2, pairs[2][1])] and pairs[2][1] in (0, 1)
+    assert len(pairs) == 3  # nothing else is cut at the punch's size
+    assert bench.composite_pairs(clips) == pairs  # a fixed seed
+
+
+def test_segment_tables_compare_each_run_with_the_shipped_one(bench, capsys):
+    from eigmotion.evaluation import SegmentAgreement
+
+    one = SegmentAgreement(100, 80, 20, 1, 1, 0)
+    two = SegmentAgreement(100, 60, 30, 1, 3, 1)
+    bench.print_segments(
+        {"shipped": {"alone": [one], "pairs": [two]}, "X=0": {"alone": [two], "pairs": [two]}}
+    )
+    rows = [
+        [cell.strip() for cell in line.strip("|").split("|")]
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("| ") and "alone" in line
+    ]
+    # F1 = 2·found / (2·found + extra + missed); segments per clip = found + extra.
+    assert rows == [
+        ["shipped", "alone (1)", "0.800 (1.00)", "0.200 (1.00)", "0.667 (1.00)", "2.000 (1.00)"],
+        ["X=0", "alone (1)", "0.600 (0.75)", "0.300 (1.50)", "0.333 (0.50)", "4.000 (2.00)"],
+    ]

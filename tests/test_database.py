@@ -30,8 +30,9 @@ from eigmotion.database import (
     build_database,
     candidate_motions,
     leave_one_motion_out_threshold,
+    window_label_path,
 )
-from eigmotion.errors import DatabaseError
+from eigmotion.errors import DatabaseError, InvalidParameterError
 from eigmotion.kinematics import forward_kinematics
 from eigmotion.library import load_library
 from eigmotion.search import BruteForceIndex
@@ -293,6 +294,53 @@ def test_candidates_are_the_nearest_motions_and_the_nearest_of_each_further_labe
     assert [m.motion_id for m in candidate_motions(nearest)] == [0, 1, 2, 5, 6]
     assert [m.motion_id for m in candidate_motions(nearest[:2])] == [0, 1]
     assert candidate_motions([]) == []
+
+
+#: Five windows' four nearest entries: walking, one window nearest a punch (a walk's
+#: stride matched poorly), walking again.
+WINDOW_LABELS = [
+    ["walk", "turn", "walk", "walk"],
+    ["walk", "walk", "jump", "turn"],
+    ["punch", "jump", "walk", "punch"],
+    ["walk", "jump", "walk", "turn"],
+    ["walk", "walk", "walk", "jump"],
+]
+WINDOW_DISTANCES = np.array(
+    [[0.20, 0.22, 0.23, 0.24], [0.21, 0.22, 0.25, 0.26], [0.30, 0.31, 0.33, 0.34],
+     [0.22, 0.23, 0.24, 0.25], [0.20, 0.21, 0.22, 0.23]]
+)  # fmt: skip
+
+
+def test_a_lone_window_of_another_action_is_smoothed_into_its_neighbours():
+    labels, costs = window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.05)
+    assert labels == ["walk"] * 5
+    # The punch window's distance from walk is its nearest walking entry's.
+    np.testing.assert_allclose(costs, [0.20, 0.21, 0.33, 0.22, 0.20])
+    # At no cost every window keeps its nearest entry's label ...
+    labels, costs = window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.0)
+    assert labels == ["walk", "walk", "punch", "walk", "walk"]
+    np.testing.assert_allclose(costs, WINDOW_DISTANCES[:, 0])
+    # ... and below the two switches' worth of the punch window's lead (2 × 0.015).
+    assert window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.014)[0][2] == "punch"
+    assert window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.016)[0][2] == "walk"
+
+
+def test_an_action_over_several_windows_stays_and_a_runner_up_everywhere_does_not_win():
+    labels = [["walk", "jump"]] * 2 + [["wave", "jump"]] * 3
+    distances = np.array([[0.20, 0.30]] * 5)
+    walk_then_wave = ["walk", "walk", "wave", "wave", "wave"]
+    assert window_label_path(labels, distances, 0.05)[0] == walk_then_wave
+    # Two windows' lead of 0.1 each is worth one switch up to 0.2.
+    assert window_label_path(labels, distances, 0.21)[0] == ["wave"] * 5
+    # Jump, second in every window, is no window's nearest: it is not a choice, and
+    # a label missing from a window's entries counts as far as its farthest entry.
+    labels = [["walk", "jump"], ["punch", "jump"], ["kick", "jump"], ["walk", "jump"]]
+    distances = np.array([[0.25, 0.26], [0.29, 0.29], [0.32, 0.32], [0.39, 0.39]])
+    path, costs = window_label_path(labels, distances, 0.05)
+    assert path == ["walk"] * 4
+    np.testing.assert_allclose(costs, [0.25, 0.29, 0.32, 0.39])
+    with pytest.raises(InvalidParameterError, match="distances must be"):
+        window_label_path(labels, distances[:3], 0.05)
 
 
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):

@@ -24,6 +24,7 @@ from eigmotion.evaluation import (
     ranked_labels,
     rejection_rates,
     score,
+    segment_agreement,
     separation,
 )
 
@@ -415,3 +416,30 @@ def test_seen_quick_smoke_run(bench, tmp_path):
         assert query["answers"]["default"]["ranked_labels"][0] == query["label"]
         assert (tmp_path / "clips" / query["video"]).is_file()
         assert 50 < query["person_px"] <= 240
+
+
+# -- segments ---------------------------------------------------------------------------
+
+
+def test_segments_are_scored_by_frame_and_by_overlapping_part():
+    parts = [(0, 40, "walk"), (40, 100, "wave")]
+    found = segment_agreement(
+        [(0, 30, "walk"), (30, 50, "punch"), (50, 100, "wave")], parts, filler={"walk"}
+    )
+    # Frames 30–50 are a punch: 10 of walking, 10 of waving, all specific and wrong.
+    assert (found.frames, found.right, found.wrong) == (100, 80, 20)
+    # walk 0–30 overlaps its part by 30/40, wave 50–100 by 50/60: found; punch: extra.
+    assert (found.found, found.extra, found.missed) == (2, 1, 0)
+    # Walking where the wave is counts against neither share but misses the wave.
+    found = segment_agreement([(0, 100, "walk")], parts, filler={"walk"})
+    assert (found.right, found.wrong, found.found, found.extra, found.missed) == (40, 0, 0, 1, 2)
+    # Each part is matched once; without filler every other label is wrong.
+    found = segment_agreement([(0, 50, "wave"), (50, 100, "wave")], [(0, 100, "wave")])
+    assert (found.right, found.wrong, found.found, found.extra, found.missed) == (100, 0, 1, 1, 0)
+    assert segment_agreement([(0, 40, "walk")], parts).wrong == 0  # frames left unlabelled
+
+
+@pytest.mark.parametrize("parts", [[], [(5, 10, "walk")], [(0, 10, "walk"), (12, 20, "wave")]])
+def test_parts_must_cover_the_clip(parts):
+    with pytest.raises(InvalidParameterError, match="cover the clip"):
+        segment_agreement([(0, 10, "walk")], parts)
