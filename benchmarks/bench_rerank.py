@@ -576,8 +576,8 @@ def print_segments(segmented: dict[str, dict[str, list[SegmentAgreement]]]) -> N
     rows = []
     for name, found in segmented.items():
         for kind, clips_of_kind in found.items():
-            pairs = zip(figures(clips_of_kind), figures(shipped[kind]), strict=True)
-            cells = [f"{v:.3f} ({v / f:.2f})" if f else f"{v:.3f}" for v, f in pairs]
+            beside = zip(figures(clips_of_kind), figures(shipped[kind]), strict=True)
+            cells = [f"{v:.3f} ({v / f:.2f})" if f else f"{v:.3f}" for v, f in beside]
             rows.append([name, f"{kind} ({len(clips_of_kind)})", *cells])
     header = ["setting", "clips", "frames right", "frames wrong", "F1@50", "segments per clip"]
     print("\nSegments (÷ shipped in brackets):\n")

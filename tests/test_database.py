@@ -320,7 +320,8 @@ def test_a_lone_window_of_another_action_is_smoothed_into_its_neighbours():
     labels, costs = window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.0)
     assert labels == ["walk", "walk", "punch", "walk", "walk"]
     np.testing.assert_allclose(costs, WINDOW_DISTANCES[:, 0])
-    # ... and below the two switches' worth of the punch window's lead (2 × 0.015).
+    # ... and the punch stays while two switches cost less than its lead over walk there
+    # (0.33 − 0.30).
     assert window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.014)[0][2] == "punch"
     assert window_label_path(WINDOW_LABELS, WINDOW_DISTANCES, 0.016)[0][2] == "walk"
 
