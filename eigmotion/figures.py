@@ -277,6 +277,53 @@ def side_by_side(
     return out
 
 
+def with_captions(frames: np.ndarray, captions: Sequence[str]) -> np.ndarray:
+    """A video with a band under it that says what each frame shows.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8
+        RGB frames (e.g. :func:`side_by_side`'s).
+    captions : sequence of F str
+        One per frame; an empty one leaves the band blank.
+
+    Returns
+    -------
+    (F, H + band, W, 3) uint8
+        The band is :data:`SHEET_RGB`, as tall as :func:`side_by_side`'s titles for a
+        panel a quarter of the width.
+
+    Raises
+    ------
+    InvalidParameterError
+        Frames of another shape or dtype, or a caption count that is not the frame
+        count.
+    """
+    frames = np.asarray(frames)
+    if frames.ndim != 4 or frames.shape[3] != 3 or frames.dtype != np.uint8:
+        raise InvalidParameterError(
+            f"frames must be (F, H, W, 3) uint8, got {frames.dtype} {frames.shape}"
+        )
+    if len(captions) != len(frames):
+        raise InvalidParameterError(
+            f"captions must hold one string per frame: {len(captions)} for {len(frames)} frames"
+        )
+    n, h, w, _ = frames.shape
+    scale, thickness, band = _text_scale(w // 4)
+    out = np.empty((n, h + band, w, 3), np.uint8)
+    out[:, :h] = frames
+    out[:, h:] = SHEET_RGB
+    drawn: dict[str, np.ndarray] = {}
+    for f, caption in enumerate(captions):
+        if caption not in drawn:
+            strip = np.empty((band, w, 3), np.uint8)
+            strip[:] = SHEET_RGB
+            _draw_text(strip, caption, 0, 0, w, band, scale, thickness)
+            drawn = {caption: strip}  # captions come in runs
+        out[f, h:] = drawn[caption]
+    return out
+
+
 def save_image(image: np.ndarray, path: str | os.PathLike) -> Path:
     """Write one image (PNG, JPEG, …, by extension), creating parent folders.
 

@@ -9,8 +9,10 @@ the matched azimuth did), and stretching it over the clip's duration.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +21,9 @@ from .errors import InvalidParameterError
 from .motion import Motion
 from .retarget import animation_to_motion, retarget
 from .rotations import axis_rotation
+
+if TYPE_CHECKING:
+    from .database import Segment
 
 #: Height of each panel of a replay video, pixels.
 PANEL_HEIGHT_PX = 240
@@ -136,6 +141,7 @@ def replay_video(
     fps: float,
     height_px: int = PANEL_HEIGHT_PX,
     progress: bool = False,
+    captions: Sequence[str] | None = None,
 ) -> Path:
     """Write input | silhouettes | motion image | avatar replay, side by side.
 
@@ -154,12 +160,15 @@ def replay_video(
     fps : float
     height_px : int
         Panel height, pixels.
+    captions : sequence of F str, optional
+        What each clip frame shows (its segment), written in a band under it; ``F``
+        is the number of ``masks``.
 
     Returns
     -------
     Path
     """
-    from .figures import side_by_side
+    from .figures import side_by_side, with_captions
     from .media import write_video
     from .render import frame_cameras, render_shaded
 
@@ -174,7 +183,30 @@ def replay_video(
         panels.insert(0, clip_frames)
         titles.insert(0, "input")
     frames = side_by_side(panels, titles, height_px=height_px)
+    if captions is not None:
+        frames = with_captions(frames, captions)
     return write_video(frames, path, fps)
+
+
+def segment_captions(segments: Sequence[Segment], n_frames: int, answer: str) -> list[str]:
+    """One caption per clip frame: the clip's answer and the segment the frame lies in
+    (``"answer: wave   frames 30-62: wave"``), the answer alone where no segment is.
+
+    Parameters
+    ----------
+    segments : sequence of Segment
+        A query's (:class:`~eigmotion.database.QueryResult`), frames of the clip.
+    n_frames : int
+    answer : str
+        The clip's label.
+    """
+    captions = [f"answer: {answer}"] * n_frames
+    for segment in segments:
+        start, end = segment.start_frame, segment.end_frame
+        text = f"answer: {answer}   frames {start}-{end}: {segment.label}"
+        for f in range(max(start, 0), min(end, n_frames)):
+            captions[f] = text
+    return captions
 
 
 def read_input_panel(path: str | Path, height_px: int = PANEL_HEIGHT_PX) -> np.ndarray:

@@ -9,7 +9,14 @@ import pytest
 from PIL import Image
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.figures import SHEET_RGB, contact_sheet, save_image, side_by_side, to_rgb8
+from eigmotion.figures import (
+    SHEET_RGB,
+    contact_sheet,
+    save_image,
+    side_by_side,
+    to_rgb8,
+    with_captions,
+)
 
 
 def _tile(value, height=30, width=40):
@@ -177,3 +184,42 @@ def test_save_image_png_round_trip(tmp_path, image):
 def test_save_image_unknown_extension(tmp_path):
     with pytest.raises(InvalidParameterError, match="cannot write"):
         save_image(np.zeros((4, 4), np.uint8), tmp_path / "img.xyz")
+
+
+# -- captions -------------------------------------------------------------------------------
+
+
+def test_captions_are_written_under_each_frame():
+    frames = np.zeros((4, 30, 200, 3), np.uint8)
+    out = with_captions(frames, ["walk", "walk", "", "wave"])
+    assert out.shape[0] == 4 and out.shape[2:] == (200, 3) and out.shape[1] > 30
+    np.testing.assert_array_equal(out[:, :30], frames)
+    band = out[:, 30:]
+    written = (band != np.array(SHEET_RGB, np.uint8)).any(axis=(1, 2, 3))
+    assert written.tolist() == [True, True, False, True]
+    np.testing.assert_array_equal(band[0], band[1])
+    assert (band[0] != band[3]).any()
+
+
+@pytest.mark.parametrize(
+    ("frames", "captions", "match"),
+    [
+        (np.zeros((2, 30, 40, 3), np.uint8), ["a"], "one string per frame"),
+        (np.zeros((2, 30, 40), np.uint8), ["a", "b"], r"\(F, H, W, 3\) uint8"),
+        (np.zeros((2, 30, 40, 3)), ["a", "b"], r"\(F, H, W, 3\) uint8"),
+    ],
+)
+def test_caption_errors(frames, captions, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        with_captions(frames, captions)
+
+
+def test_each_frame_of_a_replay_is_captioned_with_its_segment():
+    from eigmotion.database import Segment
+    from eigmotion.replay import segment_captions
+
+    segments = [Segment(0, 3, "walk", 0.2), Segment(3, 5, "wave", 0.1)]
+    captions = segment_captions(segments, 6, "wave")
+    assert captions[:3] == ["answer: wave   frames 0-3: walk"] * 3
+    assert captions[3:5] == ["answer: wave   frames 3-5: wave"] * 2
+    assert captions[5] == "answer: wave"  # no segment there

@@ -96,7 +96,7 @@ def _write_replay(db, result, masks, fps, args) -> None:
     from ..bvh import write_bvh
     from ..continuous_pose import continuous_pose
     from ..motion_image import motion_image_picture
-    from ..replay import read_input_panel, replay, replay_video
+    from ..replay import read_input_panel, replay, replay_video, segment_captions
 
     best = result.best
     pose = None
@@ -118,6 +118,9 @@ def _write_replay(db, result, masks, fps, args) -> None:
         if args.clip.suffix.lower() != ".npz":
             frames = read_input_panel(args.clip)
         picture = motion_image_picture(result.motion_image, db.config.motion_image)
-        replay_video(rep, frames, masks, picture, args.replay_out, fps, progress=True)
+        captions = segment_captions(result.segments, len(masks), best.label)
+        replay_video(
+            rep, frames, masks, picture, args.replay_out, fps, progress=True, captions=captions
+        )
     written = (args.bvh_out, args.replay_out, args.pose_out)
     print("wrote " + ", ".join(str(p) for p in written if p), file=sys.stderr)
