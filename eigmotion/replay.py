@@ -172,6 +172,11 @@ def replay_video(
     from .media import write_video
     from .render import frame_cameras, render_shaded
 
+    if captions is not None and len(captions) != len(masks):
+        raise InvalidParameterError(
+            f"captions must hold one string per mask: {len(captions)} for {len(masks)}"
+        )
+
     times_s = np.arange(len(result.vertices)) * result.motion.frame_time_s
     cameras = frame_cameras(
         result.vertices, times_s, 0.0, result.elevation_deg, height_px, height_px
@@ -184,7 +189,9 @@ def replay_video(
         titles.insert(0, "input")
     frames = side_by_side(panels, titles, height_px=height_px)
     if captions is not None:
-        frames = with_captions(frames, captions)
+        # The masks' frame each output frame shows, as side_by_side stretches them.
+        shown = np.round(np.arange(len(frames)) * (len(masks) - 1) / max(len(frames) - 1, 1))
+        frames = with_captions(frames, [captions[i] for i in shown.astype(int)])
     return write_video(frames, path, fps)
 
 
@@ -198,7 +205,7 @@ def segment_captions(segments: Sequence[Segment], n_frames: int, answer: str) ->
         A query's (:class:`~eigmotion.database.QueryResult`), frames of the clip.
     n_frames : int
     answer : str
-        The clip's label.
+        What the clip was answered (its label, or that it is unknown).
     """
     captions = [f"answer: {answer}"] * n_frames
     for segment in segments:

@@ -223,3 +223,12 @@ def test_each_frame_of_a_replay_is_captioned_with_its_segment():
     assert captions[:3] == ["answer: wave   frames 0-3: walk"] * 3
     assert captions[3:5] == ["answer: wave   frames 3-5: wave"] * 2
     assert captions[5] == "answer: wave"  # no segment there
+
+
+def test_replay_captions_must_be_one_per_mask():
+    from eigmotion.replay import replay_video
+
+    masks = np.zeros((3, 8, 8), bool)
+    with pytest.raises(InvalidParameterError, match="one string per mask: 2 for 3"):
+        picture = np.zeros((8, 8), np.uint8)
+        replay_video(None, None, masks, picture, "x.mp4", 15.0, captions=["a", "b"])

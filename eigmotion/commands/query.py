@@ -118,7 +118,8 @@ def _write_replay(db, result, masks, fps, args) -> None:
         if args.clip.suffix.lower() != ".npz":
             frames = read_input_panel(args.clip)
         picture = motion_image_picture(result.motion_image, db.config.motion_image)
-        captions = segment_captions(result.segments, len(masks), best.label)
+        answer = best.label if result.accepted else f"unknown (nearest {best.label})"
+        captions = segment_captions(result.segments, len(masks), answer)
         replay_video(
             rep, frames, masks, picture, args.replay_out, fps, progress=True, captions=captions
         )
