@@ -50,8 +50,9 @@ part: its label), and each clip followed by another of a different label (two pa
 the partner drawn with a fixed seed, both folds out of the search).  Per run: the
 share of frames whose segment has their part's label, the share given another
 specific action (:func:`~eigmotion.evaluation.segment_agreement`), the segmental F1
-at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` is the
-segmentation that gives each window its nearest entry's label.  About 20 s per run.
+at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` gives each
+window its nearest entry's label (the clip's answer where every window has the same).
+About 20 s per run.
 
 ``--unknown`` also measures the rejection of unknown motions on all the clips instead
 of the holdout suite's few: each label is left out of the search in turn (every

@@ -771,8 +771,8 @@ class MotionDatabase:
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         top = (ranked + [m for m in nearest if m.motion_id not in compared])[:top_k]
-        segments = self._segments(kept, windowed, len(masks), top[0])
         best = self._most_specific(top[0], windowed)
+        segments = self._segments(kept, windowed, len(masks), best)
         if best is not top[0]:
             top = [best] + [m for m in top if m.motion_id != best.motion_id][: top_k - 1]
         examined_windows = 0 if windowed is None else int(windowed.examined.sum())
@@ -935,13 +935,17 @@ class MotionDatabase:
     def _segments(self, kept, windowed, n_frames: int, best: Match) -> list[Segment]:
         """The clip's parts: consecutive windows with the same label
         (:func:`window_label_path`), merged; overlapping windows of different labels
-        are split at the midpoint of their overlap."""
+        are split at the midpoint of their overlap.  Where the windows show one action
+        throughout, it is the clip's answer, ``best``: the whole clip, ranked by its
+        silhouette sequence as well, tells it better than any window."""
         if windowed is None:
             return [Segment(0, n_frames, best.label, best.distance)]
         labels = [[self._label_of(int(i)) for i in ids] for ids in windowed.ids]
         path, costs = window_label_path(
             labels, windowed.distances, SEGMENT_SWITCH_COST * self.threshold
         )
+        if len(set(path)) == 1:
+            return [Segment(kept[0][0], kept[-1][1], best.label, best.distance)]
         segments: list[Segment] = []
         for (start, stop), label, dist in zip(kept, path, costs.tolist(), strict=True):
             if segments and segments[-1].label == label and start < segments[-1].end_frame:

@@ -7,6 +7,7 @@ at views between the rig's cameras.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -26,6 +27,7 @@ from eigmotion.cli import main
 from eigmotion.database import (
     Match,
     MotionDatabase,
+    Segment,
     brute_force_check,
     build_database,
     candidate_motions,
@@ -342,6 +344,32 @@ def test_an_action_over_several_windows_stays_and_a_runner_up_everywhere_does_no
     np.testing.assert_allclose(costs, [0.25, 0.29, 0.32, 0.39])
     with pytest.raises(InvalidParameterError, match="distances must be"):
         window_label_path(labels, distances[:3], 0.05)
+
+
+def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, library, other_body):
+    """One label along every window makes one segment, and its label is the clip's
+    answer, whichever label the windows agreed on; several keep their own."""
+    from eigmotion.motion_image import ClipMotionImages
+
+    by_name = {m.name: m for m in library}
+    waving = _masks(by_name["wave_14_24"].motion, other_body, 30.0, 8.0)
+    walk = by_name["walk_02_01"].motion
+    walking = _masks(walk.trim(0, int(round(2.0 / walk.frame_time_s))), other_body, 30.0, 8.0)
+    with MotionDatabase.open(db_path) as db:
+        cfg = db.config
+        for masks, n_labels in ((waving, 1), (np.concatenate([walking, waving, walking]), 2)):
+            images = ClipMotionImages(masks, cfg.motion_image, clip_fps=30.0)
+            windows = window_bounds(len(masks), 30.0, cfg.window_s, cfg.window_step_s)
+            kept, windowed = db._search_windows(images, windows[1:])
+            answer = dataclasses.replace(
+                db.query_masks(masks, 30.0).best, label="elsewhere", distance=0.5
+            )
+            segments = db._segments(kept, windowed, len(masks), answer)
+            assert len({s.label for s in segments}) == n_labels
+            if n_labels == 1:
+                assert segments == [Segment(kept[0][0], kept[-1][1], "elsewhere", 0.5)]
+            else:
+                assert "elsewhere" not in {s.label for s in segments}
 
 
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):
