@@ -262,12 +262,8 @@ def side_by_side(
     for i, (clip, width) in enumerate(zip(clips, widths, strict=True)):
         if titles is not None:
             _draw_text(out[0], str(titles[i]), x0, 0, width, title_h, scale, thickness)
-        if n_frames > 1:
-            source = np.round(np.arange(n_frames) * (clip.shape[0] - 1) / (n_frames - 1))
-        else:
-            source = np.zeros(1)
         resized = {}
-        for f, s in enumerate(source.astype(int)):
+        for f, s in enumerate(stretched_frames(n_frames, clip.shape[0])):
             if s not in resized:
                 resized = {s: _resize(clip[s], height, width)}  # frames come in order
             out[f, title_h + pad : title_h + pad + height, x0 : x0 + width] = resized[s]
@@ -275,6 +271,13 @@ def side_by_side(
     if titles is not None and n_frames > 1:
         out[1:, :title_h] = out[0, :title_h]
     return out
+
+
+def stretched_frames(n_out: int, n_in: int) -> np.ndarray:
+    """(n_out,) int: the frame of a clip of ``n_in`` frames that each of ``n_out``
+    frames covering the same time span shows, ``round(f (n_in - 1) / (n_out - 1))``
+    (as :func:`side_by_side` stretches its panels)."""
+    return np.round(np.arange(n_out) * (n_in - 1) / max(n_out - 1, 1)).astype(np.int64)
 
 
 def with_captions(frames: np.ndarray, captions: Sequence[str]) -> np.ndarray:

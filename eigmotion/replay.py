@@ -168,7 +168,7 @@ def replay_video(
     -------
     Path
     """
-    from .figures import side_by_side, with_captions
+    from .figures import side_by_side, stretched_frames, with_captions
     from .media import write_video
     from .render import frame_cameras, render_shaded
 
@@ -189,9 +189,8 @@ def replay_video(
         titles.insert(0, "input")
     frames = side_by_side(panels, titles, height_px=height_px)
     if captions is not None:
-        # The masks' frame each output frame shows, as side_by_side stretches them.
-        shown = np.round(np.arange(len(frames)) * (len(masks) - 1) / max(len(frames) - 1, 1))
-        frames = with_captions(frames, [captions[i] for i in shown.astype(int)])
+        shown = stretched_frames(len(frames), len(masks))
+        frames = with_captions(frames, [captions[i] for i in shown])
     return write_video(frames, path, fps)
 
 

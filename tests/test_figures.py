@@ -14,6 +14,7 @@ from eigmotion.figures import (
     contact_sheet,
     save_image,
     side_by_side,
+    stretched_frames,
     to_rgb8,
     with_captions,
 )
@@ -232,3 +233,10 @@ def test_replay_captions_must_be_one_per_mask():
     with pytest.raises(InvalidParameterError, match="one string per mask: 2 for 3"):
         picture = np.zeros((8, 8), np.uint8)
         replay_video(None, None, masks, picture, "x.mp4", 15.0, captions=["a", "b"])
+
+
+def test_stretched_frames_cover_both_ends_in_order():
+    assert stretched_frames(5, 3).tolist() == [0, 0, 1, 2, 2]  # round half to even
+    assert stretched_frames(3, 5).tolist() == [0, 2, 4]
+    assert stretched_frames(1, 4).tolist() == [0]
+    assert stretched_frames(4, 1).tolist() == [0, 0, 0, 0]
