@@ -84,7 +84,6 @@ from eigmotion.evaluation import (  # noqa: E402
     QueryOutcome,
     format_score,
     markdown_table,
-    ranked_labels,
     score,
 )
 from eigmotion.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
@@ -103,12 +102,6 @@ SEEN_MARGIN = 0.08
 SINGLE_ROW_ELEVATION_DEG = 10.0
 LOSO_ELEVATION_DEG = (-5.0, 30.0)
 LOSO_PERSON_PX = (50.0, 200.0)
-#: Distinct motions asked for per query: more than the query ranks again by their
-#: silhouette sequences (``CANDIDATE_MOTIONS`` and the nearest of each further label, see
-#: :func:`eigmotion.database.candidate_motions`), so that the answer lists every label
-#: the query ranked.  Ten held only one or two labels when the ten nearest motions
-#: were all of those.
-TOP_MOTIONS = 32
 TOP_K = 3
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
 #: Label given to a query the engine could not answer (e.g. no person found).
@@ -397,7 +390,7 @@ def query(target: Target, clip: ClipFiles, use_background: bool) -> dict:
     """
     from eigmotion.cli import main
 
-    argv = ["query", str(clip.video), "--db", target.uri, "--json", "--top", str(TOP_MOTIONS)]
+    argv = ["query", str(clip.video), "--db", target.uri, "--json"]
     if use_background:
         argv += ["--background", str(clip.background)]
     out, err = io.StringIO(), io.StringIO()
@@ -414,7 +407,7 @@ def query(target: Target, clip: ClipFiles, use_background: bool) -> dict:
         }
     answer = json.loads(out.getvalue())
     return {
-        "ranked_labels": list(ranked_labels(m["label"] for m in answer["top"])),
+        "ranked_labels": [m["label"] for m in answer["labels"]],
         "accepted": bool(answer["accepted"]),
         "distance": answer["distance"],
         "motion": answer["motion"],

@@ -47,7 +47,6 @@ from bench_accuracy import (  # noqa: E402
     CLIP_FPS,
     DEFAULT_RIG,
     HEIGHT_PX,
-    TOP_MOTIONS,
     WIDTH_PX,
     ClipMaker,
     ClipSpec,
@@ -61,7 +60,7 @@ from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.clips import clip_camera  # noqa: E402
 from eigmotion.database import MotionDatabase, build_database  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
-from eigmotion.evaluation import markdown_table, ranked_labels  # noqa: E402
+from eigmotion.evaluation import markdown_table  # noqa: E402
 from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.library import LibraryMotion, load_library  # noqa: E402
 from eigmotion.silhouettes import render_masks  # noqa: E402
@@ -129,10 +128,10 @@ class QueryMasks:
 def answer(db: MotionDatabase, masks: np.ndarray, fps: float) -> tuple[str, ...]:
     """The distinct labels of the database's answer, best first (``()``: no answer)."""
     try:
-        result = db.query_masks(masks, fps, top_k=TOP_MOTIONS)
+        result = db.query_masks(masks, fps)
     except VideoError:
         return ()
-    return ranked_labels(m.label for m in result.top)
+    return tuple(m.label for m in result.labels)
 
 
 def fold_views(all_views: Sequence[ViewImages], kept: Sequence[int]) -> list[ViewImages]:

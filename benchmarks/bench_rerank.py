@@ -89,7 +89,6 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_accuracy import (  # noqa: E402
     TOP_K,
-    TOP_MOTIONS,
     ClipMaker,
     random_specs,
     subject_folds,
@@ -111,7 +110,6 @@ from eigmotion.evaluation import (  # noqa: E402
     format_rate,
     markdown_table,
     paired_comparison,
-    ranked_labels,
     rejection_rates,
     segment_agreement,
     separation,
@@ -361,10 +359,10 @@ class EntryTable:
 
 
 def _outcome(db: MotionDatabase, clip: HeldOutClip, in_library: bool) -> QueryOutcome:
-    result = db.query_masks(clip.masks, clip.fps, top_k=TOP_MOTIONS)
+    result = db.query_masks(clip.masks, clip.fps)
     return QueryOutcome(
         clip.label,
-        ranked_labels(m.label for m in result.top),
+        tuple(m.label for m in result.labels),
         result.accepted,
         in_library,
         0.0,

@@ -594,8 +594,14 @@ class QueryResult:
         performances, which is what the threshold is calibrated on; otherwise the
         motion is unknown.  The answer itself may be a motion whose nearest entry is
         farther: it was ranked first by both distances together.
+    threshold : float
+        The database's "unknown" threshold, eigenspace units.
     top : list of Match
         Distinct motions in that order, ``best`` first.
+    labels : list of Match
+        Every label the query ranked, once, in that order: the first motion of each in
+        the ranking that ``top`` begins (``best`` first).  Its first three are the
+        top-3 that ``docs/accuracy.md`` measures.
     segments : list of Segment
     examined : int
         Entries whose distance was computed by the whole-clip search.
@@ -612,7 +618,9 @@ class QueryResult:
 
     best: Match
     accepted: bool
+    threshold: float
     top: list[Match]
+    labels: list[Match]
     segments: list[Segment]
     examined: int
     examined_windows: int
@@ -623,7 +631,9 @@ class QueryResult:
     def to_json(self) -> dict:
         out = self.best.to_json()
         out["accepted"] = bool(self.accepted)
+        out["threshold"] = round(self.threshold, 6)
         out["top"] = [m.to_json() for m in self.top]
+        out["labels"] = [m.to_json() for m in self.labels]
         out["segments"] = [s.to_json() for s in self.segments]
         out["examined"] = int(self.examined)
         out["examined_windows"] = int(self.examined_windows)
@@ -737,7 +747,7 @@ class MotionDatabase:
             CANDIDATE_MOTIONS` nearest and the nearest of every further label
             (:func:`candidate_motions`) ranked by both distances, then further
             motions by motion image distance (as many as the whole clip's search
-            returned).
+            returned).  ``labels`` lists every ranked label whatever ``top_k`` is.
 
         Returns
         -------
@@ -770,18 +780,22 @@ class MotionDatabase:
         timing["sequences"] = (time.perf_counter() - t2) * 1e3
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
-        top = (ranked + [m for m in nearest if m.motion_id not in compared])[:top_k]
-        best = self._most_specific(top[0], windowed)
+        ranking = ranked + [m for m in nearest if m.motion_id not in compared]
+        best = self._most_specific(ranking[0], windowed)
         segments = self._segments(kept, windowed, len(masks), best)
-        if best is not top[0]:
-            top = [best] + [m for m in top if m.motion_id != best.motion_id][: top_k - 1]
+        ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
+        by_label: dict[str, Match] = {}
+        for match in ranking:
+            by_label.setdefault(match.label, match)
         examined_windows = 0 if windowed is None else int(windowed.examined.sum())
         timing["total"] = (time.perf_counter() - t0) * 1e3
         nearest_distance = min(float(whole.distances[0, 0]), best.distance)
         return QueryResult(
             best,
             bool(nearest_distance <= self.threshold),
-            top,
+            self.threshold,
+            ranking[:top_k],
+            list(by_label.values()),
             segments,
             int(whole.examined[0]),
             examined_windows,

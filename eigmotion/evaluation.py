@@ -49,8 +49,8 @@ class QueryOutcome:
     true_label : str
         What the clip shows.
     ranked_labels : tuple of str
-        Distinct labels in the database's answer, nearest first (see
-        :func:`ranked_labels`); at least one.
+        Distinct labels in the database's answer, likeliest first (a query's
+        ``labels``); at least one.
     accepted : bool
         The database took the best match as known (distance under its threshold).
     in_library : bool
@@ -76,9 +76,7 @@ class QueryOutcome:
                 f"ranked_labels of a query of {self.true_label!r} must hold at least one label"
             )
         if len(set(labels)) != len(labels):
-            raise InvalidParameterError(
-                f"ranked_labels must be distinct, got {list(labels)} (use ranked_labels())"
-            )
+            raise InvalidParameterError(f"ranked_labels must be distinct, got {list(labels)}")
         if not (math.isfinite(self.query_s) and self.query_s >= 0):
             raise InvalidParameterError(f"query_s must be a finite time >= 0, got {self.query_s}")
         if self.distance is not None and not self.distance >= 0:
@@ -97,26 +95,6 @@ class QueryOutcome:
         if k < 1:
             raise InvalidParameterError(f"k must be >= 1, got {k}")
         return self.true_label in self.ranked_labels[:k]
-
-
-def ranked_labels(match_labels: Iterable[str]) -> tuple[str, ...]:
-    """Distinct labels in order of first appearance.
-
-    Parameters
-    ----------
-    match_labels : iterable of str
-        The labels of a query's matches, nearest first (e.g. ``[m["label"] for m in
-        result["top"]]`` of a query's JSON); several matches may share a label.
-
-    Returns
-    -------
-    tuple of str
-    """
-    out: list[str] = []
-    for label in match_labels:
-        if label not in out:
-            out.append(label)
-    return tuple(out)
 
 
 # -- confusion matrix ----------------------------------------------------------------

@@ -223,6 +223,7 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
     assert result.best.azimuth_deg in (0.0, 60.0)  # a neighbour of the true 30°
     assert [m.label for m in result.top][0] == item.label
     assert len({m.motion for m in result.top}) == len(result.top)
+    assert result.labels[0] == result.best
     assert result.segments[0].start_frame == 0
     assert result.segments[-1].end_frame == len(masks)
 
@@ -235,12 +236,16 @@ def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
     masks = _masks(library[2].motion, other_body, azimuth_deg=100.0, elevation_deg=5.0)
     with MotionDatabase.open(db_path) as db:
         ranked_all = db.query_masks(masks, 30.0, top_k=4)
+        one = db.query_masks(masks, 30.0, top_k=1)
         monkeypatch.setattr(database_module, "candidate_motions", lambda nearest: nearest[:2])
         ranked_two = db.query_masks(masks, 30.0, top_k=4)
     # four motions of four labels: every one is a candidate
     assert all(m.sequence_distance is not None for m in ranked_all.top)
     assert len(ranked_two.top) == 4
     assert [m.sequence_distance is None for m in ranked_two.top] == [False, False, True, True]
+    # every label once, at its first motion in the ranking, whatever top_k is
+    assert [m.motion for m in one.labels] == [m.motion for m in ranked_all.top]
+    assert len(one.top) == 1 and one.labels[0] == one.best
     # the two ranked are the motion image's two nearest; the rest follow nearest first
     by_image = sorted(ranked_all.top, key=lambda m: m.distance)
     assert {m.motion for m in ranked_two.top[:2]} == {m.motion for m in by_image[:2]}
@@ -423,6 +428,27 @@ def test_a_3d_answer_asked_for_leaves_the_answer_as_it_is(db_path):
         assert before.end_frame == after.start_frame
 
 
+def test_query_cli_text_lists_the_likeliest_actions_and_motions(
+    db_path, library, other_body, tmp_path, capsys
+):
+    item = library[1]  # kick
+    masks = _masks(item.motion, other_body, azimuth_deg=90.0, elevation_deg=5.0)
+    clip = tmp_path / "clip.npz"
+    np.savez(clip, masks=masks, fps=30.0)
+    assert main(["query", str(clip), "--db", str(db_path), "--top", "3", "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    assert main(["query", str(clip), "--db", str(db_path), "--top", "3"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{answer['label']}  ({answer['motion']}, distance ")
+    actions = [m["label"] for m in answer["labels"][:3]]
+    assert lines[1] == "  actions, likeliest first: " + ", ".join(actions)
+    then = [line for line in lines if line.startswith("  then ")]
+    assert [line.split()[1] for line in then] == [m["label"] for m in answer["top"][1:]]
+    assert [line.split("(")[1].split(",")[0] for line in then] == [
+        m["motion"] for m in answer["top"][1:]
+    ]
+
+
 def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, capsys):
     item = library[1]  # kick
     masks = _masks(item.motion, other_body, azimuth_deg=90.0, elevation_deg=5.0)
@@ -453,6 +479,8 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
         "accepted",
         "view",
         "top",
+        "labels",
+        "threshold",
         "segments",
         "examined",
         "db_entries",
@@ -460,6 +488,11 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
     ):
         assert key in answer
     assert answer["label"] == "kick" and len(answer["top"]) == 2
+    assert answer["labels"][0] == {k: answer[k] for k in answer["labels"][0]}
+    assert len({m["label"] for m in answer["labels"]}) == len(answer["labels"])
+    assert answer["threshold"] > 0
+    # the answer's own entry within the threshold: accepted (the clip's nearest is nearer)
+    assert answer["accepted"] or answer["distance"] > answer["threshold"]
     assert answer["sequence_distance"] > 0 and "sequences" in answer["timing_ms"]
     assert set(answer["view"]) == {"azimuth_deg", "elevation_deg"}
     replayed = read_bvh(bvh)

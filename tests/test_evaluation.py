@@ -21,7 +21,6 @@ from eigmotion.evaluation import (
     markdown_table,
     paired_comparison,
     proportion_interval,
-    ranked_labels,
     rejection_rates,
     score,
     segment_agreement,
@@ -49,19 +48,6 @@ QUERIES = [
 
 
 # -- outcomes and ranked labels -----------------------------------------------------------
-
-
-@pytest.mark.parametrize(
-    ("matches", "expected"),
-    [
-        (["kick", "kick", "lift", "kick", "wave"], ("kick", "lift", "wave")),
-        (["walk"], ("walk",)),
-        (["a", "b", "a", "c", "b"], ("a", "b", "c")),
-        ([], ()),
-    ],
-)
-def test_ranked_labels_keeps_first_appearance(matches, expected):
-    assert ranked_labels(iter(matches)) == expected
 
 
 @pytest.mark.parametrize(
@@ -359,15 +345,6 @@ def test_halfway_views(bench, rig_file, azimuths, elevations):
     az, el = bench.halfway_views(load_rig(REPO / "virtual_cameras" / rig_file))
     np.testing.assert_allclose(np.sort(az), azimuths)
     np.testing.assert_allclose(el, elevations)
-
-
-def test_queries_ask_for_every_motion_the_query_ranks(bench):
-    """The answer lists the candidates the query ranks again and the nearest motion of
-    every label beside them, so its ranked labels are not cut short."""
-    from eigmotion.library import LABELS
-    from eigmotion.sequences import CANDIDATE_MOTIONS
-
-    assert bench.TOP_MOTIONS >= CANDIDATE_MOTIONS + len(LABELS)
 
 
 def test_person_height_px(bench):

@@ -35,7 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "without it the scene is estimated from the clip, which needs the person to move "
         "and finds them less well",
     )
-    parser.add_argument("--top", type=int, default=3, help="distinct motions to list")
+    parser.add_argument(
+        "--top", type=int, default=3, help="distinct actions (labels) and motions to list"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
     parser.add_argument(
@@ -76,13 +78,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         best = result.best
         verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
-        sequence = (
-            "" if best.sequence_distance is None else f", sequence {best.sequence_distance:.3f}"
-        )
-        print(
-            f"{best.label}  ({best.motion}, distance {best.distance:.3f}{sequence}, view "
-            f"azimuth {best.azimuth_deg:.0f}°, elevation {best.elevation_deg:.0f}°){verdict}"
-        )
+        print(f"{best.label}  ({_described(best)}){verdict}")
+        ranked = ", ".join(m.label for m in result.labels[: args.top])
+        print(f"  actions, likeliest first: {ranked}")
+        for match in result.top[1:]:
+            print(f"  then {match.label}  ({_described(match)})")
         for seg in result.segments:
             print(f"  frames {seg.start_frame}–{seg.end_frame}: {seg.label}")
         print(
@@ -90,6 +90,17 @@ def run(args: argparse.Namespace) -> int:
             f"{result.timing_ms['total']:.0f} ms"
         )
     return 0
+
+
+def _described(match) -> str:
+    """A match's motion, distances and view, as the text answer lists them."""
+    sequence = (
+        "" if match.sequence_distance is None else f", sequence {match.sequence_distance:.3f}"
+    )
+    return (
+        f"{match.motion}, distance {match.distance:.3f}{sequence}, view azimuth "
+        f"{match.azimuth_deg:.0f}°, elevation {match.elevation_deg:.0f}°"
+    )
 
 
 def _write_replay(db, result, masks, fps, args) -> None:
