@@ -449,7 +449,7 @@ def main(argv=None) -> int:
     runs = [("shipped", {})]
     runs += [(",".join(f"{k}={v:g}" for k, v in values.items()), values) for values in args.variant]
     outcomes, segmented = {}, {}
-    pairs = composite_pairs(clips)
+    pairs = composite_pairs(clips) if args.segments else []
     for name, values in runs:
         t0 = time.perf_counter()
         with Variant(values):
