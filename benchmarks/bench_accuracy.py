@@ -82,8 +82,10 @@ from eigmotion.database import DEFAULT_DB_PATH, MotionDatabase, build_database  
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation import (  # noqa: E402
     QueryOutcome,
+    format_operating_points,
     format_score,
     markdown_table,
+    operating_points,
     score,
 )
 from eigmotion.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
@@ -410,6 +412,7 @@ def query(target: Target, clip: ClipFiles, use_background: bool) -> dict:
         "ranked_labels": [m["label"] for m in answer["labels"]],
         "accepted": bool(answer["accepted"]),
         "distance": answer["distance"],
+        "p_known": answer["p_known"],
         "motion": answer["motion"],
         "view": answer["view"],
         "query_s": round(seconds, 3),
@@ -471,6 +474,7 @@ def judge(records: Sequence[dict], target: Target) -> list[Judged]:
                 r["label"] in target.labels,
                 a["query_s"],
                 a.get("distance", float("inf")),
+                0.0 if "error" in a else a.get("p_known"),  # absent from older runs
             )
             out.append((r, a, outcome))
     return out
@@ -495,6 +499,10 @@ def report(title: str, header: str, judged: Sequence[Judged]) -> dict:
     result = score([o for _, _, o in judged], TOP_K, LABEL_ORDER)
     print(f"\n### {title}\n\n{header}\n")
     print(format_score(result))
+    outcomes = [o for _, _, o in judged]
+    if outcomes and all(o.p_known is not None for o in outcomes):
+        print("\nrejection at each share of `eigmotion query --false-rejection`:\n")
+        print(format_operating_points(operating_points(outcomes)))
     wrong = [(r, a) for r, a, o in judged if o.in_library and not o.hit(1)]
     if wrong:
         print("\nin-library clips answered wrong (top-1):")

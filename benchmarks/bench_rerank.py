@@ -56,12 +56,15 @@ About 20 s per run.
 
 ``--unknown`` also measures the rejection of unknown motions on all the clips instead
 of the holdout suite's few: each label is left out of the search in turn (every
-motion of that label, and the clip's fold), the "unknown" threshold calibrated again
-on the entries left (:func:`~eigmotion.database.leave_one_motion_out_threshold`, as a
-build of that database would), and every clip of that label asked.  Beside it, the
-false rejection of the clips asked with their label in the search (at the whole
-database's threshold), and how well the best match's distance alone separates the
-two (:func:`~eigmotion.evaluation.separation`).  About 30 s more.
+motion of that label, and the clip's fold), the "unknown" threshold and the quantiles
+behind ``p_known`` calibrated again on the entries left
+(:func:`~eigmotion.database.leave_one_motion_out_distances`, as a build of that
+database would), and every clip of that label asked.  Beside it, the false rejection
+of the clips asked with their label in the search (at the whole database's
+threshold), how well the best match's distance alone separates the two
+(:func:`~eigmotion.evaluation.separation`), and what each share of ``eigmotion query
+--false-rejection`` would turn away of both (:func:`~eigmotion.evaluation.
+operating_points`).  About 30 s more.
 
 Clips are rendered into ``--clips-dir`` (every seed's into the same folder: their
 names differ) when missing (about 4 min for 184 clips) and reused; making their
@@ -100,15 +103,19 @@ import eigmotion.sequences as sequences_module  # noqa: E402
 from eigmotion.database import (  # noqa: E402
     DEFAULT_DB_PATH,
     QUERY_SILHOUETTE_SIDE_PX,
+    THRESHOLD_QUANTILE,
     MotionDatabase,
-    leave_one_motion_out_threshold,
+    calibration_quantiles,
+    leave_one_motion_out_distances,
 )
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation import (  # noqa: E402
     QueryOutcome,
     SegmentAgreement,
+    format_operating_points,
     format_rate,
     markdown_table,
+    operating_points,
     paired_comparison,
     rejection_rates,
     segment_agreement,
@@ -310,13 +317,16 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
         whole, body = entries.calibration(db)
         for label in sorted({c.label for c in clips}):
             without = entries.label != label
-            thresholds[label] = leave_one_motion_out_threshold(
+            distances = leave_one_motion_out_distances(
                 entries.points[without], entries.performance[without], whole[without],
                 None if body is None else body[without],
             )  # fmt: skip
+            quantiles = calibration_quantiles(distances)
+            thresholds[label] = float(np.quantile(distances, THRESHOLD_QUANTILE))
             for held in sorted({c.held_out for c in clips if c.label == label}):
                 entries.search_only(db, without & ~np.isin(entries.motion, held))
                 db.threshold = thresholds[label]
+                db.calibration_quantiles = np.asarray(quantiles)
                 for i, clip in enumerate(clips):
                     if clip.label == label and clip.held_out == held:
                         answers[i] = _outcome(db, clip, in_library=False)
@@ -367,6 +377,7 @@ def _outcome(db: MotionDatabase, clip: HeldOutClip, in_library: bool) -> QueryOu
         in_library,
         0.0,
         result.best.distance,
+        result.p_known,
     )
 
 
@@ -669,6 +680,12 @@ def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresh
         f"motions' distances ({alone.threshold:.3f}) rejects {alone.rejected}/"
         f"{alone.n_out_of_library} unknown ones"
     )
+    if all(o.p_known is not None for o in known + unknown):
+        print(
+            "\nAt other shares of `eigmotion query --false-rejection` (each clip judged by "
+            "its p_known against the calibration of the database it was asked of):\n"
+        )
+        print(format_operating_points(operating_points(known + unknown)))
 
 
 if __name__ == "__main__":

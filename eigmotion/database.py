@@ -80,6 +80,9 @@ CANDIDATE_ENTRIES = 256
 
 #: Quantile of the leave-one-motion-out distances that sets the "unknown" threshold.
 THRESHOLD_QUANTILE = 0.95
+#: Levels at which the build stores the quantiles of those distances: 0, 0.5, ...,
+#: 100 %.  Level 190 is :data:`THRESHOLD_QUANTILE` exactly.
+CALIBRATION_LEVELS = np.arange(201) / 200
 
 
 # -- rigs as plain data -------------------------------------------------------------
@@ -192,20 +195,21 @@ class _Collected:
         )
 
 
-def leave_one_motion_out_threshold(
+def leave_one_motion_out_distances(
     points: np.ndarray,
     performance_of: np.ndarray,
     whole: np.ndarray,
     body_of: np.ndarray | None = None,
-) -> float:
-    """The "unknown" threshold from the database itself.
+) -> np.ndarray | None:
+    """How far new performances of the library's motions lie from the database.
 
     Each whole-motion entry is queried as a query would be, against every entry of
     the OTHER performances rendered on the OTHER bodies (as if that performance were
     new, by someone whose body and clothes the database does not hold, as in every
     real query): its nearest distance is what a known motion done by someone else
-    looks like, and the threshold is the :data:`THRESHOLD_QUANTILE` of those
-    distances — about that share of new performances of library motions is accepted.
+    looks like.  The "unknown" threshold is the :data:`THRESHOLD_QUANTILE` of these
+    distances (:func:`leave_one_motion_out_threshold`), and their quantiles, stored
+    (:func:`calibration_quantiles`), give each answer its ``p_known``.
 
     Parameters
     ----------
@@ -223,15 +227,13 @@ def leave_one_motion_out_threshold(
 
     Returns
     -------
-    float
-        For a database of one performance, twice its largest distance from the
-        centre of its entries.
+    (M,) float64 or None
+        One distance per whole-motion entry, eigenspace units (each measured in the
+        points' own dtype, as a query's search measures it); None for a database of
+        one performance, which has nothing to compare with but itself.
     """
     if len(np.unique(performance_of)) == 1:
-        # One performance (a motion, perhaps with its mirror image): nothing to compare
-        # with but itself; the threshold then accepts anything as near as the database
-        # is wide.
-        return float(2.0 * np.linalg.norm(points - points.mean(axis=0), axis=1).max())
+        return None
     points = np.asarray(points)
     several_bodies = body_of is not None and len(np.unique(body_of)) > 1
     body_of = np.asarray(body_of) if several_bodies else np.zeros(len(points), np.int64)
@@ -243,12 +245,71 @@ def leave_one_motion_out_threshold(
             others = points[~mine & (body_of != body) if several_bodies else ~mine]
             for block in np.array_split(queries, -(-len(queries) // _QUERY_BLOCK)):
                 found.append(_nearest_distances(points[block], others))
-    return float(np.quantile(np.concatenate(found), THRESHOLD_QUANTILE))
+    return np.concatenate(found).astype(np.float64)
+
+
+def leave_one_motion_out_threshold(
+    points: np.ndarray,
+    performance_of: np.ndarray,
+    whole: np.ndarray,
+    body_of: np.ndarray | None = None,
+) -> float:
+    """The "unknown" threshold from the database itself: the
+    :data:`THRESHOLD_QUANTILE` of :func:`leave_one_motion_out_distances` (same
+    parameters) — about that share of new performances of library motions is accepted.
+
+    Returns
+    -------
+    float
+        For a database of one performance, twice its largest distance from the
+        centre of its entries: the threshold then accepts anything as near as the
+        database is wide.
+    """
+    distances = leave_one_motion_out_distances(points, performance_of, whole, body_of)
+    return _threshold(distances, points)
+
+
+def _threshold(distances: np.ndarray | None, points: np.ndarray) -> float:
+    if distances is None:
+        points = np.asarray(points)
+        return float(2.0 * np.linalg.norm(points - points.mean(axis=0), axis=1).max())
+    return float(np.quantile(distances, THRESHOLD_QUANTILE))
+
+
+def calibration_quantiles(distances: np.ndarray | None) -> list[float] | None:
+    """The quantiles of :func:`leave_one_motion_out_distances` at
+    :data:`CALIBRATION_LEVELS`, as the store keeps them: (201,) float, eigenspace
+    units, non-decreasing; None where there are no distances."""
+    if distances is None:
+        return None
+    return np.quantile(distances, CALIBRATION_LEVELS).tolist()
 
 
 #: Whole-motion entries whose distances to the rest are computed together: bounds
 #: the (block × entries) matrix of :func:`leave_one_motion_out_threshold`.
 _QUERY_BLOCK = 256
+
+
+def _stored_quantiles(uri: str, stored: dict) -> np.ndarray | None:
+    """The build's :func:`calibration_quantiles` read back and checked: (201,) float,
+    or None for a database built without them."""
+    quantiles = stored.get("calibration_quantiles")
+    if quantiles is None:
+        return None
+    try:
+        quantiles = np.asarray(quantiles, dtype=np.float64)
+    except (TypeError, ValueError):
+        quantiles = np.empty(0)
+    if (
+        quantiles.shape != CALIBRATION_LEVELS.shape
+        or not np.all(np.isfinite(quantiles))
+        or np.any(np.diff(quantiles) < 0)
+    ):
+        raise DatabaseError(
+            f"{uri}: the stored calibration quantiles are damaged (expected "
+            f"{len(CALIBRATION_LEVELS)} finite, non-decreasing distances); build it again"
+        )
+    return quantiles
 
 
 def _nearest_distances(queries: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -327,12 +388,14 @@ def build_database(
     whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
     originals = [m.mirror_of or m.name for m in library]
     performance = np.unique(originals, return_inverse=True)[1]
-    threshold = leave_one_motion_out_threshold(points, performance[motion_of], whole, body_of)
+    calibration = leave_one_motion_out_distances(points, performance[motion_of], whole, body_of)
+    threshold = _threshold(calibration, points)
     recon = space.reconstruction_error(X)
     stored_config = {
         "build": config.to_dict(),
         "rig": rig_to_plain(rig),
         "threshold": threshold,
+        "calibration_quantiles": calibration_quantiles(calibration),
         "reconstruction_error_median": float(np.median(recon)),
         "reconstruction_error_p95": float(np.quantile(recon, 0.95)),
     }
@@ -595,7 +658,16 @@ class QueryResult:
         motion is unknown.  The answer itself may be a motion whose nearest entry is
         farther: it was ranked first by both distances together.
     threshold : float
-        The database's "unknown" threshold, eigenspace units.
+        The "unknown" threshold ``accepted`` was judged against, eigenspace units: the
+        database's own, or the one for the false rejection the query asked for
+        (:meth:`MotionDatabase.threshold_at`).
+    p_known : float or None
+        In [0, 1]: the share of new performances of the library's own motions that lie
+        at least as far from the database as this clip (the distance ``accepted`` is
+        judged by, against the quantiles the build stored,
+        :func:`leave_one_motion_out_distances`).  Near 1, as near as most known
+        motions come; near 0, farther than nearly all.  ``accepted`` at a false
+        rejection r is ``p_known >= r``.  None for a database built without them.
     top : list of Match
         Distinct motions in that order, ``best`` first.
     labels : list of Match
@@ -619,6 +691,7 @@ class QueryResult:
     best: Match
     accepted: bool
     threshold: float
+    p_known: float | None
     top: list[Match]
     labels: list[Match]
     segments: list[Segment]
@@ -632,6 +705,7 @@ class QueryResult:
         out = self.best.to_json()
         out["accepted"] = bool(self.accepted)
         out["threshold"] = round(self.threshold, 6)
+        out["p_known"] = None if self.p_known is None else round(self.p_known, 4)
         out["top"] = [m.to_json() for m in self.top]
         out["labels"] = [m.to_json() for m in self.labels]
         out["segments"] = [s.to_json() for s in self.segments]
@@ -653,6 +727,10 @@ class MotionDatabase:
     config : BuildConfig
     rig : CameraRig
     threshold : float
+        The "unknown" threshold, eigenspace units.
+    calibration_quantiles : (201,) float or None
+        The quantiles of :func:`leave_one_motion_out_distances` at
+        :data:`CALIBRATION_LEVELS`; None for a database built without them.
     """
 
     def __init__(self, store: Store):
@@ -661,6 +739,7 @@ class MotionDatabase:
         self.config = BuildConfig.from_dict(stored["build"])
         self.rig = rig_from_plain(stored["rig"])
         self.threshold = float(stored["threshold"])
+        self.calibration_quantiles = _stored_quantiles(store.uri, stored)
         self.reconstruction_error_p95 = float(stored["reconstruction_error_p95"])
         self.eigenspace = store.eigenspace()
         self.pose_space = store.pose_space()
@@ -700,6 +779,46 @@ class MotionDatabase:
     def motion_record(self, motion_id: int) -> dict:
         return self._motions[motion_id]
 
+    def threshold_at(self, false_rejection: float) -> float:
+        """The distance beyond which a query is "unknown" when about
+        ``false_rejection`` of new performances of the library's motions may be turned
+        away (the database's own threshold turns away 5 %; more turns away more
+        unknown motions too).
+
+        Parameters
+        ----------
+        false_rejection : float
+            In (0, 1).
+
+        Returns
+        -------
+        float
+            Eigenspace units.
+        """
+        if not 0.0 < false_rejection < 1.0:
+            raise InvalidParameterError(
+                f"the false rejection must be between 0 and 1, got {false_rejection}"
+            )
+        if self.calibration_quantiles is None:
+            raise DatabaseError(
+                f"{self.store.uri}: built without the distances of its own motions' "
+                "performances, so only its own threshold can be used; build it again"
+            )
+        # The share beyond quantile i is CALIBRATION_LEVELS[200 - i]: read backwards, so
+        # that 0.05 gives the 95th percentile to the bit (1 - 0.05 is not 0.95).
+        beyond = self.calibration_quantiles[::-1]
+        return float(np.interp(false_rejection, CALIBRATION_LEVELS, beyond))
+
+    def p_known(self, distance: float) -> float | None:
+        """The share of new performances of the library's motions that lie at least
+        ``distance`` (eigenspace units) from the database, in [0, 1]; None for a
+        database built without those distances.  ``distance <= threshold_at(r)``
+        exactly when ``p_known(distance) >= r``."""
+        if self.calibration_quantiles is None:
+            return None
+        shares_beyond = CALIBRATION_LEVELS[::-1]
+        return float(np.interp(distance, self.calibration_quantiles, shares_beyond))
+
     def motion(self, motion_id: int) -> Motion:
         """A stored basic motion, read back from its BVH text."""
         rec = self._motions[motion_id]
@@ -733,7 +852,9 @@ class MotionDatabase:
         return label
 
     @opencv_in_calling_threads()
-    def query_masks(self, masks: np.ndarray, fps: float, top_k: int = 3) -> QueryResult:
+    def query_masks(
+        self, masks: np.ndarray, fps: float, top_k: int = 3, false_rejection: float | None = None
+    ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
         Parameters
@@ -748,6 +869,10 @@ class MotionDatabase:
             (:func:`candidate_motions`) ranked by both distances, then further
             motions by motion image distance (as many as the whole clip's search
             returned).  ``labels`` lists every ranked label whatever ``top_k`` is.
+        false_rejection : float, optional
+            In (0, 1): judge ``accepted`` at the threshold that turns away this share
+            of new performances of the library's motions (:meth:`threshold_at`);
+            default the database's own threshold (5 %).
 
         Returns
         -------
@@ -755,6 +880,9 @@ class MotionDatabase:
         """
         if top_k < 1:
             raise InvalidParameterError(f"top_k must be >= 1, got {top_k}")
+        threshold = self.threshold
+        if false_rejection is not None:
+            threshold = self.threshold_at(false_rejection)
         timing: dict[str, float] = {}
         t0 = time.perf_counter()
         cfg = self.config
@@ -792,8 +920,9 @@ class MotionDatabase:
         nearest_distance = min(float(whole.distances[0, 0]), best.distance)
         return QueryResult(
             best,
-            bool(nearest_distance <= self.threshold),
-            self.threshold,
+            bool(nearest_distance <= threshold),
+            threshold,
+            self.p_known(nearest_distance),
             ranking[:top_k],
             list(by_label.values()),
             segments,
@@ -981,6 +1110,7 @@ class MotionDatabase:
         top_k: int = 3,
         every_frame: bool = False,
         progress: bool = False,
+        false_rejection: float | None = None,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -1000,6 +1130,8 @@ class MotionDatabase:
             whether a 3D answer was asked for.
         progress : bool
             Progress bars on stderr while a long video is read.
+        false_rejection : float, optional
+            As for :meth:`query_masks`.
 
         Returns
         -------
@@ -1012,11 +1144,13 @@ class MotionDatabase:
             of every frame.
         """
         t0 = time.perf_counter()
+        if false_rejection is not None:
+            self.threshold_at(false_rejection)  # a bad value is told before the video is read
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
         sample_fps = self.config.motion_image.sample_fps
         clip = load_clip_masks(path, background, config, sample_fps, progress)
         t1 = time.perf_counter()
-        result = self.query_masks(clip.masks, clip.fps, top_k)
+        result = self.query_masks(clip.masks, clip.fps, top_k, false_rejection)
         # Segments come in mask indices; a mask's successor starts the next segment.
         starts = np.append(clip.frame_indices, clip.n_frames)
         segments = [

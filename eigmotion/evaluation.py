@@ -60,6 +60,9 @@ class QueryOutcome:
     distance : float or None
         Distance of the best match, eigen-coordinate units (``inf`` for a query that
         got no answer); ``None`` when not known.
+    p_known : float or None
+        In [0, 1]: the query's ``p_known``, the share of new performances of library
+        motions at least as far from the database; ``None`` when not known.
     """
 
     true_label: str
@@ -68,6 +71,7 @@ class QueryOutcome:
     in_library: bool
     query_s: float
     distance: float | None = None
+    p_known: float | None = None
 
     def __post_init__(self):
         labels = tuple(self.ranked_labels)
@@ -83,6 +87,8 @@ class QueryOutcome:
             raise InvalidParameterError(
                 f"distance must be >= 0 (or inf, or None), got {self.distance}"
             )
+        if self.p_known is not None and not 0.0 <= self.p_known <= 1.0:
+            raise InvalidParameterError(f"p_known must be in [0, 1] (or None), got {self.p_known}")
         object.__setattr__(self, "ranked_labels", labels)
 
     @property
@@ -462,6 +468,77 @@ def separation(outcomes: Sequence[QueryOutcome], quantile: float = 0.95) -> Sepa
     finite = inside[np.isfinite(inside)]
     threshold = float(np.quantile(finite, quantile)) if len(finite) else float("inf")
     return Separation(auc, quantile, threshold, int(np.sum(outside > threshold)), len(outside))
+
+
+#: Shares of new performances of library motions a user might let the query turn
+#: away (``eigmotion query --false-rejection``), for :func:`operating_points`.
+FALSE_REJECTION_SHARES = (0.01, 0.05, 0.1, 0.2, 0.3, 0.5)
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """Rejection at one ``--false-rejection`` share (see :func:`operating_points`).
+
+    Attributes
+    ----------
+    share : float
+        The share asked for: a query is rejected when its ``p_known < share``.
+    rates : RejectionRates
+        What that rejected, in and out of the library.
+    """
+
+    share: float
+    rates: RejectionRates
+
+
+def operating_points(
+    outcomes: Sequence[QueryOutcome], shares: Sequence[float] = FALSE_REJECTION_SHARES
+) -> list[OperatingPoint]:
+    """What each ``--false-rejection`` share would reject: the in-library queries it
+    turns away (about ``share`` of them, if the database's calibration holds for these
+    queries) and the out-of-library ones.
+
+    Parameters
+    ----------
+    outcomes : sequence of QueryOutcome
+        Every one with its ``p_known``.
+    shares : sequence of float
+        Each in (0, 1).
+
+    Returns
+    -------
+    list of OperatingPoint
+        One per share, in order.
+
+    Raises
+    ------
+    InvalidParameterError
+        A ``p_known`` missing, or a share out of range.
+    """
+    if any(o.p_known is None for o in outcomes):
+        raise InvalidParameterError("operating points need the p_known of every query")
+    points = []
+    for share in shares:
+        if not 0.0 < share < 1.0:
+            raise InvalidParameterError(f"a false rejection share must be in (0, 1), got {share}")
+        inside = [o.p_known < share for o in outcomes if o.in_library]
+        outside = [o.p_known < share for o in outcomes if not o.in_library]
+        rates = RejectionRates(len(inside), sum(inside), len(outside), sum(outside))
+        points.append(OperatingPoint(share, rates))
+    return points
+
+
+def format_operating_points(points: Sequence[OperatingPoint]) -> str:
+    """A Markdown table of :func:`operating_points`: the share asked for, the known
+    queries it turned away and the unknown ones it rejected, with 95 % intervals."""
+    rows = [
+        [f"{p.share:.2f}",
+         format_rate(p.rates.false_rejected, p.rates.n_in_library),
+         format_rate(p.rates.rejected, p.rates.n_out_of_library)]
+        for p in points
+    ]  # fmt: skip
+    header = ["--false-rejection", "known motions turned away", "unknown motions rejected"]
+    return "\n".join(markdown_table(header, rows))
 
 
 #: A found segment counts as a part found when its intersection over union with a

@@ -4,6 +4,8 @@ test_database.py)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -120,6 +122,16 @@ def test_unknown_tables_count_rejections_per_label_left_out(bench, capsys):
     # distance alone: of 12 pairs, 0.6 is farther than all four known, 0.25 than two,
     # 0.2 than one and ties one: 7.5 / 12
     assert "AUC 0.625" in out
+    assert "--false-rejection" not in out  # no p_known: no operating points
+
+    def with_p(outcome, p_known):
+        return dataclasses.replace(outcome, p_known=p_known)
+
+    known = [with_p(o, p) for o, p in zip(known, (0.9, 0.5, 0.15, 0.02), strict=True)]
+    unknown = [with_p(o, p) for o, p in zip(unknown, (0.3, 0.01, 0.6), strict=True)]
+    bench.print_unknown(known, unknown, {"run": 0.31, "walk": 0.32})
+    out = capsys.readouterr().out
+    assert "| 0.20              | 2/4 (50.0%; 95% CI 15.0–85.0%) | 1/3 (33.3%" in out
 
 
 def test_mask_agreement_counts_what_the_estimate_missed_and_added(bench):

@@ -25,12 +25,16 @@ from eigmotion.bvh import read_bvh
 from eigmotion.cameras import load_rig, virtual_rig
 from eigmotion.cli import main
 from eigmotion.database import (
+    CALIBRATION_LEVELS,
     Match,
     MotionDatabase,
     Segment,
+    _stored_quantiles,
     brute_force_check,
     build_database,
+    calibration_quantiles,
     candidate_motions,
+    leave_one_motion_out_distances,
     leave_one_motion_out_threshold,
     window_label_path,
 )
@@ -108,7 +112,7 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     performance = rng.integers(0, 2, size=700)
     whole = rng.random(700) < 0.9  # each performance: more whole entries than one block
     found = [
-        np.linalg.norm(points[performance != performance[i]] - points[i], axis=1).min()
+        float(np.linalg.norm(points[performance != performance[i]] - points[i], axis=1).min())
         for i in np.flatnonzero(whole)
     ]
     # entry by entry, in the points' float32: the same to the last bit
@@ -117,9 +121,11 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     # the other bodies only, which lie farther
     body = rng.integers(0, 3, size=700)
     found_elsewhere = [
-        np.linalg.norm(
-            points[(performance != performance[i]) & (body != body[i])] - points[i], axis=1
-        ).min()
+        float(
+            np.linalg.norm(
+                points[(performance != performance[i]) & (body != body[i])] - points[i], axis=1
+            ).min()
+        )
         for i in np.flatnonzero(whole)
     ]
     assert leave_one_motion_out_threshold(points, performance, whole, body) == np.quantile(
@@ -134,6 +140,53 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     one = np.zeros(700, dtype=int)
     radius = np.linalg.norm(points - points.mean(axis=0), axis=1).max()
     assert leave_one_motion_out_threshold(points, one, whole) == pytest.approx(2 * radius)
+    # the distances behind it, and the quantiles a build stores of them
+    distances = leave_one_motion_out_distances(points, performance, whole, body)
+    np.testing.assert_array_equal(np.sort(distances), np.sort(found_elsewhere))
+    quantiles = calibration_quantiles(distances)
+    assert len(quantiles) == len(CALIBRATION_LEVELS) == 201
+    assert quantiles[190] == np.quantile(found_elsewhere, 0.95)
+    assert quantiles[0] == min(found_elsewhere) and quantiles[-1] == max(found_elsewhere)
+    assert leave_one_motion_out_distances(points, one, whole) is None
+    assert calibration_quantiles(None) is None
+
+
+def test_p_known_and_the_false_rejection_agree(db_path, library, other_body):
+    """``p_known`` is the share of the calibration distances at least as far as the
+    clip; the query accepts at a share r exactly when ``p_known >= r``; the default
+    share is the database's own threshold."""
+    masks = _masks(library[2].motion, other_body, azimuth_deg=75.0, elevation_deg=12.0)
+    with MotionDatabase.open(db_path) as db:
+        quantiles = db.calibration_quantiles
+        assert quantiles.shape == (201,) and np.all(np.diff(quantiles) >= 0)
+        assert db.threshold_at(0.05) == db.threshold
+        for share in (0.01, 0.2, 0.5, 0.9):
+            assert db.p_known(db.threshold_at(share)) == pytest.approx(share)
+        assert db.p_known(0.0) == 1.0 and db.p_known(2 * quantiles[-1]) == 0.0
+        answer = db.query_masks(masks, 30.0)
+        assert answer.threshold == db.threshold and 0.0 <= answer.p_known <= 1.0
+        assert answer.accepted == (answer.p_known >= 0.05)
+        for share in (max(answer.p_known - 0.02, 0.001), min(answer.p_known + 0.02, 0.999)):
+            judged = db.query_masks(masks, 30.0, false_rejection=share)
+            assert judged.threshold == db.threshold_at(share)
+            assert judged.accepted == (judged.p_known >= share)
+            assert judged.best == answer.best and judged.p_known == answer.p_known
+        for share in (0.0, 1.0, -0.1, float("nan")):
+            with pytest.raises(InvalidParameterError, match="false rejection"):
+                db.query_masks(masks, 30.0, false_rejection=share)
+        db.calibration_quantiles = None  # as a database built before they were stored
+        assert db.p_known(0.3) is None and db.query_masks(masks, 30.0).p_known is None
+        with pytest.raises(DatabaseError, match="build it again"):
+            db.threshold_at(0.2)
+
+
+def test_damaged_calibration_quantiles_are_refused():
+    good = np.linspace(0.1, 0.5, 201).tolist()
+    assert _stored_quantiles("db.fs", {}) is None
+    np.testing.assert_array_equal(_stored_quantiles("db.fs", {"calibration_quantiles": good}), good)
+    for bad in (good[:-1], good[::-1], [*good[:-1], float("nan")], ["a"] * 201):
+        with pytest.raises(DatabaseError, match="db.fs: the stored calibration quantiles"):
+            _stored_quantiles("db.fs", {"calibration_quantiles": bad})
 
 
 def test_a_build_calibrates_each_entry_against_the_other_bodies(tmp_path):
@@ -180,6 +233,30 @@ def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_s
         kept = table.label != "wave"
         table.search_only(db, kept)
         assert db.index.n_entries == kept.sum() < len(table.motion)
+
+
+def test_rejection_ceiling_asks_each_whole_entry_both_ways(db_path, benchmark_script, capsys):
+    """``bench_rejection_ceiling.py``: each whole-motion entry, without its own
+    performance, finds another entry no farther than without its whole label (a
+    label of one performance here: both leave the same entries out)."""
+    with benchmark_script("bench_rejection_ceiling") as bench, MotionDatabase.open(db_path) as db:
+        table = bench.EntryTable(db)
+        whole, body = table.calibration(db)
+        label, known, unknown, known_answer, unknown_answer = bench.ask_both_ways(
+            table, whole, body, own_body=False
+        )
+        assert len(label) == whole.sum() and sorted(set(label)) == sorted(set(table.label))
+        np.testing.assert_array_equal(known, unknown)  # one performance per label
+        assert not np.any(unknown_answer == label)
+        assert np.quantile(known, 0.95) == pytest.approx(db.threshold, rel=1e-6)
+        _, own_known, *_ = bench.ask_both_ways(table, whole, body, own_body=True)
+        assert np.all(own_known <= known)
+        assert bench.main(["--db", str(db_path)]) == 0
+    out = capsys.readouterr().out
+    for name in set(label):
+        assert f"| {name}" in out
+    assert "one threshold: AUC 0.500" in out  # the same distances both ways
+    assert "a threshold per answer label: AUC" in out
 
 
 def test_stored_library_keeps_what_the_build_needs(tmp_path):
@@ -440,13 +517,38 @@ def test_query_cli_text_lists_the_likeliest_actions_and_motions(
     assert main(["query", str(clip), "--db", str(db_path), "--top", "3"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith(f"{answer['label']}  ({answer['motion']}, distance ")
+    assert lines[1] == (
+        f"  {answer['p_known']:.0%} of new performances of library motions lie as far or "
+        f"farther (threshold {answer['threshold']:.3f})"
+    )
     actions = [m["label"] for m in answer["labels"][:3]]
-    assert lines[1] == "  actions, likeliest first: " + ", ".join(actions)
+    assert lines[2] == "  actions, likeliest first: " + ", ".join(actions)
     then = [line for line in lines if line.startswith("  then ")]
     assert [line.split()[1] for line in then] == [m["label"] for m in answer["top"][1:]]
     assert [line.split("(")[1].split(",")[0] for line in then] == [
         m["motion"] for m in answer["top"][1:]
     ]
+    # a stricter share than a clip's p_known calls it unknown
+    farther = tmp_path / "farther.npz"
+    masks = _masks(item.motion, other_body, azimuth_deg=150.0, elevation_deg=5.0)
+    np.savez(farther, masks=masks, fps=30.0)
+    assert main(["query", str(farther), "--db", str(db_path), "--json"]) == 0
+    usual = json.loads(capsys.readouterr().out)
+    assert usual["accepted"] and usual["p_known"] < 0.97
+    share = round(usual["p_known"] + 0.02, 4)
+    argv = ["query", str(farther), "--db", str(db_path), "--false-rejection", str(share)]
+    assert main([*argv, "--json"]) == 0
+    stricter = json.loads(capsys.readouterr().out)
+    assert not stricter["accepted"] and stricter["p_known"] == usual["p_known"]
+    assert stricter["threshold"] < usual["threshold"] and stricter["label"] == usual["label"]
+    assert main(argv) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.endswith("(UNKNOWN: farther than the threshold)")
+    for bad in ("1.5", "0", "nan"):
+        assert main(["query", str(clip), "--db", str(db_path), "--false-rejection", bad]) == 2
+        captured = capsys.readouterr()
+        assert "false rejection must be between 0 and 1" in captured.err
+        assert "Traceback" not in captured.err and not captured.out
 
 
 def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, capsys):
@@ -481,6 +583,7 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
         "top",
         "labels",
         "threshold",
+        "p_known",
         "segments",
         "examined",
         "db_entries",

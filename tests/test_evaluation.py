@@ -17,8 +17,11 @@ from eigmotion.evaluation import (
     QueryOutcome,
     confusion_matrix,
     format_confusion,
+    format_operating_points,
+    format_rate,
     format_score,
     markdown_table,
+    operating_points,
     paired_comparison,
     proportion_interval,
     rejection_rates,
@@ -314,6 +317,38 @@ def test_score_reports_separation_only_when_it_can():
     assert score(with_distances[:4]).separation is None  # in-library only
     with pytest.raises(InvalidParameterError, match="distance"):
         outcome("walk", ["walk"], distance=-1.0)
+
+
+def test_operating_points_count_what_each_share_turns_away():
+    def judged(p_known, in_library):
+        return QueryOutcome("walk", ("walk",), p_known >= 0.05, in_library, 0.0, 0.3, p_known)
+
+    known = [judged(p, True) for p in (0.0, 0.04, 0.15, 0.5, 0.9)]
+    unknown = [judged(p, False) for p in (0.01, 0.1, 0.25, 0.6)]
+    points = operating_points(known + unknown, (0.05, 0.2, 0.55))
+    assert [p.share for p in points] == [0.05, 0.2, 0.55]
+    assert [(p.rates.false_rejected, p.rates.n_in_library) for p in points] == [
+        (2, 5),
+        (3, 5),
+        (4, 5),
+    ]
+    assert [(p.rates.rejected, p.rates.n_out_of_library) for p in points] == [
+        (1, 4),
+        (2, 4),
+        (3, 4),
+    ]
+    # at the database's own share, as the queries' accepted flags say
+    assert points[0].rates == rejection_rates(known + unknown)
+    table = format_operating_points(points).splitlines()
+    assert len(table) == 2 + 3 and "--false-rejection" in table[0]
+    cells = [cell.strip() for cell in table[3].split("|")[1:-1]]
+    assert cells == ["0.20", format_rate(3, 5), format_rate(2, 4)]
+    with pytest.raises(InvalidParameterError, match="p_known of every query"):
+        operating_points([*known, outcome("walk", ["walk"])])
+    with pytest.raises(InvalidParameterError, match="share must be in"):
+        operating_points(known, (0.0,))
+    with pytest.raises(InvalidParameterError, match="p_known must be in"):
+        judged(1.5, True)
 
 
 def test_markdown_table_pads_columns_and_checks_rows():

@@ -6,6 +6,12 @@ Examples::
     eigmotion query clip.mp4 --background empty.png --top 5 --bvh-out clip.bvh \\
         --replay-out clip_replay.mp4
     eigmotion query clip.mp4 --pose-out clip_pose.npz
+    eigmotion query clip.mp4 --false-rejection 0.2
+
+``--false-rejection`` trades known motions turned away for unknown ones rejected: the
+answer's ``p_known`` is the share of new performances of library motions that lie as
+far from the database as the clip or farther, and the clip is unknown when that share
+is below the one asked for (0.05 by default).
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.continuous_pose`): the output has one pose per clip
@@ -38,6 +44,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--top", type=int, default=3, help="distinct actions (labels) and motions to list"
     )
+    parser.add_argument(
+        "--false-rejection",
+        type=float,
+        metavar="SHARE",
+        help="call the motion unknown beyond the distance that turns away this share of "
+        "new performances of library motions (0-1; default the database's threshold, "
+        "0.05): a larger share turns away more unknown motions and more known ones",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
     parser.add_argument(
@@ -69,7 +83,12 @@ def run(args: argparse.Namespace) -> int:
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
         answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
         result, clip = db.query_clip(
-            args.clip, args.background, args.top, every_frame=answer_3d, progress=True
+            args.clip,
+            args.background,
+            args.top,
+            every_frame=answer_3d,
+            progress=True,
+            false_rejection=args.false_rejection,
         )
         if answer_3d:
             _write_replay(db, result, clip.masks, clip.fps, args)
@@ -79,6 +98,11 @@ def run(args: argparse.Namespace) -> int:
         best = result.best
         verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
         print(f"{best.label}  ({_described(best)}){verdict}")
+        if result.p_known is not None:
+            print(
+                f"  {result.p_known:.0%} of new performances of library motions lie as far "
+                f"or farther (threshold {result.threshold:.3f})"
+            )
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
         for match in result.top[1:]:
