@@ -270,6 +270,8 @@ def leave_one_motion_out_threshold(
 
 
 def _threshold(distances: np.ndarray | None, points: np.ndarray) -> float:
+    """:func:`leave_one_motion_out_threshold` from its distances (None for one
+    performance) and the (N, k) points."""
     if distances is None:
         points = np.asarray(points)
         return float(2.0 * np.linalg.norm(points - points.mean(axis=0), axis=1).max())
