@@ -63,8 +63,8 @@ database would), and every clip of that label asked.  Beside it, the false rejec
 of the clips asked with their label in the search (at the whole database's
 threshold), how well the best match's distance alone separates the two
 (:func:`~eigmotion.evaluation.separation`), and what each share of ``eigmotion query
---false-rejection`` would turn away of both (:func:`~eigmotion.evaluation.
-operating_points`).  About 30 s more.
+--false-rejection`` would turn away of both
+(:func:`~eigmotion.evaluation.operating_points`).  About 30 s more.
 
 Clips are rendered into ``--clips-dir`` (every seed's into the same folder: their
 names differ) when missing (about 4 min for 184 clips) and reused; making their
