@@ -135,9 +135,7 @@ def main(argv=None) -> int:
     per_label = {a: np.quantile(known[known_answer == a], 1.0 - FALSE_REJECTION)
                  for a in np.unique(known_answer)}  # fmt: skip
     known_over = known / np.array([per_label[a] for a in known_answer])
-    unknown_over = unknown / np.array(
-        [per_label.get(a, np.quantile(known, 1.0 - FALSE_REJECTION)) for a in unknown_answer]
-    )
+    unknown_over = unknown / np.array([per_label.get(a, limit) for a in unknown_answer])
     goal = f"goal >= {GOAL_REJECTED:.0%} at <= {FALSE_REJECTION:.0%}"
     for rule, a, b in (
         ("one threshold", known, unknown),
