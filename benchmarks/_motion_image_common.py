@@ -16,9 +16,8 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import numpy as np  # noqa: E402
 
-from eigmotion.asf_amc import read_amc  # noqa: E402
-from eigmotion.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
-from eigmotion.cameras import (  # noqa: E402
+from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
+from eigmotion.imaging.cameras import (  # noqa: E402
     Camera,
     fit_distance,
     intrinsics,
@@ -26,7 +25,8 @@ from eigmotion.cameras import (  # noqa: E402
     ring_rig,
     view_direction,
 )
-from eigmotion.motion import Motion  # noqa: E402
+from eigmotion.mocap.asf_amc import read_amc  # noqa: E402
+from eigmotion.mocap.motion import Motion  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CMU = REPO / "database" / "motions" / "cmu"
@@ -107,13 +107,13 @@ def composed_walks(
     views: Sequence[tuple[int, int, int]], seeds: Sequence[int]
 ) -> Iterator[tuple[tuple[int, int, int], int, np.ndarray, np.ndarray, np.ndarray]]:
     """The 1.5 s avatar walk filmed from each ``(width, height, ring index)`` view and
-    composed by :func:`eigmotion.scene.compose_scene` with each seed.
+    composed by :func:`eigmotion.synth.scene.compose_scene` with each seed.
 
     Yields ``(view, seed, true_masks, frames, background)``.
     """
-    from eigmotion.render import render_shaded
-    from eigmotion.scene import compose_scene
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.render import render_shaded
+    from eigmotion.imaging.silhouettes import render_masks
+    from eigmotion.synth.scene import compose_scene
 
     body = low_poly_avatar()
     vertices = walk_vertices(body, 30.0, WALK_FRAMES_30FPS)

@@ -3,7 +3,7 @@
 Every query clip is a library motion performed by a body shape the database was not
 built with (1.62 m / girth 1.2, 1.85 m / girth 0.9), filmed by one still camera over a
 textured background with a cast shadow, camouflaged clothing and sensor noise
-(:func:`eigmotion.clips.render_clip`, 320 × 240, 30 fps), written to ``.mp4`` with an
+(:func:`eigmotion.synth.clips.render_clip`, 320 × 240, 30 fps), written to ``.mp4`` with an
 image of the empty scene, and answered through ``eigmotion query CLIP --db DB --json
 --top 32 [--background EMPTY.png]`` (in-process, stdout captured), exactly as a user
 would run it.  Four suites:
@@ -24,7 +24,7 @@ would run it.  Four suites:
     People the database has never seen: the subject folds of ``loso`` plus folds that
     each hold out one authored variation of every label (with its mirror image), the
     query bodies dressed in the benchmark garments (none, skirt, long coat, loose
-    trousers: :data:`eigmotion.garments.BENCHMARK_GARMENTS`, never in a database),
+    trousers: :data:`eigmotion.body.garments.BENCHMARK_GARMENTS`, never in a database),
     random views and sizes as ``loso``.  Labels a fold leaves without any motion are
     out of the library there and should be rejected.
 ``unknown``
@@ -75,12 +75,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.build import BuildConfig  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
-from eigmotion.clips import clip_camera  # noqa: E402
-from eigmotion.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
-from eigmotion.evaluation import (  # noqa: E402
+from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
     format_operating_points,
     format_score,
@@ -88,7 +84,11 @@ from eigmotion.evaluation import (  # noqa: E402
     operating_points,
     score,
 )
-from eigmotion.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
+from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.mocap.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
+from eigmotion.retrieval.build import BuildConfig  # noqa: E402
+from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
+from eigmotion.synth.clips import clip_camera  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_RIG = REPO / "virtual_cameras" / "default.toml"
@@ -131,7 +131,7 @@ class ClipSpec:
     seed : int
         Seed of the scene (background, shadow, clothing, noise).
     outfit : tuple of str
-        Garments the body wears (:data:`eigmotion.garments.GARMENTS`).
+        Garments the body wears (:data:`eigmotion.body.garments.GARMENTS`).
     """
 
     motion: str
@@ -234,7 +234,7 @@ class ClipMaker:
         self._bodies: dict = {}
 
     def body(self, height_m: float, girth: float, outfit: tuple[str, ...] = ()):
-        from eigmotion.avatar import load_default_avatar
+        from eigmotion.body.avatar import load_default_avatar
 
         key = (height_m, girth, outfit)
         if key not in self._bodies:
@@ -266,9 +266,9 @@ class ClipMaker:
         return float(np.clip(0.5 * (1.0 - fill), SEEN_MARGIN, 0.45))
 
     def make(self, spec: ClipSpec, item: LibraryMotion) -> ClipFiles:
-        from eigmotion.clips import render_clip
-        from eigmotion.figures import save_image
-        from eigmotion.media import write_video
+        from eigmotion.imaging.figures import save_image
+        from eigmotion.imaging.media import write_video
+        from eigmotion.synth.clips import render_clip
 
         video = self.clips_dir / f"{spec.stem}.mp4"
         background = self.clips_dir / f"{spec.stem}_background.png"
@@ -390,7 +390,7 @@ def query(target: Target, clip: ClipFiles, use_background: bool) -> dict:
         ``query_s`` (wall time of the whole command, seconds); a command that fails
         gives ``ranked_labels [NO_ANSWER]``, ``accepted False`` and its ``error``.
     """
-    from eigmotion.cli import main
+    from eigmotion.cli.main import main
 
     argv = ["query", str(clip.video), "--db", target.uri, "--json"]
     if use_background:
@@ -579,7 +579,7 @@ def suite_holdout(args, basic: list[LibraryMotion], distractors, maker: ClipMake
     in library order, with its mirror image); query bodies wear the benchmark garments
     (none, skirt, long coat, loose trousers), never used by a database.
     """
-    from eigmotion.garments import BENCHMARK_GARMENTS
+    from eigmotion.body.garments import BENCHMARK_GARMENTS
 
     folds = subject_folds(basic, args) + variation_folds(basic, args)
     outfits = ((), *((name,) for name in BENCHMARK_GARMENTS))

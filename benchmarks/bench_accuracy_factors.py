@@ -18,7 +18,7 @@ Each is scored against the fold databases (the performance is new: what the hold
 benchmark measures) and against one database of the whole library (the performance is
 seen: only body, clothes, view and silhouettes differ), so the table splits the loss
 between a new performance and everything else.  True silhouettes are rendered with the
-clip's camera (fitted like :func:`eigmotion.clips.render_clip`) at 320×240, 30 fps.
+clip's camera (fitted like :func:`eigmotion.synth.clips.render_clip`) at 320×240, 30 fps.
 
 The database images are rendered once (``render_views``) and every fold database is
 built from them (``build_database(..., views=...)``), so a run costs one render of the
@@ -55,15 +55,15 @@ from bench_accuracy import (  # noqa: E402
     variation_folds,
 )
 
-from eigmotion.build import BuildConfig, ViewImages, render_views  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
-from eigmotion.clips import clip_camera  # noqa: E402
-from eigmotion.database import MotionDatabase, build_database  # noqa: E402
+from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
-from eigmotion.evaluation import markdown_table  # noqa: E402
-from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
-from eigmotion.library import LibraryMotion, load_library  # noqa: E402
-from eigmotion.silhouettes import render_masks  # noqa: E402
+from eigmotion.evaluation.scoring import markdown_table  # noqa: E402
+from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402
+from eigmotion.retrieval.build import BuildConfig, ViewImages, render_views  # noqa: E402
+from eigmotion.retrieval.database import MotionDatabase, build_database  # noqa: E402
+from eigmotion.synth.clips import clip_camera  # noqa: E402
 
 CONDITIONS = ("db body, db view", "db body, clip view", "clip body", "video")
 
@@ -97,7 +97,7 @@ class QueryMasks:
         items: dict[str, LibraryMotion],
         config: BuildConfig,
     ):
-        from eigmotion.avatar import load_default_avatar
+        from eigmotion.body.avatar import load_default_avatar
 
         self.maker, self.rig, self.items, self.config = maker, rig, items, config
         self.db_body = load_default_avatar()
@@ -115,8 +115,8 @@ class QueryMasks:
             body = self.maker.body(spec.height_m, spec.girth).dressed(spec.outfit)
             view = (spec.azimuth_deg, spec.elevation_deg)
             return true_masks(item, body, *view, spec.margin), CLIP_FPS
-        from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX
-        from eigmotion.video import SilhouetteConfig, load_clip_masks
+        from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
+        from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks
 
         clip = self.maker.make(spec, item)
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)

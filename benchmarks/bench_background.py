@@ -4,13 +4,13 @@ Library motions, some performed in place (waving, lifting, covering the head, pi
 up, punching, sitting down, turning on the spot) and some travelling (walking,
 running, jumping forwards), on the default avatar, filmed by one still camera
 (azimuths ``--azimuths``, elevation 10°) over a textured background with a cast
-shadow, camouflaged clothing and sensor noise (:func:`eigmotion.clips.render_clip`,
+shadow, camouflaged clothing and sensor noise (:func:`eigmotion.synth.clips.render_clip`,
 320 × 240, 30 fps, scene seeds ``0 .. --seeds - 1``).  The person is in view from the
 first frame to the last: there is never an empty frame.
 
-Each clip is cut out as a query cuts it (:meth:`eigmotion.database.MotionDatabase.
+Each clip is cut out as a query cuts it (:meth:`eigmotion.retrieval.database.MotionDatabase.
 query_clip`): the frames the motion image samples (15 per second), segmented at the
-query working size (longer side 160 px) by :func:`eigmotion.video.extract_silhouettes`
+query working size (longer side 160 px) by :func:`eigmotion.segmentation.video.extract_silhouettes`
 with the background
 
 * ``given`` — the image of the empty scene (the reference);
@@ -45,10 +45,10 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from _motion_image_common import iou, ratio  # noqa: E402
 
-from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX  # noqa: E402
-from eigmotion.media import sample_indices  # noqa: E402
-from eigmotion.motion_image import MotionImageConfig  # noqa: E402
-from eigmotion.video import SilhouetteConfig, extract_silhouettes  # noqa: E402
+from eigmotion.imaging.media import sample_indices  # noqa: E402
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX  # noqa: E402
+from eigmotion.retrieval.motion_image import MotionImageConfig  # noqa: E402
+from eigmotion.segmentation.video import SilhouetteConfig, extract_silhouettes  # noqa: E402
 
 IN_PLACE = (
     "wave_14_24",
@@ -70,8 +70,8 @@ WIDTH_PX, HEIGHT_PX, CLIP_FPS, ELEVATION_DEG = 320, 240, 30.0, 10.0
 
 def render(name: str, azimuth_deg: float, seed: int, clips_dir: Path | None, avatar):
     """(frames, background, true masks) of one clip, from ``clips_dir`` when stored."""
-    from eigmotion.clips import render_clip
-    from eigmotion.library import find_motion
+    from eigmotion.mocap.library import find_motion
+    from eigmotion.synth.clips import render_clip
 
     path = None if clips_dir is None else clips_dir / f"{name}_az{azimuth_deg:g}_s{seed}.npz"
     if path is not None and path.is_file():
@@ -96,7 +96,7 @@ def render(name: str, azimuth_deg: float, seed: int, clips_dir: Path | None, ava
 
 def warm_up() -> None:
     """Compile the silhouette stages once, so that no clip's time includes it."""
-    from eigmotion.scene import compose_scene, stick_figure_masks
+    from eigmotion.synth.scene import compose_scene, stick_figure_masks
 
     frames, _ = compose_scene(None, stick_figure_masks(8, 120, 160), np.random.default_rng(0))
     for _, _, method in METHODS:
@@ -105,7 +105,8 @@ def warm_up() -> None:
 
 def shrunk_truth(truth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """True masks (F, H, W) averaged over whole blocks down to ``shape`` (rows, cols),
-    as :func:`eigmotion.video.extract_silhouettes` shrinks the frames; >= half: person."""
+    as :func:`eigmotion.segmentation.video.extract_silhouettes` shrinks the frames;
+    >= half: person."""
     rows, cols = shape
     factor = truth.shape[1] // rows
     blocks = truth[:, : rows * factor, : cols * factor].reshape(-1, rows, factor, cols, factor)
@@ -128,7 +129,7 @@ def main(argv=None) -> None:
     if args.clips_dir is not None:
         args.clips_dir.mkdir(parents=True, exist_ok=True)
 
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     avatar = load_default_avatar()
     sample_fps = MotionImageConfig().sample_fps

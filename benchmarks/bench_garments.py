@@ -1,6 +1,6 @@
 """Garments: their size, their cost in the build, and how well they follow the body.
 
-For the plain body and every garment of :data:`eigmotion.garments.GARMENTS` (worn
+For the plain body and every garment of :data:`eigmotion.body.garments.GARMENTS` (worn
 alone) prints one table: faces and vertices the garment adds, the time to fit it,
 the faces of the low-poly dressed avatar the build renders, skinning and CPU
 silhouette speed of that low-poly avatar on a walk (one core, one 160×120 view), and
@@ -31,12 +31,12 @@ import numpy as np  # noqa: E402
 from _timing import best_time  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
-from eigmotion.avatar import Avatar, load_default_avatar  # noqa: E402
-from eigmotion.build import hull_points  # noqa: E402
-from eigmotion.cameras import virtual_rig  # noqa: E402
-from eigmotion.garments import GARMENTS, DressedAvatar, garment_mesh  # noqa: E402
-from eigmotion.library import find_motion  # noqa: E402
-from eigmotion.silhouettes import render_masks  # noqa: E402
+from eigmotion.body.avatar import Avatar, load_default_avatar  # noqa: E402
+from eigmotion.body.garments import GARMENTS, DressedAvatar, garment_mesh  # noqa: E402
+from eigmotion.imaging.cameras import virtual_rig  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.mocap.library import find_motion  # noqa: E402
+from eigmotion.retrieval.build import hull_points  # noqa: E402
 
 MOTIONS = ("walk_02_01", "kick_135_04")
 
@@ -93,8 +93,8 @@ def key_frames(body: Avatar, anim, kind: str) -> np.ndarray:
 
 
 def figure(body: Avatar, path: str) -> None:
-    from eigmotion.figures import contact_sheet, save_image
-    from eigmotion.render import BODY_RGB, Renderer, frame_cameras
+    from eigmotion.imaging.figures import contact_sheet, save_image
+    from eigmotion.imaging.render import BODY_RGB, Renderer, frame_cameras
 
     images, labels = [], []
     with Renderer() as renderer:

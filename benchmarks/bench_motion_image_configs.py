@@ -7,8 +7,8 @@ seen by 8 fitted virtual cameras (azimuth 0, 45 … 315°, elevation 10°, 128×
 body (1.85 m, girth 1.15) seen from between the database views (azimuth 22.5 + 45 k,
 elevation 5°) by a camera 1.6× further than needed and aimed 0.3 m off (the person
 small and off-centre), 160×120, windows shifted by 0.25 s.  "clean" queries use the
-rendered masks, "video" queries the masks :func:`eigmotion.video.extract_silhouettes`
-cuts out of :func:`eigmotion.scene.compose_scene` videos of those renders
+rendered masks, "video" queries the masks :func:`eigmotion.segmentation.video.extract_silhouettes`
+cuts out of :func:`eigmotion.synth.scene.compose_scene` videos of those renders
 (background given).
 
 Per configuration: "label" = the nearest database window (Euclidean distance on the
@@ -39,15 +39,15 @@ from pathlib import Path
 import numpy as np
 from _motion_image_common import PLAIN_CONFIG, int_list, offset_camera, ratio
 
-from eigmotion.avatar import load_default_avatar
-from eigmotion.build import window_bounds
-from eigmotion.cameras import ring_rig
+from eigmotion.body.avatar import load_default_avatar
 from eigmotion.errors import VideoError
-from eigmotion.library import load_library
-from eigmotion.motion_image import MotionImageConfig, motion_image
-from eigmotion.scene import compose_scene
-from eigmotion.silhouettes import render_masks
-from eigmotion.video import extract_silhouettes
+from eigmotion.imaging.cameras import ring_rig
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.library import load_library
+from eigmotion.retrieval.build import window_bounds
+from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image
+from eigmotion.segmentation.video import extract_silhouettes
+from eigmotion.synth.scene import compose_scene
 
 FPS = 30.0
 WINDOW_S, STEP_S, QUERY_OFFSET_S = 1.5, 0.5, 0.25

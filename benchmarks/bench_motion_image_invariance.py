@@ -6,7 +6,7 @@ clips that show the same motion, and the same with ``frame="image"`` (the patent
 crop of the whole clip) as the baseline; the ratio is image-frame distance over
 person-frame distance (above 1: the person frame is the more invariant).
 
-* Stick figure (:func:`eigmotion.scene.stick_figure_masks`, 160×120, ``--body-px``
+* Stick figure (:func:`eigmotion.synth.scene.stick_figure_masks`, 160×120, ``--body-px``
   tall, 45 frames at 30 fps) against the same masks scaled by ``--scale`` and pasted
   30 px down / 90 px right into a 260×200 frame; with recency and uniform weights.
 * Walking on the spot against walking across at 60 px/s.
@@ -38,8 +38,8 @@ from _motion_image_common import (
     walk_vertices,
 )
 
-from eigmotion.motion_image import MotionImageConfig, motion_image
-from eigmotion.scene import stick_figure_masks
+from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image
+from eigmotion.synth.scene import stick_figure_masks
 
 
 def shift_and_scale(masks: np.ndarray, scale: float, offset_rc, shape_hw) -> np.ndarray:
@@ -109,7 +109,7 @@ def main(argv=None) -> None:
         clip = walk(int(round(1.5 * fps)) + 1, fps=fps)
         rows.append((f"{fps:g} fps vs 24 fps", distances(clip, reference, fps, 24.0)))
     if not args.no_avatar:
-        from eigmotion.silhouettes import render_masks
+        from eigmotion.imaging.silhouettes import render_masks
 
         body = low_poly_avatar()
         v30 = walk_vertices(body, 30.0, WALK_FRAMES_30FPS)

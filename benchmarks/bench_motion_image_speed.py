@@ -4,7 +4,7 @@ The avatar walks (CMU 02_01, low-poly default avatar); its silhouettes are rende
 by the CPU rasteriser from the side (a 4-view ring at 10° elevation, fitted to the
 motion, ``--mask-size`` pixels square), as a ``--frames``-frame clip at each
 ``--fps`` (default 120 and 30: 0.75 s and 3 s of walking, sampled down to 15 frames/s
-by the motion image).  For each configuration, :func:`eigmotion.motion_image.
+by the motion image).  For each configuration, :func:`eigmotion.retrieval.motion_image.
 motion_image` is called on the clip for ``--seconds`` seconds in ``--rounds``
 interleaved rounds (the best round counts, so that the load of a shared machine
 hits every configuration alike); the table gives the frames the clip had and used,
@@ -37,8 +37,8 @@ from _motion_image_common import (  # noqa: E402
     walk_vertices,
 )
 
-from eigmotion.motion_image import MotionImageConfig, motion_image, sample_indices  # noqa: E402
-from eigmotion.silhouettes import render_masks  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image, sample_indices  # noqa: E402
 
 #: (row name, MotionImageConfig arguments); the last row is the baseline.
 CONFIGS = (

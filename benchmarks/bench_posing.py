@@ -31,9 +31,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from _timing import best_time  # noqa: E402
 
-from eigmotion.asf_amc import read_amc  # noqa: E402
-from eigmotion.avatar import load_default_avatar, skinning_transforms  # noqa: E402
-from eigmotion.retarget import retarget  # noqa: E402
+from eigmotion.body.avatar import load_default_avatar, skinning_transforms  # noqa: E402
+from eigmotion.body.retarget import retarget  # noqa: E402
+from eigmotion.mocap.asf_amc import read_amc  # noqa: E402
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
 

@@ -1,10 +1,10 @@
 """Silhouette rendering speed: the CPU rasteriser against pyrender, on one core.
 
 Renders the same posed avatar frames through the same camera (128×128 by default)
-with :func:`eigmotion.silhouettes.render_masks` (full mesh and a decimated copy) and
-with :func:`eigmotion.render.render_masks_gl` (pyrender, EGL), and prints one table:
+with :func:`eigmotion.imaging.silhouettes.render_masks` (full mesh and a decimated copy) and
+with :func:`eigmotion.imaging.render.render_masks_gl` (pyrender, EGL), and prints one table:
 masks per second, the speed ratio against the GL render of the full mesh, and the
-IoU of every mask against that GL render.  Then, if :mod:`eigmotion.motion_image`
+IoU of every mask against that GL render.  Then, if :mod:`eigmotion.retrieval.motion_image`
 is there, motion images per second from the CPU masks.
 
 Poses are the first ``--frames`` frames of a CMU clip retargeted onto the default
@@ -39,12 +39,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.avatar import load_default_avatar  # noqa: E402
-from eigmotion.cameras import virtual_rig  # noqa: E402
-from eigmotion.canonical import canonical_skeleton  # noqa: E402
-from eigmotion.kinematics import forward_kinematics  # noqa: E402
-from eigmotion.motion import Motion  # noqa: E402
-from eigmotion.silhouettes import render_masks  # noqa: E402
+from eigmotion.body.avatar import load_default_avatar  # noqa: E402
+from eigmotion.imaging.cameras import virtual_rig  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.mocap.canonical import canonical_skeleton  # noqa: E402
+from eigmotion.mocap.kinematics import forward_kinematics  # noqa: E402
+from eigmotion.mocap.motion import Motion  # noqa: E402
 
 
 def random_pose_transforms(n_frames: int, max_angle_deg: float, seed: int):
@@ -59,8 +59,8 @@ def random_pose_transforms(n_frames: int, max_angle_deg: float, seed: int):
 
 def cmu_pose_transforms(clip: str, n_frames: int, avatar):
     """Joint world rotations (F, J, 3, 3) and positions (F, J, 3) of a CMU clip."""
-    from eigmotion.asf_amc import read_amc
-    from eigmotion.retarget import retarget
+    from eigmotion.body.retarget import retarget
+    from eigmotion.mocap.asf_amc import read_amc
 
     cmu = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{clip}.amc", cmu / "asf" / f"{clip.split('_')[0]}.asf")
@@ -138,7 +138,7 @@ def main() -> int:
         rows.append((label, mesh, rate, masks))
     gl_masks = None
     try:
-        from eigmotion.render import default_renderer, render_masks_gl
+        from eigmotion.imaging.render import default_renderer, render_masks_gl
     except ImportError as exc:
         print(f"(no GL row: {exc})")
     else:
@@ -166,10 +166,10 @@ def main() -> int:
         print(line)
 
     try:
-        module = importlib.import_module("eigmotion.motion_image")
+        module = importlib.import_module("eigmotion.retrieval.motion_image")
         motion_image = module.motion_image
     except (ImportError, AttributeError):
-        print("motion images/s: skipped (eigmotion.motion_image.motion_image not available)")
+        print("motion images/s: skipped (retrieval.motion_image.motion_image not available)")
         return 0
     clip = rows[1][3]  # decimated-mesh CPU masks, the whole clip
     config = module.MotionImageConfig()

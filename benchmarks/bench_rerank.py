@@ -20,8 +20,8 @@ where the holdout benchmark gave 131 and 165 (the engine before pace counted), a
 and 166 where it gave 140 and 164 (with pace).  Use it to choose settings, and the holdout
 benchmark to report them.
 
-Each ``--variant`` sets query-time constants of :mod:`eigmotion.sequences` or
-:mod:`eigmotion.database` (``NAME=VALUE,NAME=VALUE``) for one run; the shipped
+Each ``--variant`` sets query-time constants of :mod:`eigmotion.retrieval.sequences` or
+:mod:`eigmotion.retrieval.database` (``NAME=VALUE,NAME=VALUE``) for one run; the shipped
 settings run first and are the baseline every variant is compared with, clip by clip:
 the clips a variant gained and lost, and the exact McNemar test's p-value of that split
 (below 0.05: unlikely to be chance)::
@@ -40,7 +40,7 @@ image and prints, per label, how the estimated silhouettes agree with those
 (:func:`mask_agreement`): where the estimate loses recognition, and what it misses.
 
 ``--silhouettes NAME=VALUE`` (repeatable) cuts the clips with a field of
-:class:`~eigmotion.video.SilhouetteConfig` changed from what a query uses (the working
+:class:`~eigmotion.segmentation.video.SilhouetteConfig` changed from what a query uses (the working
 size ``work_max_side_px``, the thresholds, the shadow test ...), to compare silhouette
 settings by what they do to recognition; VALUE is JSON (``shadow_ratio=[0.35,0.85]``)
 or text (``background=median``).
@@ -49,7 +49,7 @@ or text (``background=median``).
 part: its label), and each clip followed by another of a different label (two parts;
 the partner drawn with a fixed seed, both folds out of the search).  Per run: the
 share of frames whose segment has their part's label, the share given another
-specific action (:func:`~eigmotion.evaluation.segment_agreement`), the segmental F1
+specific action (:func:`~eigmotion.evaluation.scoring.segment_agreement`), the segmental F1
 at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` gives each
 window its nearest entry's label (the clip's answer where every window has the same).
 About 20 s per run.
@@ -58,13 +58,13 @@ About 20 s per run.
 of the holdout suite's few: each label is left out of the search in turn (every
 motion of that label, and the clip's fold), the "unknown" threshold and the quantiles
 behind ``p_known`` calibrated again on the entries left
-(:func:`~eigmotion.database.leave_one_motion_out_distances`, as a build of that
+(:func:`~eigmotion.retrieval.database.leave_one_motion_out_distances`, as a build of that
 database would), and every clip of that label asked.  Beside it, the false rejection
 of the clips asked with their label in the search (at the whole database's
 threshold), how well the best match's distance alone separates the two
-(:func:`~eigmotion.evaluation.separation`), and what each share of ``eigmotion query
+(:func:`~eigmotion.evaluation.scoring.separation`), and what each share of ``eigmotion query
 --false-rejection`` would turn away of both
-(:func:`~eigmotion.evaluation.operating_points`).  About 30 s more.
+(:func:`~eigmotion.evaluation.scoring.operating_points`).  About 30 s more.
 
 Clips are rendered into ``--clips-dir`` (every seed's into the same folder: their
 names differ) when missing (about 4 min for 184 clips) and reused; making their
@@ -98,18 +98,11 @@ from bench_accuracy import (  # noqa: E402
     variation_folds,
 )
 
-import eigmotion.database as database_module  # noqa: E402
-import eigmotion.sequences as sequences_module  # noqa: E402
-from eigmotion.database import (  # noqa: E402
-    DEFAULT_DB_PATH,
-    QUERY_SILHOUETTE_SIDE_PX,
-    THRESHOLD_QUANTILE,
-    MotionDatabase,
-    calibration_quantiles,
-    leave_one_motion_out_distances,
-)
+import eigmotion.retrieval.database as database_module  # noqa: E402
+import eigmotion.retrieval.sequences as sequences_module  # noqa: E402
+from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
-from eigmotion.evaluation import (  # noqa: E402
+from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
     SegmentAgreement,
     format_operating_points,
@@ -121,10 +114,17 @@ from eigmotion.evaluation import (  # noqa: E402
     segment_agreement,
     separation,
 )
-from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
-from eigmotion.library import FILLER_LABELS, load_library  # noqa: E402
-from eigmotion.search import BruteForceIndex  # noqa: E402
-from eigmotion.video import SilhouetteConfig, load_clip_masks  # noqa: E402
+from eigmotion.mocap.library import FILLER_LABELS, load_library  # noqa: E402
+from eigmotion.retrieval.database import (  # noqa: E402
+    DEFAULT_DB_PATH,
+    QUERY_SILHOUETTE_SIDE_PX,
+    THRESHOLD_QUANTILE,
+    MotionDatabase,
+    calibration_quantiles,
+    leave_one_motion_out_distances,
+)
+from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
+from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks  # noqa: E402
 
 #: The constants a variant may set: those read while a query is answered, never
 #: those a database was built with.
@@ -482,7 +482,7 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     """Each run's top-1 and top-k beside the first (shipped) run's on the same clips.
 
     Beside each count, the ratio to the shipped one and the clips it gained and lost,
-    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.
+    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.scoring.
     paired_comparison`): a variant that gains 7 clips and loses 3 has p = 0.34, no
     evidence of a better setting.  Then top-1 per label.
 

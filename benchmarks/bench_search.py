@@ -38,8 +38,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.keys import Quantizer  # noqa: E402
-from eigmotion.search import BruteForceIndex, SearchResult, TreeIndex  # noqa: E402
+from eigmotion.retrieval.keys import Quantizer  # noqa: E402
+from eigmotion.retrieval.search import BruteForceIndex, SearchResult, TreeIndex  # noqa: E402
 
 CLUSTER = 500
 
@@ -244,8 +244,8 @@ def bench_store(n: int, n_dims: int, rng) -> None:
     import tempfile
     from pathlib import Path
 
-    from eigmotion.eigenspace import Eigenspace
-    from eigmotion.store import Store
+    from eigmotion.retrieval.eigenspace import Eigenspace
+    from eigmotion.retrieval.store import Store
 
     images = rng.standard_normal((200, 4096)).astype(np.float32)
     images /= np.linalg.norm(images, axis=1, keepdims=True)
@@ -288,7 +288,7 @@ def bench_eigenspace(n_rows: int, n_features: int, k: int, rng) -> None:
     """The Gram-matrix eigenspace against scikit-learn's PCA solvers (CPU time)."""
     from sklearn.decomposition import PCA
 
-    from eigmotion.eigenspace import Eigenspace
+    from eigmotion.retrieval.eigenspace import Eigenspace
 
     basis = rng.standard_normal((60, n_features))
     weights = rng.standard_normal((n_rows, 60)) / np.arange(1, 61)

@@ -14,10 +14,10 @@ with every motion left in the fold three ways:
     motion's distance its nearest entry's (whole motion or window, any view and body):
     plain nearest motion, as the retrieval engine finds it before its decision rule.
 ``sequence``
-    Dynamic time warping (:func:`eigmotion.sequences.sequence_distances`) between the
+    Dynamic time warping (:func:`eigmotion.retrieval.sequences.sequence_distances`) between the
     clip's silhouette sequence and each rendering's (every body and view) as
-    :func:`eigmotion.sequences.sequence_frames` makes them, in the coordinates the
-    engine compares (:func:`eigmotion.sequences.pose_coordinates`, the pose
+    :func:`eigmotion.retrieval.sequences.sequence_frames` makes them, in the coordinates the
+    engine compares (:func:`eigmotion.retrieval.sequences.pose_coordinates`, the pose
     eigenspace fitted on the fold's frames); the motion's distance its nearest
     rendering's.
 ``fused``
@@ -26,7 +26,7 @@ with every motion left in the fold three ways:
 
 Every motion of the fold and every view is compared: the upper bound of what the
 engine's cheaper form of the same ranking gets (the candidate motions the search
-reached, views near the retrieved one; :mod:`eigmotion.sequences`).
+reached, views near the retrieved one; :mod:`eigmotion.retrieval.sequences`).
 
 It prints top-1 and top-3 label accuracy of each (top-3: the true label among the
 first three distinct labels) and each one's ratio to the motion image's, from the same
@@ -63,22 +63,22 @@ from bench_accuracy_factors import (  # noqa: E402
     run_with_clips,
 )
 
-from eigmotion.build import BuildConfig, build_body, pose_for_views, view_images  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
-from eigmotion.eigenspace import Eigenspace  # noqa: E402
+from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
-from eigmotion.evaluation import markdown_table  # noqa: E402
-from eigmotion.garments import BENCHMARK_GARMENTS  # noqa: E402
-from eigmotion.library import LibraryMotion, load_library  # noqa: E402
-from eigmotion.motion_image import ClipMotionImages  # noqa: E402
-from eigmotion.sequences import (  # noqa: E402
+from eigmotion.evaluation.scoring import markdown_table  # noqa: E402
+from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402
+from eigmotion.retrieval.build import BuildConfig, build_body, pose_for_views, view_images  # noqa: E402
+from eigmotion.retrieval.eigenspace import Eigenspace  # noqa: E402
+from eigmotion.retrieval.motion_image import ClipMotionImages  # noqa: E402
+from eigmotion.retrieval.sequences import (  # noqa: E402
     SEQUENCE_WEIGHT,
     fit_pose_space,
     pose_coordinates,
     sequence_distances,
     sequence_frames,
 )
-from eigmotion.silhouettes import render_masks  # noqa: E402
 
 METHODS = ("motion image", "sequence", "fused")
 
@@ -182,8 +182,8 @@ def run(args: argparse.Namespace) -> None:
 
     from tqdm import tqdm
 
-    from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX
-    from eigmotion.video import SilhouetteConfig, load_clip_masks
+    from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
+    from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks
 
     silhouettes = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
     hits = {method: [] for method in METHODS}  # (top-1, top-3) per in-library clip

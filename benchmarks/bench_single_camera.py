@@ -6,15 +6,15 @@ played at one speed, its second at another: 0.8× then 1.2×, or the reverse), f
 by one still camera from a view halfway between the database rig's cameras (azimuth
 half a step off; elevation between two rows, or 10° for a single row) over a textured
 background with a cast shadow, camouflaged clothing and sensor noise
-(:func:`eigmotion.clips.render_clip`, 320 × 240, 30 fps).  The silhouettes come from
-background subtraction against the empty scene (:func:`eigmotion.video.
+(:func:`eigmotion.synth.clips.render_clip`, 320 × 240, 30 fps).  The silhouettes come from
+background subtraction against the empty scene (:func:`eigmotion.segmentation.video.
 extract_silhouettes`; ``--masks true`` takes the renderer's instead).
 
 Each clip is answered by the database (:meth:`MotionDatabase.query_masks`), then:
 
-* **continuous pose** — :func:`eigmotion.continuous_pose.continuous_pose`: the matched
+* **continuous pose** — :func:`eigmotion.pose.continuous_pose.continuous_pose`: the matched
   motion aligned to the clip frame by frame;
-* **linear stretch** — :func:`eigmotion.replay.replay`: the matched window stretched
+* **linear stretch** — :func:`eigmotion.pose.replay.replay`: the matched window stretched
   over the clip (the baseline; the matched view).
 
 Both are compared with the true joints of the rendered body (the avatar animation of
@@ -36,7 +36,7 @@ Run from the repository root::
     python benchmarks/bench_single_camera.py --config speed_weight=0   # an ablation
 
 ``--config NAME=VALUE`` (repeatable) changes one field of
-:class:`eigmotion.continuous_pose.ContinuousPoseConfig` (numbers; tuples as
+:class:`eigmotion.pose.continuous_pose.ContinuousPoseConfig` (numbers; tuples as
 ``scales=0.9,1.0,1.1``).
 
 Without ``--db`` the default database (``database/eigmotion.fs``) is used; if it is
@@ -60,15 +60,15 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.avatar import load_default_avatar  # noqa: E402
-from eigmotion.cameras import CameraRig, load_rig  # noqa: E402
-from eigmotion.continuous_pose import ContinuousPoseConfig, continuous_pose  # noqa: E402
-from eigmotion.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
-from eigmotion.kinematics import forward_kinematics  # noqa: E402
-from eigmotion.library import load_library  # noqa: E402
-from eigmotion.replay import replay  # noqa: E402
-from eigmotion.retarget import retarget  # noqa: E402
-from eigmotion.rotations import axis_rotation  # noqa: E402
+from eigmotion.body.avatar import load_default_avatar  # noqa: E402
+from eigmotion.body.retarget import retarget  # noqa: E402
+from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.mocap.kinematics import forward_kinematics  # noqa: E402
+from eigmotion.mocap.library import load_library  # noqa: E402
+from eigmotion.mocap.rotations import axis_rotation  # noqa: E402
+from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose  # noqa: E402
+from eigmotion.pose.replay import replay  # noqa: E402
+from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 RING6 = REPO / "virtual_cameras" / "ring6.toml"
@@ -167,8 +167,8 @@ def open_database(path: str | None, workdir: Path) -> tuple[MotionDatabase, str]
 
 
 def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
-    from eigmotion.clips import render_clip, time_warped
-    from eigmotion.video import extract_silhouettes
+    from eigmotion.segmentation.video import extract_silhouettes
+    from eigmotion.synth.clips import render_clip, time_warped
 
     azimuths, elevations = halfway_views(rig)
     azimuth_deg = float(azimuths[(5 * j + 1) % len(azimuths)])

@@ -36,19 +36,19 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.avatar import load_default_avatar  # noqa: E402
-from eigmotion.cameras import intrinsics, look_at  # noqa: E402
-from eigmotion.library import find_motion  # noqa: E402
-from eigmotion.retarget import retarget  # noqa: E402
-from eigmotion.silhouettes import render_masks  # noqa: E402
-from eigmotion.tracker.body import avatar_bodies  # noqa: E402
-from eigmotion.tracker.dictionary import (  # noqa: E402
+from eigmotion.body.avatar import load_default_avatar  # noqa: E402
+from eigmotion.body.retarget import retarget  # noqa: E402
+from eigmotion.imaging.cameras import intrinsics, look_at  # noqa: E402
+from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
+from eigmotion.mocap.library import find_motion  # noqa: E402
+from eigmotion.tracking.body import avatar_bodies  # noqa: E402
+from eigmotion.tracking.dictionary import (  # noqa: E402
     dictionary_from_sequences,
     mean_heading_deg,
     posture_sequence,
     yaw_rotation,
 )
-from eigmotion.tracker.tracker import SilhouetteTracker, TrackerConfig  # noqa: E402
+from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig  # noqa: E402
 
 DICTIONARY_MOTIONS = ("walk_02_01", "walk_16_15", "turn_16_17")
 #: (library motion, heading at the start in degrees): walking along the walkway (+X).
@@ -84,14 +84,15 @@ def stage(name: str, heading_deg: float, subject) -> tuple[np.ndarray, np.ndarra
 def video_frames(masks: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Masks → RGB frames over a textured background, with shadow and noise; and the
     empty background."""
-    from eigmotion.scene import compose_scene
+    from eigmotion.synth.scene import compose_scene
 
     return compose_scene(None, masks, np.random.default_rng(seed))
 
 
 def cut_out(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """Silhouettes by background subtraction (:func:`eigmotion.video.extract_silhouettes`)."""
-    from eigmotion.video import extract_silhouettes
+    """Silhouettes by background subtraction
+    (:func:`eigmotion.segmentation.video.extract_silhouettes`)."""
+    from eigmotion.segmentation.video import extract_silhouettes
 
     return extract_silhouettes(frames, background)
 
@@ -101,8 +102,8 @@ def save_figure(path: str, tracker: SilhouetteTracker, result, views: list, clip
     each view cropped around the person."""
     import cv2
 
-    from eigmotion.figures import contact_sheet, save_image
-    from eigmotion.tracker.overlay import draw_outline
+    from eigmotion.imaging.figures import contact_sheet, save_image
+    from eigmotion.tracking.overlay import draw_outline
 
     frames = np.linspace(0, result.n_estimates - 1, 6).round().astype(int)
     panels, labels = [], []

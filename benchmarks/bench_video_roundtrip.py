@@ -3,12 +3,12 @@ written to ``.mp4`` / ``.avi`` and read back.
 
 The avatar walks (CMU 02_01, 1.5 s at 30 fps, low-poly default avatar), filmed from
 its side (``--views``, default azimuth 90 and 270 at 160×120 and azimuth 90 at
-320×240) and composed by :func:`eigmotion.scene.compose_scene` with seeds
-``0 .. --seeds - 1``.  Three default motion images (:func:`eigmotion.motion_image.
+320×240) and composed by :func:`eigmotion.synth.scene.compose_scene` with seeds
+``0 .. --seeds - 1``.  Three default motion images (:func:`eigmotion.retrieval.motion_image.
 motion_image`) per clip: of the true masks ("truth"), of the masks
-:func:`eigmotion.video.extract_silhouettes` cuts from the composed frames ("direct",
-background estimated), and of the masks :func:`eigmotion.video.load_clip_masks`
-cuts from the file that :func:`eigmotion.media.write_video` made of those frames
+:func:`eigmotion.segmentation.video.extract_silhouettes` cuts from the composed frames ("direct",
+background estimated), and of the masks :func:`eigmotion.segmentation.video.load_clip_masks`
+cuts from the file that :func:`eigmotion.imaging.media.write_video` made of those frames
 ("file", background estimated).  The table gives the cosine distances between
 them, and truth-vs-file as a ratio of truth-vs-direct: how much further from the
 true motion image the file takes the silhouettes than cutting them out already does.
@@ -30,9 +30,9 @@ from pathlib import Path
 import numpy as np
 from _motion_image_common import WALK_VIEWS, composed_walks, cosine_distance, ratio, walk_views
 
-from eigmotion.media import write_video
-from eigmotion.motion_image import motion_image
-from eigmotion.video import extract_silhouettes, load_clip_masks
+from eigmotion.imaging.media import write_video
+from eigmotion.retrieval.motion_image import motion_image
+from eigmotion.segmentation.video import extract_silhouettes, load_clip_masks
 
 
 def main(argv=None) -> None:

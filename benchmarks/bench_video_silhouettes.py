@@ -3,13 +3,13 @@
 The avatar walks (CMU 02_01, 1.5 s at 30 fps, low-poly default avatar), rendered
 shaded by pyrender (no floor) and as true masks by the CPU rasteriser, filmed from
 its side (azimuth 90 and 270, elevation 10°) and from the front (azimuth 0: walking
-towards the camera), and composed by :func:`eigmotion.scene.compose_scene` (textured
+towards the camera), and composed by :func:`eigmotion.synth.scene.compose_scene` (textured
 wall and tiled floor, cast shadow, a camouflage band of 25 % of the body height,
 blur σ 0.7 px, noise σ 3 levels) with seeds ``0 .. --seeds - 1``.  The frames are used
 as composed ("direct") and after writing them to ``.mp4`` with
-:func:`eigmotion.media.write_video` and reading them back ("mp4").
+:func:`eigmotion.imaging.media.write_video` and reading them back ("mp4").
 
-:func:`eigmotion.video.extract_silhouettes` cuts the person out with the background
+:func:`eigmotion.segmentation.video.extract_silhouettes` cuts the person out with the background
 given ("given"), estimated by the refined temporal median ("median"), and — the
 baseline — estimated by OpenCV's MOG2 ("mog2").  The table gives the IoU against the
 true masks (mean over the clip; then mean and minimum over the seeds), the seconds
@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 from _motion_image_common import WALK_VIEWS, composed_walks, iou, ratio, walk_views
 
-from eigmotion.media import read_frames, write_video
-from eigmotion.video import SilhouetteConfig, extract_silhouettes
+from eigmotion.imaging.media import read_frames, write_video
+from eigmotion.segmentation.video import SilhouetteConfig, extract_silhouettes
 
 #: (row name, background given?, SilhouetteConfig.background); the last is the baseline.
 METHODS = (("given", True, "median"), ("median", False, "median"), ("mog2", False, "mog2"))

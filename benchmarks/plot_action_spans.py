@@ -5,7 +5,7 @@ named), plots over time the signals the spans are read from — horizontal root 
 (m/s), hip height, the lower ankle's height (both feet off the floor when it rises),
 the higher hand's height (m), and on a second axis the hips' heading rate (°/s) —
 shades the span, and draws under it the build's sliding windows coloured by the label
-each gets (:func:`eigmotion.build.window_labels`: the action's, the filler's, or left
+each gets (:func:`eigmotion.retrieval.build.window_labels`: the action's, the filler's, or left
 out).  Prints one line per motion: the manifest's span and filler, the span its
 label's rule measures (:func:`measured_span`; turns and jumps), what the person does
 before and after it and the filler that makes (:func:`measured_filler`), and the
@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from eigmotion.build import BuildConfig, window_bounds, window_labels
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.library import FILLER_LABELS, LibraryMotion, load_library
-from eigmotion.naming import canonical_joint_map
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import FILLER_LABELS, LibraryMotion, load_library
+from eigmotion.mocap.naming import canonical_joint_map
+from eigmotion.retrieval.build import BuildConfig, window_bounds, window_labels
 
 REPO = Path(__file__).resolve().parents[1]
 #: Signals are averaged over this long (a walking stride's pelvis sway, frame noise).

@@ -7,9 +7,9 @@ import re
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import INCH_M, parse_amc, parse_asf, read_amc, read_asf
 from eigmotion.errors import MotionFormatError
-from eigmotion.kinematics import forward_kinematics, rest_points
+from eigmotion.mocap.asf_amc import INCH_M, parse_amc, parse_asf, read_amc, read_asf
+from eigmotion.mocap.kinematics import forward_kinematics, rest_points
 
 ASF = """# a small test skeleton
 :version 1.10

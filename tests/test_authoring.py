@@ -1,4 +1,4 @@
-"""Keyframe engine (eigmotion.authoring) and the authored basic motions it produces."""
+"""Keyframe engine (eigmotion.synth.authoring) and the authored basic motions it produces."""
 
 from __future__ import annotations
 
@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from eigmotion.authoring import (
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.canonical import CANONICAL_JOINTS, canonical_skeleton
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.rotations import euler_to_matrix
+from eigmotion.synth.authoring import (
     GRAVITY_M_S2,
     Key,
     Target,
@@ -23,11 +28,6 @@ from eigmotion.authoring import (
     standing_root_height_m,
     two_bone_ik,
 )
-from eigmotion.bvh import read_bvh
-from eigmotion.canonical import CANONICAL_JOINTS, canonical_skeleton
-from eigmotion.errors import EigmotionError, InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.rotations import euler_to_matrix
 
 REPO = Path(__file__).resolve().parents[1]
 AUTHORED = REPO / "database" / "motions" / "authored"

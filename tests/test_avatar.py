@@ -8,11 +8,11 @@ import pytest
 from mesh_helpers import winding_numbers
 from scipy.spatial.transform import Rotation
 
-from eigmotion.avatar import Avatar, load_avatar, load_default_avatar, read_obj
-from eigmotion.canonical import makehuman_dir
+from eigmotion.body.avatar import Avatar, load_avatar, load_default_avatar, read_obj
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import Motion
+from eigmotion.mocap.canonical import makehuman_dir
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import Motion
 
 # -- geometry helpers -------------------------------------------------------------------
 

@@ -9,12 +9,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-import eigmotion.database as database_module
-import eigmotion.sequences as sequences_module
-from eigmotion.database import QUERY_SILHOUETTE_SIDE_PX
+import eigmotion.retrieval.database as database_module
+import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
-from eigmotion.evaluation import QueryOutcome
-from eigmotion.video import SilhouetteConfig
+from eigmotion.evaluation.scoring import QueryOutcome
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
+from eigmotion.segmentation.video import SilhouetteConfig
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +190,7 @@ def test_pairs_join_clips_of_other_labels_of_one_size(bench):
 
 
 def test_segment_tables_compare_each_run_with_the_shipped_one(bench, capsys):
-    from eigmotion.evaluation import SegmentAgreement
+    from eigmotion.evaluation.scoring import SegmentAgreement
 
     one = SegmentAgreement(100, 80, 20, 1, 1, 0)
     two = SegmentAgreement(100, 60, 30, 1, 3, 1)

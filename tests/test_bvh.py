@@ -9,12 +9,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from eigmotion.errors import InvalidParameterError, MotionFormatError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import ALL_CHANNELS, Motion, Skeleton
-from eigmotion.rotations import euler_to_matrix
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import ALL_CHANNELS, Motion, Skeleton
+from eigmotion.mocap.rotations import euler_to_matrix
 
 SMALL = """HIERARCHY
 ROOT Hips

@@ -28,11 +28,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import INCH_M, read_amc
-from eigmotion.bvh import read_bvh, write_bvh
-from eigmotion.canonical import CANONICAL_JOINTS
-from eigmotion.cli import main
-from eigmotion.kinematics import forward_kinematics, rest_points
+from eigmotion.cli.main import main
+from eigmotion.mocap.asf_amc import INCH_M, read_amc
+from eigmotion.mocap.bvh import read_bvh, write_bvh
+from eigmotion.mocap.canonical import CANONICAL_JOINTS
+from eigmotion.mocap.kinematics import forward_kinematics, rest_points
 
 REPO = Path(__file__).resolve().parents[1]
 CMU = REPO / "database" / "motions" / "cmu"
@@ -178,7 +178,7 @@ def test_convert_subprocess_truncated_file_exit_2_one_line(tmp_path, walk):
     text = src.read_text()
     src.write_text(text[: len(text) // 2])
     proc = subprocess.run(
-        [sys.executable, "-m", "eigmotion.cli", "convert", str(src), str(tmp_path / "o.bvh")],
+        [sys.executable, "-m", "eigmotion", "convert", str(src), str(tmp_path / "o.bvh")],
         capture_output=True,
         text=True,
         timeout=120,

@@ -17,26 +17,26 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from eigmotion.avatar import load_default_avatar
-from eigmotion.build import BuildConfig, hull_points
-from eigmotion.bvh import read_bvh
-from eigmotion.cameras import load_rig, virtual_rig
-from eigmotion.cli import main
-from eigmotion.clips import time_warped
-from eigmotion.continuous_pose import (
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import retarget
+from eigmotion.cli.main import main
+from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.imaging.cameras import load_rig, virtual_rig
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import load_library
+from eigmotion.mocap.rotations import axis_rotation
+from eigmotion.pose.continuous_pose import (
     ContinuousPoseConfig,
     align_motion,
     continuous_pose,
     monotone_path,
     speed_costs,
 )
-from eigmotion.database import MotionDatabase, build_database
-from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.library import load_library
-from eigmotion.replay import replay
-from eigmotion.retarget import retarget
-from eigmotion.rotations import axis_rotation
+from eigmotion.pose.replay import replay
+from eigmotion.retrieval.build import BuildConfig, hull_points
+from eigmotion.retrieval.database import MotionDatabase, build_database
+from eigmotion.synth.clips import time_warped
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS = ("kick_135_04", "wave_14_24")
@@ -75,7 +75,7 @@ def db_path(tmp_path_factory, library):
 @pytest.fixture(scope="module")
 def clip(library):
     """(masks (F, 120, 160) bool, true root-relative joints (F, 31, 3), azimuth)."""
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     azimuth_deg, elevation_deg = 30.0, 10.0  # halfway between two ring6 cameras
     body = AVATAR.with_shape(height_m=1.62, girth=1.15).decimated(4000)

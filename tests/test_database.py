@@ -20,11 +20,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eigmotion.build import BuildConfig, window_bounds
-from eigmotion.bvh import read_bvh
-from eigmotion.cameras import load_rig, virtual_rig
-from eigmotion.cli import main
-from eigmotion.database import (
+from eigmotion.cli.main import main
+from eigmotion.errors import DatabaseError, InvalidParameterError
+from eigmotion.imaging.cameras import load_rig, virtual_rig
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import load_library
+from eigmotion.retrieval.build import BuildConfig, window_bounds
+from eigmotion.retrieval.database import (
     CALIBRATION_LEVELS,
     Match,
     MotionDatabase,
@@ -38,11 +41,8 @@ from eigmotion.database import (
     leave_one_motion_out_threshold,
     window_label_path,
 )
-from eigmotion.errors import DatabaseError, InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.library import load_library
-from eigmotion.search import BruteForceIndex
-from eigmotion.sequences import POSE_COMPONENTS
+from eigmotion.retrieval.search import BruteForceIndex
+from eigmotion.retrieval.sequences import POSE_COMPONENTS
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -66,13 +66,13 @@ def db_path(tmp_path_factory, library):
 
 @pytest.fixture(scope="module")
 def other_body():
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     return load_default_avatar().with_shape(height_m=1.62, girth=1.15).decimated(4000)
 
 
 def _masks(motion, body, azimuth_deg, elevation_deg, size=(160, 120)):
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     _, vertices = body.animate(motion.resample(30))
     cam = virtual_rig([azimuth_deg], [elevation_deg], *size).fitted(
@@ -308,7 +308,7 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
 def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
     db_path, library, other_body, monkeypatch
 ):
-    import eigmotion.database as database_module
+    import eigmotion.retrieval.database as database_module
 
     masks = _masks(library[2].motion, other_body, azimuth_deg=100.0, elevation_deg=5.0)
     with MotionDatabase.open(db_path) as db:
@@ -330,7 +330,12 @@ def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(
 
 
 def test_a_candidate_is_warped_against_its_renderings_within_reach_of_its_view(db_path):
-    from eigmotion.sequences import pace_factors, pose_speeds, sequence_distances, view_reach
+    from eigmotion.retrieval.sequences import (
+        pace_factors,
+        pose_speeds,
+        sequence_distances,
+        view_reach,
+    )
 
     with MotionDatabase.open(db_path) as db:
         motion_id = min(db.store.motion_ids())
@@ -367,7 +372,7 @@ def test_a_candidate_is_warped_against_its_renderings_within_reach_of_its_view(d
 def test_candidates_are_the_nearest_motions_and_the_nearest_of_each_further_label(
     monkeypatch,
 ):
-    import eigmotion.database as database_module
+    import eigmotion.retrieval.database as database_module
 
     monkeypatch.setattr(database_module, "CANDIDATE_MOTIONS", 3)
     labels = ["walk", "walk", "turn", "walk", "turn", "wave", "jump", "wave", "jump"]
@@ -431,7 +436,7 @@ def test_an_action_over_several_windows_stays_and_a_runner_up_everywhere_does_no
 def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, library, other_body):
     """One label along every window makes one segment, and its label is the clip's
     answer, whichever label the windows agreed on; several keep their own."""
-    from eigmotion.motion_image import ClipMotionImages
+    from eigmotion.retrieval.motion_image import ClipMotionImages
 
     by_name = {m.name: m for m in library}
     waving = _masks(by_name["wave_14_24"].motion, other_body, 30.0, 8.0)
@@ -602,7 +607,7 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
     assert replayed.n_frames == len(masks)
     height = np.ptp(forward_kinematics(replayed).all_points()[0][:, 1])
     assert 1.4 < height < 2.0
-    from eigmotion.media import read_frames
+    from eigmotion.imaging.media import read_frames
 
     frames, _ = read_frames(video)
     assert len(frames) == len(masks)
@@ -632,7 +637,7 @@ def test_index_makes_a_motion_queryable_at_once(db_path, tmp_path, other_body):
 
 def _eigmotion(*args, **kwargs):
     return subprocess.Popen(
-        [sys.executable, "-m", "eigmotion.cli", *args],
+        [sys.executable, "-m", "eigmotion", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -844,7 +849,7 @@ def test_a_build_is_the_same_to_the_last_bit_on_one_process_or_two(tmp_path, lib
 def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library):
     """build_database(views=...) stores what a rendering build stores, from the images a
     render made once (how the benchmarks build many fold databases from one render)."""
-    from eigmotion.build import render_views
+    from eigmotion.retrieval.build import render_views
 
     rig = virtual_rig([0.0, 120.0, 240.0], [0.0], 64, 64)
     config = replace(CONFIG, n_components=4, key_axes=2)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from sklearn.decomposition import PCA
 
-from eigmotion.eigenspace import Eigenspace, pack_array, unpack_array
 from eigmotion.errors import EigmotionError, InvalidParameterError, NotFittedError
+from eigmotion.retrieval.eigenspace import Eigenspace, pack_array, unpack_array
 
 
 def unit_rows(n_rows: int, n_features: int, rank: int, rng) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Scoring of retrieval queries (eigmotion.evaluation) and a smoke run of the accuracy
+"""Scoring of retrieval queries (eigmotion.evaluation.scoring) and a smoke run of the accuracy
 benchmark's ``seen`` suite."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import EigmotionError, InvalidParameterError
-from eigmotion.evaluation import (
+from eigmotion.evaluation.scoring import (
     ZERO_CELL,
     QueryOutcome,
     confusion_matrix,
@@ -375,7 +375,7 @@ def bench(benchmark_script):
     ],
 )
 def test_halfway_views(bench, rig_file, azimuths, elevations):
-    from eigmotion.cameras import load_rig
+    from eigmotion.imaging.cameras import load_rig
 
     az, el = bench.halfway_views(load_rig(REPO / "virtual_cameras" / rig_file))
     np.testing.assert_allclose(np.sort(az), azimuths)

@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.figures import (
+from eigmotion.imaging.figures import (
     SHEET_RGB,
     contact_sheet,
     save_image,
@@ -216,8 +216,8 @@ def test_caption_errors(frames, captions, match):
 
 
 def test_each_frame_of_a_replay_is_captioned_with_its_segment():
-    from eigmotion.database import Segment
-    from eigmotion.replay import segment_captions
+    from eigmotion.pose.replay import segment_captions
+    from eigmotion.retrieval.database import Segment
 
     segments = [Segment(0, 3, "walk", 0.2), Segment(3, 5, "wave", 0.1)]
     captions = segment_captions(segments, 6, "wave")
@@ -227,7 +227,7 @@ def test_each_frame_of_a_replay_is_captioned_with_its_segment():
 
 
 def test_replay_captions_must_be_one_per_mask():
-    from eigmotion.replay import replay_video
+    from eigmotion.pose.replay import replay_video
 
     masks = np.zeros((3, 8, 8), bool)
     with pytest.raises(InvalidParameterError, match="one string per mask: 2 for 3"):

@@ -16,10 +16,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from eigmotion.asf_amc import parse_amc, parse_asf
-from eigmotion.bvh import parse_bvh
 from eigmotion.errors import MotionFormatError
-from eigmotion.motion import Motion
+from eigmotion.mocap.asf_amc import parse_amc, parse_asf
+from eigmotion.mocap.bvh import parse_bvh
+from eigmotion.mocap.motion import Motion
 
 BVH = """HIERARCHY
 ROOT Hips

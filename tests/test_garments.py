@@ -11,11 +11,8 @@ import pytest
 from mesh_helpers import winding_numbers
 from scipy.spatial import cKDTree
 
-from eigmotion.avatar import Avatar, load_default_avatar
-from eigmotion.build import BuildConfig, build_body, hull_points, render_views
-from eigmotion.cameras import virtual_rig
-from eigmotion.errors import InvalidParameterError
-from eigmotion.garments import (
+from eigmotion.body.avatar import Avatar, load_default_avatar
+from eigmotion.body.garments import (
     BENCHMARK_GARMENTS,
     DATABASE_GARMENTS,
     GARMENTS,
@@ -23,8 +20,11 @@ from eigmotion.garments import (
     Garment,
     garment_mesh,
 )
-from eigmotion.library import find_motion
-from eigmotion.silhouettes import render_masks
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.cameras import virtual_rig
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.library import find_motion
+from eigmotion.retrieval.build import BuildConfig, build_body, hull_points, render_views
 
 
 @pytest.fixture(scope="module")
@@ -259,7 +259,7 @@ def test_dressed_silhouette_covers_the_body_and_is_wider_at_the_garment(
 
 
 def test_shaded_garments_have_their_own_colour(avatar, low_poly):
-    from eigmotion.render import BODY_RGB, Renderer
+    from eigmotion.imaging.render import BODY_RGB, Renderer
 
     dressed = low_poly.dressed(["skirt"])
     vertices = np.stack([dressed.vertices, dressed.vertices + [0.02, 0.0, 0.0]])
@@ -325,7 +325,7 @@ def test_build_config_refuses_bad_body_shapes(shapes, match):
 
 
 def test_build_renders_every_body_shape_in_every_outfit():
-    from eigmotion.library import LibraryMotion
+    from eigmotion.mocap.library import LibraryMotion
 
     motion = find_motion("walk_02_01").trim(0, 60)
     item = LibraryMotion(
@@ -350,7 +350,7 @@ def test_build_renders_every_body_shape_in_every_outfit():
 
 
 def test_synthetic_clip_of_a_dressed_body(low_poly):
-    from eigmotion.clips import render_clip
+    from eigmotion.synth.clips import render_clip
 
     motion = find_motion("walk_02_01").trim(0, 40)
 

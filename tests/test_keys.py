@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError, NotFittedError
-from eigmotion.keys import (
+from eigmotion.retrieval.keys import (
     Quantizer,
     check_key_space,
     decode,

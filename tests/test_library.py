@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eigmotion.bvh import read_bvh
 from eigmotion.errors import EigmotionError, InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.library import (
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import (
     DEFAULT_MANIFEST,
     DISTRACTOR_LABELS,
     FILLER_LABELS,
@@ -24,7 +24,7 @@ from eigmotion.library import (
     motion_names,
     read_manifest,
 )
-from eigmotion.naming import canonical_joint_map
+from eigmotion.mocap.naming import canonical_joint_map
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"

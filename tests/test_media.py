@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.media import (
+from eigmotion.imaging.media import (
     FrameSampleStream,
     as_rgb_frames,
     image_files,
@@ -70,7 +70,7 @@ def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, mon
 
     from tqdm import tqdm
 
-    from eigmotion import media
+    from eigmotion.imaging import media
 
     shown = io.StringIO()
     monkeypatch.setattr(

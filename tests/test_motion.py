@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.canonical import canonical_skeleton
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import detect_length_unit, forward_kinematics
-from eigmotion.motion import Motion, Skeleton
-from eigmotion.naming import mirror_partners
-from eigmotion.rotations import align_vectors, euler_to_matrix, rotation_between
+from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.kinematics import detect_length_unit, forward_kinematics
+from eigmotion.mocap.motion import Motion, Skeleton
+from eigmotion.mocap.naming import mirror_partners
+from eigmotion.mocap.rotations import align_vectors, euler_to_matrix, rotation_between
 
 
 def _random_motion(rng, n_frames=12, order="ZXY") -> Motion:
@@ -51,7 +51,7 @@ def test_the_query_path_imports_no_scipy_rotations():
     import sys
 
     # scipy.spatial costs a query that writes no motion about 0.14 s to import.
-    code = "import sys, eigmotion.database; print('scipy.spatial' in sys.modules)"
+    code = "import sys, eigmotion.retrieval.database; print('scipy.spatial' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"
 

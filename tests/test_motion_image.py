@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.motion_image import (
+from eigmotion.retrieval.motion_image import (
     FILTERS,
     FRAMES,
     WEIGHTINGS,
@@ -20,7 +20,7 @@ from eigmotion.motion_image import (
     motion_image_picture,
     sample_indices,
 )
-from eigmotion.scene import stick_figure_masks
+from eigmotion.synth.scene import stick_figure_masks
 
 
 def cosine_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -386,8 +386,8 @@ def test_picture_rejects_a_vector_of_another_size():
 def avatar_walk(cmu_dir):
     """Vertices (F, V, 3) of the avatar walking (CMU 02_01, 1.5 s) at 120 and at
     30 fps, and the faces."""
-    from eigmotion.asf_amc import read_amc
-    from eigmotion.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
+    from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
+    from eigmotion.mocap.asf_amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181)
@@ -398,7 +398,7 @@ def avatar_walk(cmu_dir):
 
 
 def _side_camera(vertices, width, height, distance_factor=1.0, aim_offset_m=(0.0, 0.0, 0.0)):
-    from eigmotion.cameras import fit_distance, intrinsics, look_at, view_direction
+    from eigmotion.imaging.cameras import fit_distance, intrinsics, look_at, view_direction
 
     points = vertices[:, ::7].reshape(-1, 3)
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
@@ -411,7 +411,7 @@ def _side_camera(vertices, width, height, distance_factor=1.0, aim_offset_m=(0.0
 def test_avatar_person_frame_ignores_camera_distance_and_aim(avatar_walk):
     """The same walk filmed by a camera fitted to it and by one 1.7x further away,
     aimed 0.4 m off, at another image size: the person frame sees the same motion."""
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     _, vertices, faces = avatar_walk
     near = render_masks(vertices, faces, _side_camera(vertices, 128, 128))
@@ -423,7 +423,7 @@ def test_avatar_person_frame_ignores_camera_distance_and_aim(avatar_walk):
 
 
 def test_avatar_rendered_at_120_and_30_fps_agree(avatar_walk):
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     vertices_120, vertices_30, faces = avatar_walk
     camera = _side_camera(vertices_120, 128, 128)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import asf_to_skeleton, read_asf
-from eigmotion.canonical import CANONICAL_JOINTS, canonical_skeleton
 from eigmotion.errors import InvalidParameterError, SkeletonMappingError
-from eigmotion.motion import Skeleton
-from eigmotion.naming import (
+from eigmotion.mocap.asf_amc import asf_to_skeleton, read_asf
+from eigmotion.mocap.canonical import CANONICAL_JOINTS, canonical_skeleton
+from eigmotion.mocap.motion import Skeleton
+from eigmotion.mocap.naming import (
     FAMILIES,
     canonical_joint_map,
     canonical_names,

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from mesh_helpers import winding_numbers
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.canonical import canonical_skeleton
+from eigmotion.body.proxy_body import MIN_BONE_M, capsule_mesh, proxy_body
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import Motion, Skeleton, standard_channels
-from eigmotion.proxy_body import MIN_BONE_M, capsule_mesh, proxy_body
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import Motion, Skeleton, standard_channels
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from eigmotion.cameras import Camera, look_at, virtual_rig
 from eigmotion.errors import InvalidParameterError
-from eigmotion.render import (
+from eigmotion.imaging.cameras import Camera, look_at, virtual_rig
+from eigmotion.imaging.render import (
     BACKGROUND_RGB,
     FOLLOW_TRAVEL_M,
     Renderer,
@@ -128,7 +128,7 @@ def test_depth_sample_offset_is_inside_the_pixel():
 
 @pytest.fixture(scope="module")
 def avatar():
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     return load_default_avatar()
 
@@ -136,7 +136,7 @@ def avatar():
 @pytest.fixture(scope="module")
 def walk_vertices(avatar, cmu_dir):
     """(3, V, 3) avatar vertices of three frames of CMU walk 02_01, metres."""
-    from eigmotion.asf_amc import read_amc
+    from eigmotion.mocap.asf_amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf").trim(0, 120)
     _, vertices = avatar.animate(motion.resample(10))
@@ -147,7 +147,7 @@ def walk_vertices(avatar, cmu_dir):
 def test_gl_masks_agree_with_cpu_silhouettes(
     renderer, avatar, walk_vertices, azimuth_deg, elevation_deg
 ):
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     camera = virtual_rig([azimuth_deg], [elevation_deg], 128, 128).fitted(
         walk_vertices.reshape(-1, 3)
@@ -284,7 +284,8 @@ def test_bad_renderer_parameters(kwargs):
 
 def test_importing_does_not_load_pyrender():
     code = (
-        "import eigmotion.render, eigmotion.commands.show, sys; sys.exit('pyrender' in sys.modules)"
+        "import eigmotion.imaging.render, eigmotion.cli.show, sys; "
+        "sys.exit('pyrender' in sys.modules)"
     )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
@@ -375,7 +376,7 @@ def test_frame_cameras_errors(sphere, kwargs, match):
 
 
 def _run_cli(argv):
-    from eigmotion.cli import main
+    from eigmotion.cli.main import main
 
     return main(argv)
 
@@ -416,9 +417,9 @@ def test_show_contact_sheet_of_a_cmu_clip(tmp_path, cmu_dir, capsys):
 @pytest.fixture(scope="module")
 def tiny_bvh(tmp_path_factory):
     """A 1 s canonical-skeleton BVH at 30 fps: the body turns and raises an arm."""
-    from eigmotion.bvh import write_bvh
-    from eigmotion.canonical import canonical_skeleton
-    from eigmotion.motion import Motion
+    from eigmotion.mocap.bvh import write_bvh
+    from eigmotion.mocap.canonical import canonical_skeleton
+    from eigmotion.mocap.motion import Motion
 
     skeleton = canonical_skeleton()
     values = np.zeros((31, skeleton.n_channels))
@@ -432,7 +433,7 @@ def tiny_bvh(tmp_path_factory):
 
 @pytest.mark.parametrize("suffix, fps, n_frames", [(".gif", 10, 11), (".mp4", 15, 16)])
 def test_show_replay_of_a_bvh(tmp_path, tiny_bvh, suffix, fps, n_frames):
-    from eigmotion.media import read_frames
+    from eigmotion.imaging.media import read_frames
 
     out = tmp_path / f"replay{suffix}"
     argv = ["show", str(tiny_bvh), "--out", str(out), "--fps", str(fps), "--size", "48", "64"]
@@ -445,7 +446,7 @@ def test_show_replay_of_a_bvh(tmp_path, tiny_bvh, suffix, fps, n_frames):
 
 
 def test_show_library_motion(tmp_path, capsys):
-    from eigmotion.library import motion_names
+    from eigmotion.mocap.library import motion_names
 
     name = motion_names()[0]
     out = tmp_path / "lib.png"

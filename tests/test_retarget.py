@@ -9,21 +9,21 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.avatar import load_default_avatar
-from eigmotion.bvh import read_bvh, write_bvh
-from eigmotion.canonical import (
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import AvatarAnimation, animation_to_motion, retarget
+from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.bvh import read_bvh, write_bvh
+from eigmotion.mocap.canonical import (
     BLENDER_TO_WORLD,
     CANONICAL_JOINTS,
     CANONICAL_PARENTS,
     canonical_skeleton,
     makehuman_dir,
 )
-from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import Motion, Skeleton
-from eigmotion.naming import canonical_names
-from eigmotion.retarget import AvatarAnimation, animation_to_motion, retarget
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import Motion, Skeleton
+from eigmotion.mocap.naming import canonical_names
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
 

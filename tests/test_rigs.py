@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eigmotion.cameras import load_rig, view_direction
-from eigmotion.canonical import canonical_skeleton
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import Motion
-from eigmotion.silhouettes import render_rig_masks
+from eigmotion.imaging.cameras import load_rig, view_direction
+from eigmotion.imaging.silhouettes import render_rig_masks
+from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import Motion
 
 RIG_DIR = Path(__file__).resolve().parents[1] / "virtual_cameras"
 SHIPPED = ("ring6", "default", "dome")
@@ -25,7 +25,7 @@ def _load(stem):
 
 @pytest.fixture(scope="module")
 def avatar():
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     return load_default_avatar()
 

@@ -7,9 +7,9 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.keys import Quantizer
-from eigmotion.search import BruteForceIndex, SearchResult, TreeIndex, brute_force
-from eigmotion.search import _pair_sq_distances as pair_sq_distances
+from eigmotion.retrieval.keys import Quantizer
+from eigmotion.retrieval.search import BruteForceIndex, SearchResult, TreeIndex, brute_force
+from eigmotion.retrieval.search import _pair_sq_distances as pair_sq_distances
 
 
 def motion_like(n: int, n_dims: int, n_groups: int, rng) -> np.ndarray:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.motion_image import ClipMotionImages, MotionImageConfig
-from eigmotion.sequences import (
+from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
+from eigmotion.retrieval.sequences import (
     LOWER_BODY_WEIGHT,
     PACE_FLOOR,
     PACE_SMOOTHING_PASSES,
@@ -116,7 +116,7 @@ def test_warping_equals_the_path_cost_by_hand():
 
 
 def test_sequence_frames_are_sampled_aligned_and_small():
-    from eigmotion.scene import stick_figure_masks
+    from eigmotion.synth.scene import stick_figure_masks
 
     config = MotionImageConfig()
     masks = stick_figure_masks(60, 120, 160, fps=30.0)  # 2 s at 30 fps

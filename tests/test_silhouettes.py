@@ -9,12 +9,12 @@ import pytest
 from matplotlib.path import Path as PolygonPath
 from scipy.spatial import ConvexHull
 
-from eigmotion.cameras import intrinsics, look_at, virtual_rig
-from eigmotion.canonical import canonical_skeleton
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.motion import Motion
-from eigmotion.silhouettes import iter_rig_masks, render_masks, render_rig_masks
+from eigmotion.imaging.cameras import intrinsics, look_at, virtual_rig
+from eigmotion.imaging.silhouettes import iter_rig_masks, render_masks, render_rig_masks
+from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.motion import Motion
 
 
 def _front_camera(width=64, height=48, yfov_deg=50.0):
@@ -24,14 +24,14 @@ def _front_camera(width=64, height=48, yfov_deg=50.0):
 
 @pytest.fixture(scope="module")
 def avatar():
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     return load_default_avatar()
 
 
 @pytest.fixture(scope="module")
 def low_poly(avatar):
-    from eigmotion.avatar import DEFAULT_LOW_POLY_FACES
+    from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES
 
     return avatar.decimated(DEFAULT_LOW_POLY_FACES)
 
@@ -233,8 +233,8 @@ def test_bad_near_plane_raises():
 
 @pytest.fixture(scope="module")
 def gl_render():
-    """:func:`eigmotion.render.render_masks_gl`, skipped where OpenGL cannot start."""
-    render = pytest.importorskip("eigmotion.render")
+    """:func:`eigmotion.imaging.render.render_masks_gl`, skipped where OpenGL cannot start."""
+    render = pytest.importorskip("eigmotion.imaging.render")
     try:
         render.default_renderer()
         render.depth_sample_offset_px()
@@ -277,8 +277,8 @@ def test_agrees_with_opengl(avatar, low_poly, gl_render, seed):
 )
 def test_agrees_with_opengl_on_cmu_frames(avatar, low_poly, gl_render, cmu_dir, clip, subject):
     """Random frames of real CMU clips (walk, kick, sit, run) from a random view."""
-    from eigmotion.asf_amc import read_amc
-    from eigmotion.retarget import retarget
+    from eigmotion.body.retarget import retarget
+    from eigmotion.mocap.asf_amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / f"{clip}.amc", cmu_dir / "asf" / f"{subject}.asf")
     rng = np.random.default_rng(int(clip.replace("_", "")))

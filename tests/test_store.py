@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import eigmotion.store as store_module
-from eigmotion.eigenspace import Eigenspace
+import eigmotion.retrieval.store as store_module
 from eigmotion.errors import DatabaseError, InvalidParameterError
-from eigmotion.keys import Quantizer, prefix_range
-from eigmotion.search import TreeIndex, brute_force
-from eigmotion.sequences import pose_coordinates
-from eigmotion.store import SCHEMA_VERSION, Store, parse_uri
+from eigmotion.retrieval.eigenspace import Eigenspace
+from eigmotion.retrieval.keys import Quantizer, prefix_range
+from eigmotion.retrieval.search import TreeIndex, brute_force
+from eigmotion.retrieval.sequences import pose_coordinates
+from eigmotion.retrieval.store import SCHEMA_VERSION, Store, parse_uri
 
 BVH_TEXT = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 0\nFrame Time: 0.1\n"
 

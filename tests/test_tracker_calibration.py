@@ -8,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from eigmotion.cameras import intrinsics, look_at
-from eigmotion.cli import main
+from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError
-from eigmotion.rotations import euler_to_matrix
-from eigmotion.tracker.calibration import (
+from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.mocap.rotations import euler_to_matrix
+from eigmotion.tracking.calibration import (
     BOARD_TO_WORLD,
     Calibration,
     CameraPair,

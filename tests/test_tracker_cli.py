@@ -9,16 +9,16 @@ import cv2
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.avatar import load_default_avatar
-from eigmotion.bvh import read_bvh
-from eigmotion.cameras import intrinsics, look_at
-from eigmotion.cli import main
-from eigmotion.media import read_frames, write_video
-from eigmotion.retarget import retarget
-from eigmotion.silhouettes import render_masks
-from eigmotion.tracker.calibration import save_calibration
-from eigmotion.tracker.dictionary import mean_heading_deg, yaw_rotation
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import retarget
+from eigmotion.cli.main import main
+from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.imaging.media import read_frames, write_video
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.tracking.calibration import save_calibration
+from eigmotion.tracking.dictionary import mean_heading_deg, yaw_rotation
 
 N_FRAMES = 10
 
@@ -88,7 +88,7 @@ def test_wrong_frame_size(scene, capsys, tmp_path):
 def test_errors_in_a_subprocess_have_no_traceback(scene, tmp_path):
     root, paths, *_ = scene
     proc = subprocess.run(
-        [sys.executable, "-m", "eigmotion.cli", "track", "--calib", str(tmp_path / "x.json")]
+        [sys.executable, "-m", "eigmotion", "track", "--calib", str(tmp_path / "x.json")]
         + [str(p) for p in paths],
         capture_output=True,
         text=True,
@@ -142,7 +142,7 @@ def test_track_end_to_end(scene, capsys, tmp_path):
 def test_track_from_video_with_background(scene, capsys, tmp_path):
     """RGB videos with a textured background, a shadow and noise, cut out against
     background images."""
-    from eigmotion.scene import compose_scene
+    from eigmotion.synth.scene import compose_scene
 
     root, _, truth, vertices, subject, cams = scene
     rng = np.random.default_rng(0)

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.canonical import CANONICAL_JOINTS, CANONICAL_PARENTS
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.rotations import axis_rotation
-from eigmotion.tracker.body import avatar_bodies, proxy_bodies
-from eigmotion.tracker.dictionary import (
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.canonical import CANONICAL_JOINTS, CANONICAL_PARENTS
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.rotations import axis_rotation
+from eigmotion.tracking.body import avatar_bodies, proxy_bodies
+from eigmotion.tracking.dictionary import (
     PostureDictionary,
     build_dictionary,
     d1_distance,

@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from eigmotion.asf_amc import read_amc
 from eigmotion.errors import InvalidParameterError
-from eigmotion.kinematics import forward_kinematics
-from eigmotion.tracker.dictionary import heading_deg, posture_sequence, posture_vectors
-from eigmotion.tracker.generation import (
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
+from eigmotion.tracking.generation import (
     VariableSpeedPlayback,
     playback_motion,
     smooth_headings_deg,

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.cameras import intrinsics, look_at
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.tracker.calibration import CameraPair
-from eigmotion.tracker.position import (
+from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.tracking.calibration import CameraPair
+from eigmotion.tracking.position import (
     intersect_plane_lines,
     locate,
     mask_centroid,
@@ -105,7 +105,7 @@ def test_mask_centroid():
 
 def test_locate_from_rendered_masks():
     """Silhouettes of a box standing at a known place give that place."""
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.imaging.silhouettes import render_masks
 
     cams = ring(2)
     box = np.array([[x, y, z] for x in (-0.15, 0.15) for y in (0.0, 1.8) for z in (-0.1, 0.1)])

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.tracker.search import (
+from eigmotion.tracking.search import (
     beam_search,
     build_cluster_tree,
     build_two_layer_tree,

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.cameras import intrinsics, look_at
 from eigmotion.errors import InvalidParameterError
-from eigmotion.silhouettes import render_masks
-from eigmotion.tracker.similarity import EMPTY_SCORE, score_masks, similarity, view_window
+from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.tracking.similarity import EMPTY_SCORE, score_masks, similarity, view_window
 
 
 def grid(rows: list[str]) -> np.ndarray:

@@ -5,21 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eigmotion.asf_amc import read_amc
-from eigmotion.avatar import load_default_avatar
-from eigmotion.cameras import intrinsics, look_at
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import retarget
 from eigmotion.errors import InvalidParameterError
-from eigmotion.retarget import retarget
-from eigmotion.silhouettes import render_masks
-from eigmotion.tracker.body import avatar_bodies
-from eigmotion.tracker.calibration import CameraPair
-from eigmotion.tracker.dictionary import (
+from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.tracking.body import avatar_bodies
+from eigmotion.tracking.calibration import CameraPair
+from eigmotion.tracking.dictionary import (
     build_dictionary,
     dictionary_from_motion,
     mean_heading_deg,
     yaw_rotation,
 )
-from eigmotion.tracker.tracker import SilhouetteTracker, TrackerConfig
+from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
 
 BODY_JOINTS = [
     i for i, n in enumerate(load_default_avatar().joint_names) if not n.endswith(("1", "Thumb"))

@@ -13,17 +13,11 @@ import cv2
 import numpy as np
 import pytest
 
-from eigmotion import video
-from eigmotion.background import find_still_body
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.motion_image import motion_image
-from eigmotion.scene import (
-    compose_scene,
-    compose_scene_with_layout,
-    procedural_background,
-    stick_figure_masks,
-)
-from eigmotion.video import (
+from eigmotion.retrieval.motion_image import motion_image
+from eigmotion.segmentation import video
+from eigmotion.segmentation.background import find_still_body
+from eigmotion.segmentation.video import (
     COLOUR_PER_NOISE,
     DEFAULT_NPZ_FPS,
     MIN_COLOUR_LEVELS,
@@ -34,6 +28,12 @@ from eigmotion.video import (
     extract_silhouettes,
     load_clip_masks,
     read_background,
+)
+from eigmotion.synth.scene import (
+    compose_scene,
+    compose_scene_with_layout,
+    procedural_background,
+    stick_figure_masks,
 )
 
 
@@ -63,11 +63,11 @@ def stick_scene():
 def avatar_clip(cmu_dir):
     """1.5 s of the avatar walking (CMU 02_01) seen from its side at 160×120, 30 fps:
     shaded frames (pyrender, no floor) and true masks (CPU rasteriser)."""
-    from eigmotion.asf_amc import read_amc
-    from eigmotion.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
-    from eigmotion.cameras import ring_rig
-    from eigmotion.render import render_shaded
-    from eigmotion.silhouettes import render_masks
+    from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
+    from eigmotion.imaging.cameras import ring_rig
+    from eigmotion.imaging.render import render_shaded
+    from eigmotion.imaging.silhouettes import render_masks
+    from eigmotion.mocap.asf_amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181).resample(30.0)
@@ -84,9 +84,9 @@ def _on_the_spot(motion_name: str):
     elevation 10°, at 160×120 and 15 fps, over a textured background with a cast
     shadow, camouflaged clothing and noise (scene seed 0): in view, and mostly in the
     same place, from the first frame to the last."""
-    from eigmotion.avatar import load_default_avatar
-    from eigmotion.clips import render_clip
-    from eigmotion.library import find_motion
+    from eigmotion.body.avatar import load_default_avatar
+    from eigmotion.mocap.library import find_motion
+    from eigmotion.synth.clips import render_clip
 
     return render_clip(
         find_motion(motion_name),
@@ -137,7 +137,7 @@ def test_recovers_the_avatar_from_a_textured_shadowed_noisy_video(avatar_scene, 
 
 @pytest.mark.parametrize("suffix", [".mp4", ".avi"])
 def test_written_and_read_back_gives_the_same_motion_image(avatar_scene, tmp_path, suffix):
-    from eigmotion.media import write_video
+    from eigmotion.imaging.media import write_video
 
     frames, background, truth = avatar_scene
     direct = motion_image(extract_silhouettes(frames), clip_fps=30.0)
@@ -150,7 +150,7 @@ def test_written_and_read_back_gives_the_same_motion_image(avatar_scene, tmp_pat
 
 
 def test_background_image_from_a_file(avatar_scene, tmp_path):
-    from eigmotion.media import write_video
+    from eigmotion.imaging.media import write_video
 
     frames, background, truth = avatar_scene
     path = write_video(frames, tmp_path / "clip.avi", 30.0)
@@ -233,7 +233,7 @@ def test_masks_cut_in_the_person_region_equal_those_of_the_whole_frames(
 def test_a_large_clip_without_a_background_is_shrunk_as_it_is_decoded(avatar_scene, tmp_path):
     """Frames four times the working size give the masks of the whole clip read at full
     size and cut out at once (the frames are shrunk per chunk instead of all together)."""
-    from eigmotion.media import read_frames, write_video
+    from eigmotion.imaging.media import read_frames, write_video
 
     frames, _, _ = avatar_scene
     large = np.repeat(np.repeat(frames, 2, axis=1), 2, axis=2)  # 320 × 240
@@ -246,8 +246,8 @@ def test_a_large_clip_without_a_background_is_shrunk_as_it_is_decoded(avatar_sce
 
 
 def test_the_replay_input_panel_is_the_clip_at_the_panel_height(avatar_scene, tmp_path):
-    from eigmotion.media import read_frames, write_video
-    from eigmotion.replay import read_input_panel
+    from eigmotion.imaging.media import read_frames, write_video
+    from eigmotion.pose.replay import read_input_panel
 
     frames, _, _ = avatar_scene
     large = np.repeat(np.repeat(frames, 3, axis=1), 3, axis=2)  # 480 × 360
@@ -260,7 +260,7 @@ def test_the_replay_input_panel_is_the_clip_at_the_panel_height(avatar_scene, tm
 
 
 def test_a_clip_segmented_while_it_is_decoded_equals_one_read_whole(avatar_scene, tmp_path):
-    from eigmotion.media import read_frame_sample, write_video
+    from eigmotion.imaging.media import read_frame_sample, write_video
 
     frames, background, _ = avatar_scene
     path = write_video(frames, tmp_path / "clip.mp4", 30.0)
@@ -454,7 +454,7 @@ def test_still_body_is_found_in_the_commonest_colours(lift_scene):
 def test_a_still_body_piece_near_the_moving_person_is_kept_whole():
     import cv2
 
-    from eigmotion.background import _pieces_reaching
+    from eigmotion.segmentation.background import _pieces_reaching
 
     cut = np.zeros((40, 30), bool)
     cut[2:30, 10:20] = True  # head to hips: one piece
@@ -651,7 +651,7 @@ def test_a_bad_background_stops_the_decoding_of_its_video(tmp_path, content, rng
     FFmpeg is inside one can abort."""
     import threading
 
-    from eigmotion.media import write_video
+    from eigmotion.imaging.media import write_video
 
     frames = rng.integers(0, 256, size=(240, 120, 160, 3)).astype(np.uint8)
     video = write_video(frames, tmp_path / "clip.mp4", 30.0)

@@ -1,7 +1,7 @@
 """Write the shipped virtual camera rigs (``*.toml`` next to this script).
 
 Run ``python virtual_cameras/make_rigs.py`` after changing a layout; the TOML files are
-what the rest of eigmotion reads (``eigmotion.cameras.load_rig``).  With ``--figures
+what the rest of eigmotion reads (``eigmotion.imaging.cameras.load_rig``).  With ``--figures
 DIR`` it also draws the pictures of ``docs/virtual-cameras.md`` (camera positions around
 the avatar, and the avatar's silhouettes from every view of the default rig).  Every rig shares one
 lens and one distance: 128×128 pixels, a 40° vertical field of view and cameras 4 m
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eigmotion.cameras import CameraRig, dome_rig, ring_rig, save_rig
+from eigmotion.imaging.cameras import CameraRig, dome_rig, ring_rig, save_rig
 
 HERE = Path(__file__).resolve().parent
 
@@ -72,7 +72,7 @@ def plot_layout(rigs: dict[str, CameraRig], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from eigmotion.avatar import load_default_avatar
+    from eigmotion.body.avatar import load_default_avatar
 
     body = load_default_avatar().vertices
     fig, (top, side) = plt.subplots(1, 2, figsize=(11, 5.8))
@@ -133,11 +133,11 @@ def plot_layout(rigs: dict[str, CameraRig], path: Path) -> None:
 
 def plot_masks(rig: CameraRig, path: Path) -> None:
     """Contact sheet of the avatar's silhouettes (one kick frame) from every view."""
-    from eigmotion.asf_amc import read_amc
-    from eigmotion.avatar import load_default_avatar
-    from eigmotion.figures import contact_sheet, save_image
-    from eigmotion.retarget import retarget
-    from eigmotion.silhouettes import render_rig_masks
+    from eigmotion.body.avatar import load_default_avatar
+    from eigmotion.body.retarget import retarget
+    from eigmotion.imaging.figures import contact_sheet, save_image
+    from eigmotion.imaging.silhouettes import render_rig_masks
+    from eigmotion.mocap.asf_amc import read_amc
 
     cmu = HERE.parent / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{SHEET_CLIP}.amc", cmu / "asf" / f"{SHEET_SUBJECT}.asf")

@@ -18,11 +18,11 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 import numpy as np  # noqa: E402
 
-from eigmotion.avatar import load_default_avatar  # noqa: E402
-from eigmotion.clips import render_clip  # noqa: E402
-from eigmotion.figures import save_image  # noqa: E402
-from eigmotion.library import find_motion  # noqa: E402
-from eigmotion.media import write_video  # noqa: E402
+from eigmotion.body.avatar import load_default_avatar  # noqa: E402
+from eigmotion.imaging.figures import save_image  # noqa: E402
+from eigmotion.imaging.media import write_video  # noqa: E402
+from eigmotion.mocap.library import find_motion  # noqa: E402
+from eigmotion.synth.clips import render_clip  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 

@@ -4,8 +4,8 @@ No free motion capture shows some basic motions (covering the head, falling, lif
 heavy load, sitting down holding the stomach), and the CMU clips show the others done
 one way; these motions and the other ways of doing them (jumps, turns, waves, pick-ups,
 punches, lifts, sitting down, covering the head) are authored on the default avatar's
-skeleton (:func:`eigmotion.canonical.canonical_skeleton`) with
-:mod:`eigmotion.authoring`: a few key poses each, interpolated at 30 fps, feet planted
+skeleton (:func:`eigmotion.mocap.canonical.canonical_skeleton`) with
+:mod:`eigmotion.synth.authoring`: a few key poses each, interpolated at 30 fps, feet planted
 by two-bone IK, every frame resting on the floor except in the flight of a jump.
 Motions made of steps key each foot, the hips and the joints on their own times
 (tracks) and are sampled into a key per frame; a single step among key poses is keyed
@@ -33,7 +33,11 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.spatial.transform import Rotation
 
-from eigmotion.authoring import (
+from eigmotion.mocap.bvh import write_bvh
+from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.motion import Motion
+from eigmotion.mocap.rotations import euler_to_matrix, matrix_to_euler
+from eigmotion.synth.authoring import (
     DEFAULT_FPS,
     Key,
     Target,
@@ -45,10 +49,6 @@ from eigmotion.authoring import (
     rest_positions_m,
     unwrap_rotvecs,
 )
-from eigmotion.bvh import write_bvh
-from eigmotion.canonical import canonical_skeleton
-from eigmotion.motion import Motion
-from eigmotion.rotations import euler_to_matrix, matrix_to_euler
 
 HERE = Path(__file__).resolve().parent
 
@@ -1273,7 +1273,7 @@ def fall_down_sideways() -> Motion:
 # -- motions made of steps: every channel keyed on its own times ----------------------------
 
 #: One channel's keys, ``(time_s, values)`` in time order.  A foot's values are
-#: ``(x, z, yaw_deg, heel_raise_deg, lift_m)`` (see :func:`eigmotion.authoring.foot_target`),
+#: ``(x, z, yaw_deg, heel_raise_deg, lift_m)`` (see :func:`eigmotion.synth.authoring.foot_target`),
 #: the root's ``(dx, dy, dz)`` offsets, a joint's ``(x, y, z)`` degrees.
 Track = list[tuple[float, tuple[float, ...]]]
 
@@ -2568,7 +2568,7 @@ def _foot_on_ball(
     joint: str, ball_xz: tuple[float, float], yaw_deg: float = 0.0, heel_raise_deg: float = 0.0
 ) -> Target:
     """Target of a foot whose ball stays at ``ball_xz`` (world x, z, metres) however it
-    turns (``yaw_deg``, as :func:`eigmotion.authoring.foot_target`) or raises its heel: a
+    turns (``yaw_deg``, as :func:`eigmotion.synth.authoring.foot_target`) or raises its heel: a
     pivot on the ball of the foot."""
     rest = rest_positions_m(canonical_skeleton())
     to_ball = rest[joint.replace("Foot", "ToeBase")] - rest[joint]

@@ -1,0 +1,1 @@
+"""The ``eigmotion`` command line: :mod:`eigmotion.cli.main` and one module per sub-command."""

@@ -1,0 +1,162 @@
+"""``eigmotion query``: which basic motion is in this clip, seen from where?
+
+Examples::
+
+    eigmotion query clip.mp4 --json
+    eigmotion query clip.mp4 --background empty.png --top 5 --bvh-out clip.bvh \\
+        --replay-out clip_replay.mp4
+    eigmotion query clip.mp4 --pose-out clip_pose.npz
+    eigmotion query clip.mp4 --false-rejection 0.2
+
+``--false-rejection`` trades known motions turned away for unknown ones rejected: the
+answer's ``p_known`` is the share of new performances of library motions that lie as
+far from the database as the clip or farther, and the clip is unknown when that share
+is below the one asked for (0.05 by default).
+
+``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
+frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
+frame and follows the clip's own timing.  ``--linear-replay`` stretches the matched
+window linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HELP = "answer a single-camera clip with the nearest basic motion and its view"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "clip", type=Path, help="video (.mp4/.avi), folder of frames, or .npz of masks"
+    )
+    parser.add_argument("--db", default=None, help="database (default database/eigmotion.fs)")
+    parser.add_argument(
+        "--background",
+        type=Path,
+        help="image of the empty scene from the same camera, the size of the frames; "
+        "without it the scene is estimated from the clip, which needs the person to move "
+        "and finds them less well",
+    )
+    parser.add_argument(
+        "--top", type=int, default=3, help="distinct actions (labels) and motions to list"
+    )
+    parser.add_argument(
+        "--false-rejection",
+        type=float,
+        metavar="SHARE",
+        help="call the motion unknown beyond the distance that turns away this share of "
+        "new performances of library motions (0-1; default the database's threshold, "
+        "0.05): a larger share turns away more unknown motions and more known ones",
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
+    parser.add_argument(
+        "--replay-out", type=Path, help="write input | silhouettes | motion image | replay"
+    )
+    parser.add_argument(
+        "--pose-out",
+        type=Path,
+        help="write the 3D joints per clip frame as .npz (names, positions in metres, "
+        "reference_frames, fps)",
+    )
+    parser.add_argument(
+        "--linear-replay",
+        action="store_true",
+        help="for --bvh-out/--replay-out, stretch the matched window over the clip "
+        "instead of aligning it frame by frame",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from eigmotion.errors import InvalidParameterError
+    from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase
+
+    if args.top < 1:
+        raise InvalidParameterError(f"--top must be >= 1, got {args.top}")
+    for out in (args.bvh_out, args.replay_out, args.pose_out):
+        if out is not None and not out.parent.is_dir():
+            raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
+    with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
+        answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
+        result, clip = db.query_clip(
+            args.clip,
+            args.background,
+            args.top,
+            every_frame=answer_3d,
+            progress=True,
+            false_rejection=args.false_rejection,
+        )
+        if answer_3d:
+            _write_replay(db, result, clip.masks, clip.fps, args)
+    if args.json:
+        print(json.dumps(result.to_json()))
+    else:
+        best = result.best
+        verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
+        print(f"{best.label}  ({_described(best)}){verdict}")
+        if result.p_known is not None:
+            print(
+                f"  {result.p_known:.0%} of new performances of library motions lie as far "
+                f"or farther (threshold {result.threshold:.3f})"
+            )
+        ranked = ", ".join(m.label for m in result.labels[: args.top])
+        print(f"  actions, likeliest first: {ranked}")
+        for match in result.top[1:]:
+            print(f"  then {match.label}  ({_described(match)})")
+        for seg in result.segments:
+            print(f"  frames {seg.start_frame}–{seg.end_frame}: {seg.label}")
+        print(
+            f"  examined {result.examined} of {result.db_entries} entries, "
+            f"{result.timing_ms['total']:.0f} ms"
+        )
+    return 0
+
+
+def _described(match) -> str:
+    """A match's motion, distances and view, as the text answer lists them."""
+    sequence = (
+        "" if match.sequence_distance is None else f", sequence {match.sequence_distance:.3f}"
+    )
+    return (
+        f"{match.motion}, distance {match.distance:.3f}{sequence}, view azimuth "
+        f"{match.azimuth_deg:.0f}°, elevation {match.elevation_deg:.0f}°"
+    )
+
+
+def _write_replay(db, result, masks, fps, args) -> None:
+    from eigmotion.mocap.bvh import write_bvh
+    from eigmotion.pose.continuous_pose import continuous_pose
+    from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
+    from eigmotion.retrieval.motion_image import motion_image_picture
+
+    best = result.best
+    pose = None
+    if args.pose_out or not args.linear_replay:
+        pose = continuous_pose(db, result, masks, fps)
+    if args.pose_out:
+        pose.save_npz(args.pose_out)
+    if not (args.bvh_out or args.replay_out):
+        rep = None
+    elif args.linear_replay:
+        motion = db.motion(best.motion_id)
+        rep = replay(motion, best.window, best.azimuth_deg, best.elevation_deg, len(masks), fps)
+    else:
+        rep = pose.as_replay()
+    if args.bvh_out:
+        write_bvh(rep.motion, args.bvh_out)
+    if args.replay_out:
+        frames = None
+        if args.clip.suffix.lower() != ".npz":
+            frames = read_input_panel(args.clip)
+        picture = motion_image_picture(result.motion_image, db.config.motion_image)
+        answer = best.label if result.accepted else f"unknown (nearest {best.label})"
+        captions = segment_captions(result.segments, len(masks), answer)
+        replay_video(
+            rep, frames, masks, picture, args.replay_out, fps, progress=True, captions=captions
+        )
+    written = (args.bvh_out, args.replay_out, args.pose_out)
+    print("wrote " + ", ".join(str(p) for p in written if p), file=sys.stderr)

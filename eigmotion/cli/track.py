@@ -1,0 +1,299 @@
+"""``eigmotion track --calib CAMS.json VIDEO0 VIDEO1 …``: multi-camera posture tracking.
+
+One video per calibrated camera (same order as the calibration file, same frame
+count and rate), each a video file, a folder of frames or an ``.npz`` of silhouettes
+(key ``masks``).  The person is cut out by background subtraction against
+``--background`` images (one per video) or, without them, a background estimated
+from the clip.  Every ``video fps / --estimate-fps``-th frame is tracked against a
+posture dictionary built from ``--dictionary`` motions (default: CMU walks and turns
+in every direction), or loaded from a saved dictionary ``.npz``.
+
+Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-speed
+playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
+``positions`` (n_frames, n_joints, 3) metres in the calibration's world frame,
+``frame_time_s``, ``frames``), ``--overlay-out`` (the input views side by side with
+the estimated silhouette's outline drawn in yellow), ``--dictionary-out`` (the
+dictionary as ``.npz``, for reuse).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from eigmotion.errors import InvalidParameterError
+
+HELP = "track a person's posture in 2+ calibrated videos against a posture dictionary"
+
+#: Motions of the default dictionary (library names): CMU walks and both turns.
+DEFAULT_DICTIONARY = ("walk_02_01", "walk_16_15", "turn_16_17", "turn_16_19")
+
+#: Turns of the default dictionary's postures about the vertical, degrees.
+DEFAULT_HEADING_STEP_DEG = 15.0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "videos",
+        nargs="+",
+        type=Path,
+        help="one clip per camera, in calibration order: video, frame folder or .npz masks",
+    )
+    parser.add_argument(
+        "--calib", type=Path, required=True, help="calibration JSON (see `eigmotion calibrate`)"
+    )
+    parser.add_argument(
+        "--background",
+        nargs="+",
+        type=Path,
+        help="an image of the empty scene per video (default: estimated from each clip)",
+    )
+    parser.add_argument(
+        "--dictionary",
+        nargs="+",
+        help="motions for the posture dictionary (.bvh, .amc with --asf, library names) "
+        "or one saved dictionary .npz "
+        f"(default: {' '.join(DEFAULT_DICTIONARY)})",
+    )
+    parser.add_argument("--asf", type=Path, help="the skeleton (.asf) of .amc motions")
+    parser.add_argument(
+        "--heading-step-deg",
+        type=float,
+        default=DEFAULT_HEADING_STEP_DEG,
+        help="dictionary postures are turned to every multiple of this angle about the "
+        "vertical; 0 keeps the recorded headings (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--prune-deg",
+        type=float,
+        default=5.0,
+        help="near-duplicate postures (d1 below this) are dropped (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--estimate-fps",
+        type=float,
+        default=25.0,
+        help="estimates per second of video (default: %(default)s, as the paper)",
+    )
+    parser.add_argument("--t", type=int, default=3, help="search tree: layer-1 step (default 3)")
+    parser.add_argument("--k", type=int, default=3, help="search tree: layer-1 postures expanded")
+    parser.add_argument(
+        "--max-candidates", type=int, default=40, help="T_n, candidates kept (default 40)"
+    )
+    parser.add_argument("--max-d1-deg", type=float, default=30.0, help="T_d1, degrees (default 30)")
+    parser.add_argument("--max-d2-m", type=float, default=0.3, help="T_d2, metres (default 0.3)")
+    parser.add_argument(
+        "--shift-px", type=int, default=6, help="silhouette shift search radius, pixels"
+    )
+    parser.add_argument(
+        "--downsample", type=int, default=2, help="compare silhouettes at 1/N resolution"
+    )
+    parser.add_argument(
+        "--exhaustive", action="store_true", help="score every candidate (no search tree)"
+    )
+    parser.add_argument(
+        "--body-scale",
+        type=float,
+        help="the person's size relative to the body model (e.g. height / 1.67 m); "
+        "default: measured from the silhouettes on the first frames",
+    )
+    parser.add_argument(
+        "--no-recovery",
+        action="store_true",
+        help="never search the whole dictionary again when the match gets poor",
+    )
+    parser.add_argument(
+        "--reference",
+        help="reference motion replayed at variable speed for --bvh-out/--joints-out",
+    )
+    parser.add_argument(
+        "--playback-window-s",
+        type=float,
+        default=0.1,
+        help="largest step in reference time per estimate, seconds (default: %(default)s)",
+    )
+    parser.add_argument("--bvh-out", type=Path, help="write the motion as BVH")
+    parser.add_argument("--joints-out", type=Path, help="write joint positions (.npz)")
+    parser.add_argument("--overlay-out", type=Path, help="write the overlay video (.mp4, .gif)")
+    parser.add_argument("--dictionary-out", type=Path, help="save the dictionary (.npz)")
+
+
+def _read_motion(spec: str, asf: Path | None):
+    """A motion from a ``.bvh`` / ``.amc`` file or a library name."""
+    from eigmotion.mocap.library import find_motion
+
+    if Path(spec).suffix.lower() in (".bvh", ".amc") and not Path(spec).is_file():
+        raise InvalidParameterError(f"{spec}: motion file not found")
+    return find_motion(spec, asf)
+
+
+def load_dictionary(args: argparse.Namespace):
+    """The posture dictionary the command line asks for."""
+    from eigmotion.tracking.dictionary import PostureDictionary, build_dictionary
+
+    specs = args.dictionary or list(DEFAULT_DICTIONARY)
+    if len(specs) == 1 and specs[0].lower().endswith(".npz"):
+        return PostureDictionary.load(specs[0])
+    if any(s.lower().endswith(".npz") for s in specs):
+        raise InvalidParameterError("a saved dictionary (.npz) must be given on its own")
+    step = args.heading_step_deg
+    if not (np.isfinite(step) and 0 <= step <= 180):
+        raise InvalidParameterError(f"--heading-step-deg must be in [0, 180], got {step}")
+    headings = (0.0,) if step == 0 else tuple(np.arange(-180.0, 180.0, step))
+    motions = [_read_motion(s, args.asf) for s in specs]
+    return build_dictionary(
+        motions, threshold_deg=args.prune_deg, headings_deg=headings, face_forward=step > 0
+    )
+
+
+def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], float]:
+    from eigmotion.segmentation.video import load_clip_masks
+
+    backgrounds = args.background or [None] * len(args.videos)
+    all_masks, rates = [], []
+    for cam, video, background in zip(cameras, args.videos, backgrounds, strict=True):
+        clip = load_clip_masks(video, background)
+        masks, fps = clip.masks, clip.fps
+        if masks.shape[1:] != (cam.height, cam.width):
+            raise InvalidParameterError(
+                f"{video}: frames are {masks.shape[2]}×{masks.shape[1]}, camera {cam.name!r} "
+                f"was calibrated at {cam.width}×{cam.height}"
+            )
+        all_masks.append(masks)
+        rates.append(fps)
+    counts = {len(m) for m in all_masks}
+    if len(counts) != 1:
+        listed = ", ".join(f"{v}: {len(m)}" for v, m in zip(args.videos, all_masks, strict=True))
+        raise InvalidParameterError(f"the videos have different frame counts ({listed})")
+    return all_masks, float(rates[0])
+
+
+def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
+    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow."""
+    from eigmotion.tracking.overlay import draw_outline
+
+    views = []
+    for c, video in enumerate(args.videos):
+        if Path(video).suffix.lower() == ".npz":
+            rgb = np.repeat((masks[c][result.frames] * 160).astype(np.uint8)[..., None], 3, -1)
+        else:
+            from eigmotion.imaging.media import read_frames
+
+            frames, _ = read_frames(video)
+            rgb = frames[result.frames]
+        out = np.empty_like(rgb)
+        for i, estimate in enumerate(result.estimates):
+            out[i] = draw_outline(rgb[i], tracker.silhouette(estimate, c))
+        views.append(out)
+    height = max(v.shape[1] for v in views)
+    padded = [
+        v if v.shape[1] == height else np.pad(v, ((0, 0), (0, height - v.shape[1]), (0, 0), (0, 0)))
+        for v in views
+    ]
+    return np.concatenate(padded, axis=2)
+
+
+def run(args: argparse.Namespace) -> int:
+    from eigmotion.tracking.calibration import load_calibration
+    from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
+
+    calibration = load_calibration(args.calib)
+    if len(args.videos) != len(calibration.cameras):
+        raise InvalidParameterError(
+            f"{len(args.videos)} videos given for the {len(calibration.cameras)} cameras of "
+            f"{args.calib}"
+        )
+    if args.background is not None and len(args.background) != len(args.videos):
+        raise InvalidParameterError(
+            f"{len(args.background)} backgrounds given for {len(args.videos)} videos; give "
+            "one per video or none"
+        )
+    if not (np.isfinite(args.estimate_fps) and args.estimate_fps > 0):
+        raise InvalidParameterError(f"--estimate-fps must be > 0, got {args.estimate_fps}")
+    config = TrackerConfig(
+        layer_step=args.t,
+        top_k=args.k,
+        max_candidates=args.max_candidates,
+        max_d1_deg=args.max_d1_deg,
+        max_d2_m=args.max_d2_m,
+        shift_radius_px=args.shift_px,
+        downsample=args.downsample,
+        exhaustive=args.exhaustive,
+        body_scale=args.body_scale,
+        recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
+    )
+    masks, fps = _load_masks(args, calibration.cameras)
+    dictionary = load_dictionary(args)
+    if args.dictionary_out:
+        dictionary.save(args.dictionary_out)
+    tracker = SilhouetteTracker(
+        dictionary, calibration.cameras, config=config, pairs=calibration.pairs
+    )
+    step = max(1, int(round(fps / args.estimate_fps)))
+    started = time.perf_counter()
+    result = tracker.track(masks, frame_step=step, frame_time_s=1.0 / fps)
+    elapsed = time.perf_counter() - started
+    if not np.any(result.found):
+        raise InvalidParameterError("no person was found in any frame of the videos")
+    first = int(np.argmax(result.entries >= 0))
+    entries = result.entries.copy()
+    entries[:first] = entries[first]
+    positions = result.positions_m.copy()
+    positions[:first] = positions[first]
+    if args.reference:
+        from eigmotion.mocap.kinematics import forward_kinematics
+        from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
+        from eigmotion.tracking.generation import (
+            playback_motion,
+            smooth_headings_deg,
+            variable_speed_playback,
+        )
+
+        sequence = posture_sequence(_read_motion(args.reference, args.asf))
+        joint_ids = [dictionary.joint_names.index(n) for n in dictionary.vector_joints]
+        reference = posture_vectors(sequence.local_rotations(), joint_ids)
+        window = max(1, int(round(args.playback_window_s / sequence.frame_time_s)))
+        frames = variable_speed_playback(
+            reference, dictionary.vectors[entries], window_frames=window
+        )
+        headings = smooth_headings_deg(heading_deg(dictionary.world_rotations(entries)[:, 0]))
+        motion = playback_motion(
+            sequence, frames, positions, result.frame_time_s, headings, name="tracked"
+        )
+        joints = forward_kinematics(motion, ground=False).positions
+        names = motion.skeleton.names
+    else:
+        motion = dictionary.to_motion(
+            entries, positions, result.frame_time_s, scale=tracker.body_scale_
+        )
+        joints = result.joint_positions_m.copy()
+        joints[:first] = joints[first]
+        names = dictionary.joint_names
+    if args.bvh_out:
+        from eigmotion.mocap.bvh import write_bvh
+
+        write_bvh(motion, args.bvh_out)
+    if args.joints_out:
+        np.savez_compressed(
+            args.joints_out,
+            names=np.array(names),
+            positions=joints.astype(np.float64),
+            frame_time_s=np.float64(result.frame_time_s),
+            frames=result.frames,
+        )
+    if args.overlay_out:
+        from eigmotion.imaging.media import write_video
+
+        write_video(_overlay_frames(args, tracker, result, masks), args.overlay_out, fps / step)
+    print(
+        f"tracked {result.n_estimates} frames of {len(masks[0])} ({fps:g} fps, every {step}): "
+        f"{result.n_estimates / elapsed:.1f} estimates/s, "
+        f"{result.n_evaluations[1:].mean() if result.n_estimates > 1 else 0:.1f} "
+        f"postures scored per frame, dictionary of {len(dictionary)} postures",
+        file=sys.stdout,
+    )
+    return 0

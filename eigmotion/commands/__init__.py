@@ -1,1 +1,0 @@
-"""Sub-commands of the ``eigmotion`` command line, one module each."""

@@ -1,0 +1,1 @@
+"""Scoring: accuracy tables, confusion counts and the measures the benchmarks report."""

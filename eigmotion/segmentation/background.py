@@ -1,0 +1,328 @@
+"""The person's still body in the image of a clip's commonest colours.
+
+A person who stays in place (waving, lifting, covering the head) covers the same
+pixels for most of the clip, so each pixel's commonest colour over the clip
+(:func:`eigmotion.segmentation.video.estimate_background`, method ``"grabcut"``) is their body's,
+and a segmentation against that image finds only what moves.  This module finds that
+body in the image, for the estimate to replace it with the scene::
+
+    first masks (the person against the image: what moves) ──▶ their union,
+    closed, its rows and columns filled: the envelope the person moved in ──▶ colour
+    models, smoothed 3-D RGB histograms: the scene's from a ring of the image
+    around the envelope, the person's from the first masks' pixels in the frames ──▶
+    their log likelihood ratio on the image seeds cv2.grabCut inside the
+    envelope (outside it: certainly scene) ──▶ its pieces that come near the moving
+    person in at least half of the frames, kept whole (a person crossing the picture
+    leaves no still body), less what is more the colour of the scene right around them
+    than the person's ──▶ plus still limbs: pieces of certainly personal colour above
+    or below them, within reach of the envelope (legs below waving arms) ──▶ the still
+    body.
+
+The same colour models then judge, frame by frame, which pixels of the envelope show
+the scene (:meth:`StillBody.person_log_ratio`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Bins per RGB channel of the colour histograms (a power of two).
+HISTOGRAM_BINS = 16
+
+#: Gaussian sigma, bins, the histograms are smoothed with (colours between samples).
+HISTOGRAM_SIGMA_BINS = 0.7
+
+#: Pseudo-count added to every histogram bin, samples.
+HISTOGRAM_PRIOR = 0.1
+
+#: Person/scene log likelihood ratio above which a pixel of the image seeds grabCut as
+#: probably the person, and above which it is certainly the person.
+PROBABLE_LOG_RATIO = 0.0
+CERTAIN_LOG_RATIO = 2.0
+
+#: grabCut iterations (colour models re-fitted, graph cut again), and the margin of
+#: scene, pixels, around the envelope's box that takes part in the cut.
+GRABCUT_ITERATIONS = 3
+GRABCUT_MARGIN_PX = 8
+
+#: Radii as fractions of the height the person moved over: the closing and the growth
+#: that turn the union of the first masks into the envelope, and the width of the
+#: ring around it whose colours are the scene's.
+CLOSE_PER_HEIGHT = 0.045
+GROW_PER_HEIGHT = 0.02
+RING_PER_HEIGHT = 0.25
+
+#: Fewest ring pixels for a scene colour model; with fewer, every pixel outside the
+#: envelope is used.
+MIN_RING_PIXELS = 64
+
+#: A still body lies within this distance of the moving person (a fraction of the
+#: height the person moved over) in at least this fraction of the frames.
+NEAR_PER_HEIGHT = 0.25
+MIN_NEAR_FRAC = 0.5
+
+#: Width of the band around the still body whose colours are the scene right around
+#: it, as a fraction of the height the person moved over.
+AROUND_PER_HEIGHT = 0.1
+
+#: How far beyond the envelope a still limb may reach, as a fraction of the height the
+#: person moved over, and its smallest area, as a fraction of the still body's.
+REACH_PER_HEIGHT = 0.6
+MIN_LIMB_FRAC = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class StillBody:
+    """The person as the commonest colours show them, and the colour models that found it.
+
+    Attributes
+    ----------
+    mask : (H, W) bool
+        Pixels of the commonest colours' image that show the person.
+    envelope : (H, W) bool
+        Where the person moved: the union of the first masks, closed, every row and
+        then every column filled from its first pixel to its last, and grown by a few
+        pixels.
+    person_histogram, scene_histogram : (B, B, B) float32
+        Colour probabilities over RGB bins (``B`` = :data:`HISTOGRAM_BINS`), each
+        summing to 1.
+    """
+
+    mask: np.ndarray
+    envelope: np.ndarray
+    person_histogram: np.ndarray
+    scene_histogram: np.ndarray
+
+    def person_log_ratio(self, rgb: np.ndarray) -> np.ndarray:
+        """Log likelihood ratio, person against scene, of each colour.
+
+        Parameters
+        ----------
+        rgb : (..., 3) uint8
+
+        Returns
+        -------
+        (...) float32
+            > 0: more likely the person's colour than the scene's.
+        """
+        return _log_ratio(self.person_histogram, self.scene_histogram, rgb)
+
+
+def find_still_body(
+    commonest: np.ndarray, frames: np.ndarray, first_masks: np.ndarray
+) -> StillBody | None:
+    """The person's still body in the image of a clip's commonest colours.
+
+    Parameters
+    ----------
+    commonest : (H, W, 3) uint8
+        Each pixel's commonest colour over ``frames``, RGB.
+    frames : (F, H, W, 3) uint8
+        The frames, RGB.
+    first_masks : (F, H, W) bool
+        The person in each frame as a segmentation against ``commonest`` finds them
+        (what moves).
+
+    Returns
+    -------
+    StillBody or None
+        None when the first masks are empty or the envelope leaves no scene around it.
+        ``mask`` is empty when the person left no still body (they crossed the
+        picture).
+    """
+    import cv2
+
+    motion = first_masks.any(axis=0)
+    if not motion.any():
+        return None
+    rows = np.flatnonzero(motion.any(axis=1))
+    height = rows[-1] - rows[0] + 1
+    envelope = _envelope(motion, height, cv2)
+    ring = cv2.dilate(envelope.astype(np.uint8), _disk(RING_PER_HEIGHT * height, cv2)) > 0
+    ring &= ~envelope
+    if ring.sum() < MIN_RING_PIXELS:
+        ring = ~envelope
+        if ring.sum() < MIN_RING_PIXELS:
+            return None
+    # The first masks' rims mix the person's colour with the scene's.
+    core = np.stack([cv2.erode(m.astype(np.uint8), _disk(1, cv2)) for m in first_masks]) > 0
+    person = _histogram(frames[core] if core.any() else frames[first_masks])
+    scene = _histogram(commonest[ring])
+    log_ratio = _log_ratio(person, scene, commonest)
+    near = _near_most_frames(first_masks, height, cv2)  # counted on the workers meanwhile
+    mask = _pieces_reaching(_grabcut(commonest, envelope, log_ratio, cv2), near(), cv2)
+    if mask.any():
+        mask &= ~_like_surroundings(commonest, mask, person, height, cv2)
+    if mask.any():
+        mask |= _still_limbs(mask, envelope, log_ratio, height, cv2)
+    return StillBody(mask, envelope, person, scene)
+
+
+def _envelope(motion: np.ndarray, height: int, cv2) -> np.ndarray:
+    """The union of the first masks (H, W) bool, closed, its spans filled, grown.
+
+    A still body between moving parts lies in the envelope even where the gap between
+    them is open on one side: the torso between two waving arms, open below.
+    """
+    close = _disk(CLOSE_PER_HEIGHT * height, cv2)
+    closed = cv2.morphologyEx(motion.astype(np.uint8), cv2.MORPH_CLOSE, close) > 0
+    filled = _spans_filled(_spans_filled(closed, axis=1), axis=0)
+    return cv2.dilate(filled.astype(np.uint8), _disk(GROW_PER_HEIGHT * height, cv2)) > 0
+
+
+def _spans_filled(mask: np.ndarray, axis: int) -> np.ndarray:
+    """(H, W) bool: ``mask`` with every row (``axis=1``) or column (``axis=0``) filled
+    from its first pixel to its last (holes included)."""
+    before = np.logical_or.accumulate(mask, axis=axis)
+    after = np.flip(np.logical_or.accumulate(np.flip(mask, axis=axis), axis=axis), axis=axis)
+    return before & after
+
+
+def _grabcut(image: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, cv2) -> np.ndarray:
+    """The person in the image (H, W) bool: grabCut inside the envelope, seeded
+    by the colour models' log ratio; the scene outside the envelope."""
+    seeds = np.full(envelope.shape, cv2.GC_BGD, np.uint8)
+    seeds[envelope] = np.where(
+        log_ratio[envelope] > PROBABLE_LOG_RATIO, cv2.GC_PR_FGD, cv2.GC_PR_BGD
+    )
+    seeds[envelope & (log_ratio > CERTAIN_LOG_RATIO)] = cv2.GC_FGD
+    person_seed = (seeds == cv2.GC_FGD) | (seeds == cv2.GC_PR_FGD)
+    if not person_seed.any():
+        return person_seed
+    # Only the envelope's box, and a margin of scene around it, takes part in the cut.
+    h, w = envelope.shape
+    rows, cols = np.flatnonzero(envelope.any(axis=1)), np.flatnonzero(envelope.any(axis=0))
+    box = (
+        slice(max(0, rows[0] - GRABCUT_MARGIN_PX), min(h, rows[-1] + 1 + GRABCUT_MARGIN_PX)),
+        slice(max(0, cols[0] - GRABCUT_MARGIN_PX), min(w, cols[-1] + 1 + GRABCUT_MARGIN_PX)),
+    )
+    labels = np.ascontiguousarray(seeds[box])
+    if not ((labels == cv2.GC_BGD) | (labels == cv2.GC_PR_BGD)).any():
+        return person_seed
+    bgr = np.ascontiguousarray(image[box][..., ::-1])
+    models = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
+    cv2.setRNGSeed(0)  # grabCut starts its colour models with k-means: the same clip, the same cut
+    cv2.grabCut(bgr, labels, None, *models, GRABCUT_ITERATIONS, cv2.GC_INIT_WITH_MASK)
+    out = np.zeros(envelope.shape, bool)
+    out[box] = (labels == cv2.GC_FGD) | (labels == cv2.GC_PR_FGD)
+    return out
+
+
+def _near_most_frames(first_masks: np.ndarray, height: int, cv2) -> Callable[[], np.ndarray]:
+    """The pixels near the moving person in at least :data:`MIN_NEAR_FRAC` of the
+    frames that show them.  A still body is part of the person in every frame; a
+    person who crosses the picture is near any one place only for a while.
+
+    The frames are counted on the worker threads
+    (:func:`eigmotion.segmentation.video.worker_threads`;
+    the dilations release the GIL), in one share per thread.  The call returns at once;
+    calling what it returns waits for the counts and gives the pixels, (H, W) bool.
+    """
+    from eigmotion.segmentation.video import worker_shares, worker_threads
+
+    near = _disk(NEAR_PER_HEIGHT * height, cv2)
+    reach = near.shape[0] // 2
+    shown = [mask for mask in first_masks if mask.any()]
+
+    def count_near(masks: list[np.ndarray]) -> np.ndarray:
+        count = np.zeros(first_masks.shape[1:], np.int32)
+        for mask in masks:
+            # Nothing beyond reach of the mask's box is near it: the mask is dilated
+            # within that box only, with the same result.
+            rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+            box = (
+                slice(max(0, rows[0] - reach), rows[-1] + 1 + reach),
+                slice(max(0, cols[0] - reach), cols[-1] + 1 + reach),
+            )
+            count[box] += cv2.dilate(np.ascontiguousarray(mask[box]).view(np.uint8), near)
+        return count
+
+    shares = len(worker_shares(len(shown)))  # frames taken in turn: one share per thread
+    parts = [worker_threads().submit(count_near, shown[i::shares]) for i in range(shares)]
+
+    def pixels() -> np.ndarray:
+        count = sum(part.result() for part in parts)  # integers: the same in any order
+        return count >= MIN_NEAR_FRAC * len(shown)
+
+    return pixels
+
+
+def _pieces_reaching(cut: np.ndarray, near: np.ndarray, cv2) -> np.ndarray:
+    """(H, W) bool: the pieces (8-connected) of ``cut`` that reach into ``near``, whole.
+
+    The nearness is measured in the height the person moved over, which is the arms'
+    when only the arms move: the torso below them lies beyond that reach, but is
+    joined to shoulders within it."""
+    _, labels = cv2.connectedComponents(cut.astype(np.uint8), connectivity=8)
+    reached = np.unique(labels[cut & near])
+    return np.isin(labels, reached[reached > 0])
+
+
+def _like_surroundings(
+    image: np.ndarray, body: np.ndarray, person: np.ndarray, height: int, cv2
+) -> np.ndarray:
+    """(H, W) bool: pixels of ``body`` whose colour is more the scene's right around it
+    than the person's: a stretch of a stripe, say, that continues beyond the body found."""
+    around = cv2.dilate(body.astype(np.uint8), _disk(AROUND_PER_HEIGHT * height, cv2)) > 0
+    around &= ~body
+    if around.sum() < MIN_RING_PIXELS:
+        return np.zeros_like(body)
+    local = _histogram(image[around])
+    return body & (_log_ratio(person, local, image) < 0.0)
+
+
+def _still_limbs(
+    body: np.ndarray, envelope: np.ndarray, log_ratio: np.ndarray, height: int, cv2
+) -> np.ndarray:
+    """Still parts beyond where the person moved (legs below waving arms), (H, W) bool.
+
+    Pieces of certainly personal colour within reach of the envelope, at least
+    :data:`MIN_LIMB_FRAC` of the body's area, above or below it (overlapping its
+    columns): camouflaged clothing may part them from the body.
+    """
+    reach = cv2.dilate(envelope.astype(np.uint8), _disk(REACH_PER_HEIGHT * height, cv2)) > 0
+    certain = (reach & ~body & (log_ratio > CERTAIN_LOG_RATIO)).astype(np.uint8)
+    _, pieces, stats, _ = cv2.connectedComponentsWithStats(certain, connectivity=8)
+    cols = np.flatnonzero(body.any(axis=0))
+    left = stats[:, cv2.CC_STAT_LEFT]
+    right = left + stats[:, cv2.CC_STAT_WIDTH] - 1
+    keep = (
+        (stats[:, cv2.CC_STAT_AREA] >= MIN_LIMB_FRAC * body.sum())
+        & (left <= cols[-1])
+        & (right >= cols[0])
+    )
+    keep[0] = False
+    return keep[pieces]
+
+
+def _histogram(pixels: np.ndarray) -> np.ndarray:
+    """(B, B, B) float32 colour probabilities of (N, 3) uint8 RGB pixels, smoothed."""
+    from scipy.ndimage import gaussian_filter
+
+    bins = HISTOGRAM_BINS
+    index = _bin_index(pixels.reshape(-1, 3))
+    counts = np.bincount(index, minlength=bins**3).astype(np.float32).reshape(bins, bins, bins)
+    counts = gaussian_filter(counts, HISTOGRAM_SIGMA_BINS, mode="constant") + HISTOGRAM_PRIOR
+    return counts / counts.sum()
+
+
+def _log_ratio(person: np.ndarray, scene: np.ndarray, rgb: np.ndarray) -> np.ndarray:
+    """Log likelihood ratio (...) float32, person against scene histogram, of each
+    colour of ``rgb`` (..., 3) uint8."""
+    index = _bin_index(rgb)
+    return np.log(person.ravel()[index]) - np.log(scene.ravel()[index])
+
+
+def _bin_index(rgb: np.ndarray) -> np.ndarray:
+    """Flat histogram bin (...) int64 of each colour of ``rgb`` (..., 3) uint8."""
+    q = rgb.astype(np.int64) >> (8 - int(np.log2(HISTOGRAM_BINS)))
+    return (q[..., 0] * HISTOGRAM_BINS + q[..., 1]) * HISTOGRAM_BINS + q[..., 2]
+
+
+def _disk(radius: float, cv2) -> np.ndarray:
+    """Elliptic structuring element of the given radius (pixels, at least 1)."""
+    r = max(1, int(round(radius)))
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
