@@ -60,7 +60,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import gaussian_filter
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.segmentation.config import SilhouetteConfig
@@ -553,6 +552,11 @@ def _still_limbs(
 
 def _histogram(pixels: np.ndarray) -> np.ndarray:
     """(B, B, B) float32 colour probabilities of (N, 3) uint8 RGB pixels, smoothed."""
+    # scipy.ndimage is imported here, not with the module: it would add about a third to
+    # the import time of every query (eigmotion.retrieval.database imports this module),
+    # and only a clip without an image of the empty scene needs it.
+    from scipy.ndimage import gaussian_filter
+
     bins = HISTOGRAM_BINS
     index = _bin_index(pixels.reshape(-1, 3))
     counts = np.bincount(index, minlength=bins**3).astype(np.float32).reshape(bins, bins, bins)

@@ -42,6 +42,8 @@ GAIN_SAMPLES = 512
 
 
 def check_frames(frames) -> np.ndarray:
+    """``frames`` as an array, checked to be (F, H, W, 3) uint8 RGB with ``F >= 1`` and
+    ``H, W >= 8`` (InvalidParameterError; VideoError for zero frames)."""
     frames = np.asarray(frames)
     if frames.ndim != 4 or frames.shape[-1] != 3:
         raise InvalidParameterError(
