@@ -116,7 +116,8 @@ class QueryMasks:
             view = (spec.azimuth_deg, spec.elevation_deg)
             return true_masks(item, body, *view, spec.margin), CLIP_FPS
         from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
-        from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks
+        from eigmotion.segmentation.config import SilhouetteConfig
+        from eigmotion.segmentation.video import load_clip_masks
 
         clip = self.maker.make(spec, item)
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)

@@ -48,7 +48,8 @@ from _motion_image_common import iou, ratio  # noqa: E402
 from eigmotion.imaging.media import sample_indices  # noqa: E402
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX  # noqa: E402
 from eigmotion.retrieval.motion_image import MotionImageConfig  # noqa: E402
-from eigmotion.segmentation.video import SilhouetteConfig, extract_silhouettes  # noqa: E402
+from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
+from eigmotion.segmentation.video import extract_silhouettes  # noqa: E402
 
 IN_PLACE = (
     "wave_14_24",

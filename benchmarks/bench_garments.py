@@ -94,7 +94,8 @@ def key_frames(body: Avatar, anim, kind: str) -> np.ndarray:
 
 def figure(body: Avatar, path: str) -> None:
     from eigmotion.imaging.figures import contact_sheet, save_image
-    from eigmotion.imaging.render import BODY_RGB, Renderer, frame_cameras
+    from eigmotion.imaging.framing import frame_cameras
+    from eigmotion.imaging.render import BODY_RGB, Renderer
 
     images, labels = [], []
     with Renderer() as renderer:

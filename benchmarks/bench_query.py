@@ -30,8 +30,8 @@ import numpy as np  # noqa: E402
 from eigmotion.imaging.media import read_frame_sample  # noqa: E402
 from eigmotion.retrieval.database import DEFAULT_DB_PATH, QUERY_SILHOUETTE_SIDE_PX, MotionDatabase  # noqa: E402
 from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
+from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
 from eigmotion.segmentation.video import (  # noqa: E402
-    SilhouetteConfig,
     extract_silhouettes,
     load_clip_masks,
     read_background,

@@ -40,7 +40,7 @@ image and prints, per label, how the estimated silhouettes agree with those
 (:func:`mask_agreement`): where the estimate loses recognition, and what it misses.
 
 ``--silhouettes NAME=VALUE`` (repeatable) cuts the clips with a field of
-:class:`~eigmotion.segmentation.video.SilhouetteConfig` changed from what a query uses (the working
+:class:`~eigmotion.segmentation.config.SilhouetteConfig` changed from what a query uses (the working
 size ``work_max_side_px``, the thresholds, the shadow test ...), to compare silhouette
 settings by what they do to recognition; VALUE is JSON (``shadow_ratio=[0.35,0.85]``)
 or text (``background=median``).
@@ -124,7 +124,8 @@ from eigmotion.retrieval.database import (  # noqa: E402
     leave_one_motion_out_distances,
 )
 from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
-from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks  # noqa: E402
+from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
+from eigmotion.segmentation.video import load_clip_masks  # noqa: E402
 
 #: The constants a variant may set: those read while a query is answered, never
 #: those a database was built with.

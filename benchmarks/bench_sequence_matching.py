@@ -183,7 +183,8 @@ def run(args: argparse.Namespace) -> None:
     from tqdm import tqdm
 
     from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
-    from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks
+    from eigmotion.segmentation.config import SilhouetteConfig
+    from eigmotion.segmentation.video import load_clip_masks
 
     silhouettes = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
     hits = {method: [] for method in METHODS}  # (top-1, top-3) per in-library clip

@@ -34,7 +34,8 @@ import numpy as np
 from _motion_image_common import WALK_VIEWS, composed_walks, iou, ratio, walk_views
 
 from eigmotion.imaging.media import read_frames, write_video
-from eigmotion.segmentation.video import SilhouetteConfig, extract_silhouettes
+from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.video import extract_silhouettes
 
 #: (row name, background given?, SilhouetteConfig.background); the last is the baseline.
 METHODS = (("given", True, "median"), ("median", False, "median"), ("mog2", False, "mog2"))

@@ -14,7 +14,7 @@ import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.scoring import QueryOutcome
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
-from eigmotion.segmentation.video import SilhouetteConfig
+from eigmotion.segmentation.config import SilhouetteConfig
 
 
 @pytest.fixture(scope="module")

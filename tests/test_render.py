@@ -11,15 +11,14 @@ import trimesh
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import Camera, look_at, virtual_rig
+from eigmotion.imaging.framing import FOLLOW_TRAVEL_M, frame_cameras
+from eigmotion.imaging.posed_mesh import vertex_normals
 from eigmotion.imaging.render import (
     BACKGROUND_RGB,
-    FOLLOW_TRAVEL_M,
     Renderer,
     checker_floor,
     depth_sample_offset_px,
-    frame_cameras,
     render_masks_gl,
-    vertex_normals,
 )
 
 SPHERE_RADIUS_M = 0.25
@@ -284,7 +283,7 @@ def test_bad_renderer_parameters(kwargs):
 
 def test_importing_does_not_load_pyrender():
     code = (
-        "import eigmotion.imaging.render, eigmotion.cli.show, sys; "
+        "import eigmotion.imaging.render, eigmotion.imaging.framing, eigmotion.cli.show, sys; "
         "sys.exit('pyrender' in sys.modules)"
     )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0

@@ -15,16 +15,20 @@ import pytest
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.retrieval.motion_image import motion_image
-from eigmotion.segmentation import video
-from eigmotion.segmentation.background import find_still_body
-from eigmotion.segmentation.video import (
+from eigmotion.segmentation import background as scene_estimate
+from eigmotion.segmentation import evidence, subtraction, workers
+from eigmotion.segmentation.background import (
     COLOUR_PER_NOISE,
-    DEFAULT_NPZ_FPS,
     MIN_COLOUR_LEVELS,
-    SilhouetteConfig,
     _commonest_colours,
-    _grid_step,
+    _pieces_reaching,
     estimate_background,
+    find_still_body,
+)
+from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.evidence import grid_step
+from eigmotion.segmentation.video import (
+    DEFAULT_NPZ_FPS,
     extract_silhouettes,
     load_clip_masks,
     read_background,
@@ -182,7 +186,7 @@ def test_masks_do_not_depend_on_the_chunks_frames_are_segmented_in(
     given = background if background_given else None
     reference = extract_silhouettes(frames, given)
     for chunk in (1, 3, len(frames)):
-        monkeypatch.setattr(video, "CHUNK_FRAMES", chunk)
+        monkeypatch.setattr(subtraction, "CHUNK_FRAMES", chunk)
         np.testing.assert_array_equal(extract_silhouettes(frames, given), reference)
 
 
@@ -196,23 +200,23 @@ def test_masks_cut_in_the_person_region_equal_those_of_the_whole_frames(
     frames, background, _ = avatar_scene
     given = background if background_given else None
     outcomes = []  # per second pass: (over a region, masks found)
-    region_masks = video._region_masks
+    region_masks = subtraction._region_masks
 
     def recorded(evidence, scene, levels, config, shadow, region):
         masks = region_masks(evidence, scene, levels, config, shadow, region)
         outcomes.append((scene.shape != tuple(scene.frame), masks is not None))
         return masks
 
-    monkeypatch.setattr(video, "_region_masks", recorded)
+    monkeypatch.setattr(subtraction, "_region_masks", recorded)
     cut = extract_silhouettes(frames, given)
     assert (True, True) in outcomes
     outcomes.clear()
     with monkeypatch.context() as whole_frames:
-        whole_frames.setattr(video, "MAX_REGION_FRAC", 0.0)
+        whole_frames.setattr(subtraction, "MAX_REGION_FRAC", 0.0)
         np.testing.assert_array_equal(extract_silhouettes(frames, given), cut)
     assert outcomes and all(not in_region for in_region, _ in outcomes)
     # Regions shrunk to the seeds' box: the components reach past their edges.
-    person_region = video._person_region
+    person_region = subtraction._person_region
 
     def tight(evidence, scene, levels, shadow):
         region = person_region(evidence, scene, levels, shadow)
@@ -220,12 +224,12 @@ def test_masks_cut_in_the_person_region_equal_those_of_the_whole_frames(
             return None
         y0, y1, x0, x1 = region
         h, w = scene.shape
-        cut_in = 2 * video._guard_px(scene)
+        cut_in = 2 * subtraction._guard_px(scene)
         return (y0 + cut_in * (y0 > 0), y1 - cut_in * (y1 < h),
                 x0 + cut_in * (x0 > 0), x1 - cut_in * (x1 < w))  # fmt: skip
 
     outcomes.clear()
-    monkeypatch.setattr(video, "_person_region", tight)
+    monkeypatch.setattr(subtraction, "_person_region", tight)
     np.testing.assert_array_equal(extract_silhouettes(frames, given), cut)
     assert (True, False) in outcomes
 
@@ -325,8 +329,8 @@ def test_exposure_gains_are_the_median_ratios_to_the_background(rng):
     background[..., 2] = 5  # too dark: the channel is left at gain 1
     frames = np.clip(background * np.float32([0.9, 1.2, 1.0]), 0, 255).astype(np.uint8)
     frames = np.stack([frames, background, rng.integers(0, 256, (30, 40, 3), np.uint8)])
-    scene = video._scene(background, SilhouetteConfig())
-    found = video._exposure_gains(frames, scene)
+    scene = evidence.prepare_scene(background, SilhouetteConfig())
+    found = evidence._exposure_gains(frames, scene)
     pixels = frames.reshape(3, -1, 3)
     for c, pick in enumerate(scene.gain_pixels[:2]):
         picked, bg = pick
@@ -347,15 +351,15 @@ def test_opencv_runs_on_the_calling_threads_only_inside_the_scope():
         inside = []
 
         def hold():
-            with video.opencv_in_calling_threads():
+            with workers.opencv_in_calling_threads():
                 entered.wait()
                 leave.wait()
 
         other = threading.Thread(target=hold)
         other.start()
-        with video.opencv_in_calling_threads():
+        with workers.opencv_in_calling_threads():
             entered.wait()
-            with video.opencv_in_calling_threads():  # nested
+            with workers.opencv_in_calling_threads():  # nested
                 inside.append(cv2.getNumThreads())
             leave.set()
             other.join()  # the other scope ends first: still inside this one
@@ -406,7 +410,7 @@ def test_masked_quantile_is_the_quantile_of_the_samples_left(rng, q):
     sample = rng.integers(0, 256, size=(9, 7, 5, 3), dtype=np.uint8)
     excluded = rng.random((9, 7, 5)) < 0.4
     excluded[:, 2, 3] = True  # a pixel no sample is left of
-    found = video._masked_quantile(sample, excluded, q)
+    found = scene_estimate._masked_quantile(sample, excluded, q)
     for y in range(7):
         for x in range(5):
             left = sample[~excluded[:, y, x], y, x].astype(np.float64)
@@ -426,7 +430,7 @@ def test_commonest_colour_is_the_mean_of_the_largest_cluster_by_its_definition(r
     commonest = _commonest_colours(frames)
     f, h, w, _ = frames.shape
     values = frames.reshape(f, h * w, 3).astype(np.int64)
-    grid = _grid_step(h, w)
+    grid = grid_step(h, w)
     noise = np.median(
         np.abs(np.diff(values.reshape(f, h, w, 3)[:, ::grid, ::grid], axis=0)).max(-1)
     )
@@ -452,16 +456,12 @@ def test_still_body_is_found_in_the_commonest_colours(lift_scene):
 
 
 def test_a_still_body_piece_near_the_moving_person_is_kept_whole():
-    import cv2
-
-    from eigmotion.segmentation.background import _pieces_reaching
-
     cut = np.zeros((40, 30), bool)
     cut[2:30, 10:20] = True  # head to hips: one piece
     cut[34:38, 2:6] = True  # a stray piece of the cut, far from the person
     near = np.zeros_like(cut)
     near[0:8, 5:25] = True  # only the shoulders lie near the waving arms
-    kept = _pieces_reaching(cut, near, cv2)
+    kept = _pieces_reaching(cut, near)
     np.testing.assert_array_equal(kept[2:30, 10:20], True)
     assert not kept[34:38, 2:6].any()
     assert kept.sum() == 28 * 10

@@ -7,10 +7,10 @@ The output's extension picks the product:
   its time;
 * ``.gif`` / ``.mp4`` / ``.mov`` / ``.avi`` — the whole motion, resampled to ``--fps``.
 
-Framing (``--framing``, see :func:`eigmotion.imaging.render.frame_cameras`): ``fixed`` is one
+Framing (``--framing``, see :func:`eigmotion.imaging.framing.frame_cameras`): ``fixed`` is one
 camera in the ``--view`` direction framing the whole clip; ``follow`` slides a camera
 along with the body; ``auto`` (default) follows when the body travels more than
-:data:`eigmotion.imaging.render.FOLLOW_TRAVEL_M`.
+:data:`eigmotion.imaging.framing.FOLLOW_TRAVEL_M`.
 """
 
 from __future__ import annotations
@@ -122,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
         anim, vertices = avatar.animate(motion)
         times_s = np.arange(motion.n_frames) * motion.frame_time_s
 
-    from eigmotion.imaging.render import Renderer, frame_cameras
+    from eigmotion.imaging.framing import frame_cameras
+    from eigmotion.imaging.render import Renderer
 
     cameras = frame_cameras(vertices, times_s, az, el, width, height, args.framing)
 

@@ -19,7 +19,9 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+import cv2
 import numpy as np
+from PIL import Image
 
 from eigmotion.errors import InvalidParameterError
 
@@ -73,8 +75,6 @@ def to_rgb8(image: np.ndarray) -> np.ndarray:
 
 def _text_scale(cell_width_px: int) -> tuple[float, int, int]:
     """(font scale, thickness, band height px) for labels under a cell this wide."""
-    import cv2
-
     target_px = max(8.0, _FONT_HEIGHT_FRACTION * cell_width_px)
     (_, base_h), _ = cv2.getTextSize("Hg", cv2.FONT_HERSHEY_SIMPLEX, 1.0, 1)
     scale = target_px / base_h
@@ -93,8 +93,6 @@ def _draw_text(
     thickness: int,
 ) -> None:
     """Draw ``text`` centred in the box (x0, y0, width, height), shrunk to fit."""
-    import cv2
-
     text = text.encode("ascii", "replace").decode("ascii")
     font = cv2.FONT_HERSHEY_SIMPLEX
     (w, h), base = cv2.getTextSize(text, font, scale, thickness)
@@ -191,8 +189,6 @@ def _as_clip(panel: np.ndarray, index: int) -> np.ndarray:
 
 
 def _resize(image: np.ndarray, height: int, width: int) -> np.ndarray:
-    import cv2
-
     if image.shape[:2] == (height, width):
         return image
     shrink = height < image.shape[0]
@@ -346,8 +342,6 @@ def save_image(image: np.ndarray, path: str | os.PathLike) -> Path:
     InvalidParameterError
         A bad image, or an extension Pillow cannot write.
     """
-    from PIL import Image
-
     path = Path(path)
     rgb = to_rgb8(image)
     extensions = Image.registered_extensions()

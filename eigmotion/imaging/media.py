@@ -25,6 +25,7 @@ import math
 import os
 import queue
 import re
+import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
@@ -32,7 +33,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
+import cv2
 import numpy as np
+from PIL import Image, ImageSequence, UnidentifiedImageError
+from tqdm import tqdm
 
 from eigmotion.errors import InvalidParameterError, VideoError
 
@@ -299,8 +303,6 @@ class FrameSampleStream:
         may take: the frame nearest to each sample time ``k / sample_fps``, as in
         :func:`sample_indices`.  Those are the sample, but for possibly one frame after
         its last, which :meth:`chunks` drops."""
-        import cv2
-
         sample_fps = self._sample_fps
         capture = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, [cv2.CAP_PROP_N_THREADS, 1])
         n_frames = 0
@@ -339,10 +341,6 @@ _END_OF_CLIP = object()
 
 def _frame_bar(expected_frames: int):
     """A progress bar on stderr over a video's frames, shown after one second."""
-    import sys
-
-    from tqdm import tqdm
-
     return tqdm(
         total=expected_frames or None, desc="reading frames", unit="frame", file=sys.stderr,
         leave=False, delay=1.0,
@@ -389,8 +387,6 @@ def _stack(frames: list[np.ndarray], path: Path, names: list[str] | None = None)
 
 
 def _read_video(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
-    import cv2
-
     capture = cv2.VideoCapture(str(path))
     try:
         if not capture.isOpened():
@@ -412,8 +408,6 @@ def _read_video(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
 
 
 def _read_gif(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
-    from PIL import Image, ImageSequence, UnidentifiedImageError
-
     frames, durations_ms = [], []
     try:
         with Image.open(path) as image:
@@ -452,8 +446,6 @@ def image_files(folder: str | os.PathLike) -> list[Path]:
 
 
 def _read_folder(folder: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
-    from PIL import Image, UnidentifiedImageError
-
     files = image_files(folder)
     if not files:
         raise VideoError(
@@ -554,8 +546,6 @@ def write_video(frames: np.ndarray, path: str | os.PathLike, fps: float = DEFAUL
 
 
 def _write_cv2(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> None:
-    import cv2
-
     # The FFmpeg encoders drop an odd last row or column; pad instead, so nothing is lost.
     pad_rows, pad_cols = frames.shape[1] % 2, frames.shape[2] % 2
     if pad_rows or pad_cols:
@@ -577,8 +567,6 @@ def _write_cv2(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> None:
 
 
 def _write_gif(frames: np.ndarray, path: Path, fps: float) -> None:
-    from PIL import Image
-
     duration_ms = max(10, int(round(100.0 / fps)) * 10)  # GIF delays are centiseconds
     images = [Image.fromarray(frame) for frame in frames]
     images[0].save(
@@ -603,8 +591,6 @@ def mp4_fourcc() -> str:
     -------
     str
     """
-    import cv2
-
     with tempfile.TemporaryDirectory() as tmp, _quiet_stderr():
         probe = Path(tmp) / "probe.mp4"
         writer = cv2.VideoWriter(str(probe), cv2.VideoWriter_fourcc(*"avc1"), 30.0, (16, 16))

@@ -35,15 +35,15 @@ from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
+from tqdm import tqdm
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.imaging.cameras import (
-    Camera,
-    fit_distance,
-    intrinsics,
-    look_at,
-    view_direction,
-    virtual_rig,
+from eigmotion.imaging.cameras import Camera
+from eigmotion.imaging.posed_mesh import (
+    check_frame_cameras,
+    check_posed_mesh,
+    depth_range,
+    vertex_normals,
 )
 
 #: Linear RGB in [0, 1] of the default look: a warm grey body on a grey checker floor
@@ -56,14 +56,6 @@ FLOOR_RGB = ((0.58, 0.58, 0.60), (0.40, 0.40, 0.43))
 #: forward): the key comes from above left, the fill from the right.
 KEY_LIGHT_DIRECTION_CAM = (0.45, 0.65, 0.60)
 FILL_LIGHT_DIRECTION_CAM = (-0.80, 0.10, 0.55)
-
-#: :func:`frame_cameras` with ``framing="auto"`` follows the body when its horizontal
-#: path spans more than this, metres.
-FOLLOW_TRAVEL_M = 1.5
-#: Length of the moving average that smooths a followed path, seconds.
-FOLLOW_SMOOTHING_S = 1.0
-#: Vertices per frame used to fit a camera distance (a stride subsample).
-FIT_POINTS_PER_FRAME = 1500
 
 
 def _import_pyrender():
@@ -102,73 +94,6 @@ def _delete_offscreen(offscreen) -> None:
     offscreen._renderer = offscreen._platform = None  # its __del__ now does nothing
 
 
-def _check_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    vertices = np.asarray(vertices)
-    faces = np.asarray(faces)
-    if vertices.ndim != 3 or vertices.shape[2] != 3 or vertices.shape[0] < 1:
-        raise InvalidParameterError(
-            "vertices must be an (F, V, 3) array of positions in metres with F >= 1 (one "
-            f"pose is vertices[None]), got shape {vertices.shape}"
-        )
-    if faces.ndim != 2 or faces.shape[1] != 3 or faces.shape[0] < 1:
-        raise InvalidParameterError(
-            f"faces must be a (T, 3) array of vertex indices, got shape {faces.shape}"
-        )
-    if not np.issubdtype(faces.dtype, np.integer):
-        raise InvalidParameterError(f"faces must hold integers, got dtype {faces.dtype}")
-    if faces.min() < 0 or faces.max() >= vertices.shape[1]:
-        raise InvalidParameterError(
-            f"faces index vertices 0..{vertices.shape[1] - 1}, got indices "
-            f"{faces.min()}..{faces.max()}"
-        )
-    if not np.all(np.isfinite(vertices)):
-        raise InvalidParameterError("vertices must be finite (no NaN or inf)")
-    return np.asarray(vertices, dtype=np.float32), np.ascontiguousarray(faces, dtype=np.uint32)
-
-
-def _check_cameras(camera: Camera | Sequence[Camera], n_frames: int) -> list[Camera]:
-    cameras = [camera] * n_frames if isinstance(camera, Camera) else list(camera)
-    if len(cameras) != n_frames or not all(isinstance(c, Camera) for c in cameras):
-        raise InvalidParameterError(
-            f"camera must be one Camera or a sequence of {n_frames} Cameras (one per "
-            f"frame), got {type(camera).__name__} of length {len(cameras)}"
-        )
-    sizes = {(c.width, c.height) for c in cameras}
-    if len(sizes) != 1:
-        raise InvalidParameterError(
-            f"all per-frame cameras must share one image size, got {sorted(sizes)}"
-        )
-    return cameras
-
-
-def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Smooth unit normals: the area-weighted mean of the adjacent faces' normals.
-
-    Parameters
-    ----------
-    vertices : (V, 3) float
-        Positions, metres.
-    faces : (T, 3) int
-        Triangles, counter-clockwise seen from outside.
-
-    Returns
-    -------
-    (V, 3) float32
-        Unit normals; ``(0, 1, 0)`` for vertices used by no (non-degenerate) face.
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
-    face_normals = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])  # 2 × area
-    index = f.ravel()
-    normals = np.stack(
-        [np.bincount(index, np.repeat(face_normals[:, c], 3), minlength=len(v)) for c in range(3)],
-        axis=1,
-    )
-    norm = np.linalg.norm(normals, axis=1, keepdims=True)
-    out = np.where(norm > 1e-20, normals / np.maximum(norm, 1e-20), [0.0, 1.0, 0.0])
-    return out.astype(np.float32)
-
-
 def _intrinsics_camera(
     pyrender, camera: Camera, offset_px: tuple[float, float], znear_m: float, zfar_m: float
 ):
@@ -194,32 +119,6 @@ def _light_pose(camera: Camera, direction_cam: Sequence[float]) -> np.ndarray:
     pose[:3, :3] = np.stack([x_axis, np.cross(z_axis, x_axis), z_axis], axis=1)
     pose[:3, 3] = camera.center
     return pose
-
-
-def _depth_range(
-    vertices: np.ndarray, cameras: list[Camera], extra_points: np.ndarray
-) -> tuple[float, float]:
-    """(znear, zfar) in metres enclosing each frame's body (and the floor) for its camera.
-
-    A stride subsample of the vertices is enough: the planes get a factor 2 of slack.
-    """
-    stride = max(1, vertices.shape[1] // FIT_POINTS_PER_FRAME)
-    lo, hi = np.inf, 0.0
-    by_camera: dict[int, list[int]] = {}
-    for f, cam in enumerate(cameras):
-        by_camera.setdefault(id(cam), []).append(f)
-    for frames in by_camera.values():
-        cam = cameras[frames[0]]
-        depth = cam.to_camera(vertices[frames, ::stride].reshape(-1, 3))[:, 2]
-        in_front = depth[depth > 1e-6]
-        if in_front.size:
-            lo = min(lo, float(in_front.min()))
-            hi = max(hi, float(in_front.max()))
-        if extra_points.size:
-            hi = max(hi, float(cam.to_camera(extra_points)[:, 2].max()))
-    if not np.isfinite(lo):
-        return 0.01, 100.0
-    return max(0.01, 0.5 * lo), max(2.0 * hi, 1.0)
 
 
 def checker_floor(
@@ -477,8 +376,8 @@ class Renderer:
             Wrong shapes, dtypes, face indices, non-finite vertices or cameras.
         """
         pyrender = self._pyrender
-        vertices, faces = _check_vertices(vertices, faces)
-        cameras = _check_cameras(camera, len(vertices))
+        vertices, faces = check_posed_mesh(vertices, faces)
+        cameras = check_frame_cameras(camera, len(vertices))
         first = cameras[0]
         scene = pyrender.Scene(
             bg_color=[*self.background_rgb, 1.0], ambient_light=[self.ambient] * 3
@@ -507,7 +406,7 @@ class Renderer:
                 )
             )
             floor_points = fv.astype(np.float64)
-        znear, zfar = _depth_range(vertices, cameras, floor_points)
+        znear, zfar = depth_range(vertices, cameras, floor_points)
         cam_node = scene.add(
             _intrinsics_camera(pyrender, first, (0.0, 0.0), znear, zfar), pose=first.gl_pose()
         )
@@ -586,14 +485,14 @@ class Renderer:
             As :meth:`render_shaded`.
         """
         pyrender = self._pyrender
-        vertices, faces = _check_vertices(vertices, faces)
-        cameras = _check_cameras(camera, len(vertices))
+        vertices, faces = check_posed_mesh(vertices, faces)
+        cameras = check_frame_cameras(camera, len(vertices))
         first = cameras[0]
         offset = depth_sample_offset_px()
         # The depth-only pass culls back faces whatever the material says: draw both windings.
         both_sides = np.concatenate([faces, faces[:, ::-1]], axis=0)
         scene = pyrender.Scene(bg_color=[0.0, 0.0, 0.0, 1.0])
-        znear, zfar = _depth_range(vertices, cameras, np.zeros((0, 3)))
+        znear, zfar = depth_range(vertices, cameras, np.zeros((0, 3)))
         znear = min(znear, 0.01)  # match the CPU rasteriser's near limit
         cam_node = scene.add(
             _intrinsics_camera(pyrender, first, offset, znear, zfar), pose=first.gl_pose()
@@ -625,8 +524,6 @@ def _check_rgb(name: str, rgb: Sequence[float]) -> None:
 def _frames(n: int, progress: bool, desc: str):
     if not progress:
         return range(n)
-    from tqdm import tqdm
-
     return tqdm(range(n), desc=desc, unit="frame", file=sys.stderr, leave=False)
 
 
@@ -716,115 +613,3 @@ def render_masks_gl(
     (F, H, W) bool
     """
     return default_renderer().render_masks_gl(vertices, faces, camera, progress)
-
-
-def frame_cameras(
-    vertices: np.ndarray,
-    times_s: np.ndarray,
-    azimuth_deg: float,
-    elevation_deg: float,
-    width: int,
-    height: int,
-    framing: str = "auto",
-    yfov_deg: float = 40.0,
-) -> list[Camera]:
-    """One camera per frame that keeps the body in view, for replays and figures.
-
-    ``fixed``: one camera in the given direction, as close as it can be while every
-    frame's body stays inside the image (:meth:`CameraRig.fitted`).  ``follow``: the
-    same direction, at the distance that frames the body alone (its pose extent, not
-    its path), aimed at the body's horizontal centre smoothed over
-    :data:`FOLLOW_SMOOTHING_S` so that the gait's sway does not shake the picture.
-    ``auto``: ``follow`` when the body's horizontal path spans more than
-    :data:`FOLLOW_TRAVEL_M`, else ``fixed``.
-
-    Parameters
-    ----------
-    vertices : (F, V, 3) float
-        Posed vertices, world metres.
-    times_s : (F,) float
-        Time of each frame, seconds (for the smoothing of a followed path).
-    azimuth_deg, elevation_deg : float
-        Viewing direction (see :mod:`eigmotion.imaging.cameras`).
-    width, height : int
-        Image size, pixels.
-    framing : {"auto", "fixed", "follow"}
-        How the camera is placed (above).
-    yfov_deg : float
-        Vertical field of view, degrees.
-
-    Returns
-    -------
-    list of F :class:`~eigmotion.imaging.cameras.Camera`
-        The same object repeated when the camera is fixed.
-    """
-    if framing not in ("auto", "fixed", "follow"):
-        raise InvalidParameterError(f"framing must be 'auto', 'fixed' or 'follow', got {framing!r}")
-    vertices = np.asarray(vertices, dtype=np.float64)
-    times_s = np.asarray(times_s, dtype=np.float64).reshape(-1)
-    if vertices.ndim != 3 or vertices.shape[2] != 3 or len(vertices) < 1:
-        raise InvalidParameterError(f"vertices must have shape (F, V, 3), got {vertices.shape}")
-    if times_s.shape != (len(vertices),):
-        raise InvalidParameterError(
-            f"times_s must hold one time per frame ({len(vertices)}), got {times_s.shape}"
-        )
-    n_frames, n_vertices = vertices.shape[:2]
-    stride = max(1, n_vertices // FIT_POINTS_PER_FRAME)
-    sample = vertices[:, ::stride]
-    path = sample.mean(axis=1)[:, [0, 2]]  # (F, 2) horizontal body centre
-    travel_m = float(np.max(np.ptp(path, axis=0))) if n_frames > 1 else 0.0
-    if framing == "auto":
-        framing = "follow" if travel_m > FOLLOW_TRAVEL_M else "fixed"
-    if framing == "fixed":
-        rig = virtual_rig([azimuth_deg], [elevation_deg], width, height, yfov_deg)
-        return [rig.fitted(_hull_points(sample.reshape(-1, 3)))[0]] * n_frames
-    centre = _smooth_path(path, times_s)
-    relative = sample.copy()
-    relative[:, :, 0] -= centre[:, None, 0]
-    relative[:, :, 2] -= centre[:, None, 1]
-    points = _hull_points(relative.reshape(-1, 3))
-    target = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    K = intrinsics(width, height, yfov_deg)
-    distance_m = fit_distance(points, target, azimuth_deg, elevation_deg, K, width, height)
-    offset = distance_m * view_direction(azimuth_deg, elevation_deg)
-    cameras = []
-    for cx, cz in centre:
-        aim = target + [cx, 0.0, cz]
-        cameras.append(
-            look_at(
-                aim + offset,
-                aim,
-                K,
-                width,
-                height,
-                azimuth_deg=azimuth_deg,
-                elevation_deg=elevation_deg,
-            )
-        )
-    return cameras
-
-
-def _hull_points(points: np.ndarray) -> np.ndarray:
-    """The corners of the convex hull of (N, 3) points (all of them if it is flat).
-
-    A perspective projection's u and v are linear-fractional in the point, so over a
-    convex body in front of the camera their extremes lie at hull corners: fitting a
-    camera to the corners frames all the points, at a fraction of the cost.
-    """
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        return points[ConvexHull(points).vertices]
-    except (QhullError, ValueError):
-        return points
-
-
-def _smooth_path(path: np.ndarray, times_s: np.ndarray) -> np.ndarray:
-    """(F, 2) moving average of a horizontal path over :data:`FOLLOW_SMOOTHING_S`."""
-    from scipy.ndimage import uniform_filter1d
-
-    if len(path) < 2:
-        return path
-    frame_time_s = float(np.median(np.diff(times_s))) if len(times_s) > 1 else 1.0
-    window = max(1, int(round(FOLLOW_SMOOTHING_S / max(frame_time_s, 1e-6))))
-    return uniform_filter1d(path, size=window, axis=0, mode="nearest")

@@ -169,8 +169,9 @@ def replay_video(
     Path
     """
     from eigmotion.imaging.figures import side_by_side, stretched_frames, with_captions
+    from eigmotion.imaging.framing import frame_cameras
     from eigmotion.imaging.media import write_video
-    from eigmotion.imaging.render import frame_cameras, render_shaded
+    from eigmotion.imaging.render import render_shaded
 
     if captions is not None and len(captions) != len(masks):
         raise InvalidParameterError(

@@ -43,13 +43,9 @@ from eigmotion.retrieval.sequences import (
     view_reach,
 )
 from eigmotion.retrieval.store import Store, parse_uri
-from eigmotion.segmentation.video import (
-    ClipMasks,
-    SilhouetteConfig,
-    load_clip_masks,
-    opencv_in_calling_threads,
-    worker_threads,
-)
+from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.video import ClipMasks, load_clip_masks
+from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_threads
 
 #: Where ``eigmotion build`` with no options writes.
 DEFAULT_DB_PATH = resources.default_database()

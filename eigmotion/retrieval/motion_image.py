@@ -68,6 +68,7 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import sample_indices
+from eigmotion.validation import check_choice, check_int, check_real
 
 FRAMES = ("image", "person")
 WEIGHTINGS = ("uniform", "recency")
@@ -150,20 +151,20 @@ class MotionImageConfig:
     phase_cuts: str = "motion"
 
     def __post_init__(self):
-        _check_int("size", self.size, 8, 512)
-        _check_int("step", self.step, 1, 3)
-        _check_real("sample_fps", self.sample_fps, 1.0, 50.0)
-        _check_choice("frame", self.frame, FRAMES)
-        _check_choice("weighting", self.weighting, WEIGHTINGS)
-        _check_choice("filter", self.filter, FILTERS)
-        _check_real("log_sigma_px", self.log_sigma_px, 0.3, self.size / 8.0)
-        _check_real("silhouette_weight", self.silhouette_weight, 0.0, 1.0)
-        _check_real("residual_floor", self.residual_floor, 0.0, 0.5, hi_open=True)
-        _check_real("margin_frac", self.margin_frac, 0.0, 0.45)
-        _check_real("person_height_frac", self.person_height_frac, 0.1, 1.0)
-        _check_real("min_motion_frac", self.min_motion_frac, 0.0, 1.0, hi_open=True)
-        _check_int("phases", self.phases, 1, 4)
-        _check_choice("phase_cuts", self.phase_cuts, PHASE_CUTS)
+        check_int("size", self.size, 8, 512)
+        check_int("step", self.step, 1, 3)
+        check_real("sample_fps", self.sample_fps, 1.0, 50.0)
+        check_choice("frame", self.frame, FRAMES)
+        check_choice("weighting", self.weighting, WEIGHTINGS)
+        check_choice("filter", self.filter, FILTERS)
+        check_real("log_sigma_px", self.log_sigma_px, 0.3, self.size / 8.0)
+        check_real("silhouette_weight", self.silhouette_weight, 0.0, 1.0)
+        check_real("residual_floor", self.residual_floor, 0.0, 0.5, hi_open=True)
+        check_real("margin_frac", self.margin_frac, 0.0, 0.45)
+        check_real("person_height_frac", self.person_height_frac, 0.1, 1.0)
+        check_real("min_motion_frac", self.min_motion_frac, 0.0, 1.0, hi_open=True)
+        check_int("phases", self.phases, 1, 4)
+        check_choice("phase_cuts", self.phase_cuts, PHASE_CUTS)
         # Normalise numeric types so that to_dict() round-trips exactly.
         object.__setattr__(self, "size", int(self.size))
         object.__setattr__(self, "step", int(self.step))
@@ -210,26 +211,6 @@ class MotionImageConfig:
                 f"motion image config: unknown key(s) {unknown}; expected some of {sorted(known)}"
             )
         return cls(**{"phases": 1, "phase_cuts": "time", **data})
-
-
-def _check_int(name: str, value, lo: int, hi: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not lo <= value <= hi:
-        raise InvalidParameterError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
-
-
-def _check_real(name: str, value, lo: float, hi: float, hi_open: bool = False) -> None:
-    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
-    ok = ok and math.isfinite(value) and lo <= value and (value < hi if hi_open else value <= hi)
-    if not ok:
-        bracket = ")" if hi_open else "]"
-        raise InvalidParameterError(
-            f"{name} must be a number in [{lo:g}, {hi:g}{bracket}, got {value!r}"
-        )
-
-
-def _check_choice(name: str, value, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise InvalidParameterError(f"{name} must be one of {list(choices)}, got {value!r}")
 
 
 # -- public ------------------------------------------------------------------------------
@@ -290,7 +271,7 @@ class ClipMotionImages:
     ):
         stack = _check_masks(masks)
         if clip_fps is not None:
-            _check_real("clip_fps", clip_fps, 1e-3, 1e4)
+            check_real("clip_fps", clip_fps, 1e-3, 1e4)
         self.config, self.clip_fps = config, clip_fps
         values = stack.astype(np.float32)  # one conversion; every later step reads it
         if stack.dtype == np.uint8 and stack.max() > 1:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.validation import check_in_range
 
 
 @dataclass(frozen=True)
@@ -126,11 +127,11 @@ def compose_scene_with_layout(
             f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
             f"{type(rng).__name__}"
         )
-    _check_range("shadow_strength", shadow_strength, 0.0, 0.9)
-    _check_range("camouflage", camouflage, 0.0, 1.0)
-    _check_range("camouflage_delta", camouflage_delta, 0.0, 255.0)
-    _check_range("noise_sigma", noise_sigma, 0.0, 50.0)
-    _check_range("blur_sigma_px", blur_sigma_px, 0.0, 5.0)
+    check_in_range("shadow_strength", shadow_strength, 0.0, 0.9)
+    check_in_range("camouflage", camouflage, 0.0, 1.0)
+    check_in_range("camouflage_delta", camouflage_delta, 0.0, 255.0)
+    check_in_range("noise_sigma", noise_sigma, 0.0, 50.0)
+    check_in_range("blur_sigma_px", blur_sigma_px, 0.0, 5.0)
     n, h, w = masks.shape
 
     body = _body_boxes(masks)
@@ -337,11 +338,6 @@ def stick_figure_masks(
 
 
 # -- helpers -----------------------------------------------------------------------------
-
-
-def _check_range(name: str, value: float, lo: float, hi: float) -> None:
-    if not (np.isfinite(value) and lo <= value <= hi):
-        raise InvalidParameterError(f"{name} must be in [{lo:g}, {hi:g}], got {value!r}")
 
 
 def _check_person(person_rgb, person_masks) -> np.ndarray:
