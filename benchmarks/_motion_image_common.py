@@ -17,6 +17,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 import numpy as np  # noqa: E402
 
 from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.imaging.cameras import (  # noqa: E402
     Camera,
     fit_distance,
@@ -73,7 +74,7 @@ def low_poly_avatar() -> Avatar:
 
 def walk_vertices(body: Avatar, fps: float, n_frames: int) -> np.ndarray:
     """(F, V, 3) vertices of ``body`` walking: the first ``n_frames`` at ``fps``."""
-    _, vertices = body.animate(walk_motion().resample(fps).trim(0, n_frames))
+    _, vertices = animate_avatar(body, walk_motion().resample(fps).trim(0, n_frames))
     return vertices
 
 

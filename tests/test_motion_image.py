@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.retrieval.motion_image import (
     FILTERS,
@@ -392,8 +393,8 @@ def avatar_walk(cmu_dir):
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181)
     body = load_default_avatar().decimated(DEFAULT_LOW_POLY_FACES)
-    _, vertices_120 = body.animate(motion)
-    _, vertices_30 = body.animate(motion.resample(30.0))
+    _, vertices_120 = animate_avatar(body, motion)
+    _, vertices_30 = animate_avatar(body, motion.resample(30.0))
     return vertices_120, vertices_30, body.faces
 
 

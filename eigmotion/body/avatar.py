@@ -16,16 +16,19 @@ Skinning is linear blend skinning: a rest vertex ``v`` goes to
 position, ``A_j`` its world rotation relative to the rest pose and ``p_j`` its posed
 position.  The per-joint 3×4 transforms of a batch of frames are blended and applied
 by one sparse matrix product (see :meth:`Avatar.skin`).
+
+Retargeting a motion onto an avatar and skinning it is
+:mod:`eigmotion.body.retarget` (:func:`~eigmotion.body.retarget.animate_avatar`,
+:func:`~eigmotion.body.retarget.pose_avatar`); garments are put on by
+:func:`eigmotion.body.garments.dress`.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,11 +40,6 @@ from eigmotion.mocap.canonical import (
     makehuman_dir,
 )
 from eigmotion.mocap.motion import Skeleton, standard_channels
-
-if TYPE_CHECKING:
-    from eigmotion.body.garments import Garment
-    from eigmotion.body.retarget import AvatarAnimation
-    from eigmotion.mocap.motion import Motion
 
 #: Scale of the MakeHuman OBJ: its lengths are decimetres.
 OBJ_UNIT_M = 0.1
@@ -308,63 +306,6 @@ class Avatar:
             out[start:stop] = flat.reshape(-1, stop - start, 3).transpose(1, 0, 2)
         return out
 
-    def pose(self, animation: AvatarAnimation) -> np.ndarray:
-        """Skinned vertices of a retargeted animation.
-
-        Parameters
-        ----------
-        animation : AvatarAnimation
-            From :func:`eigmotion.body.retarget.retarget` onto this avatar (or one with the
-            same joints and bone lengths).
-
-        Returns
-        -------
-        (F, V, 3) float32
-            Vertices per frame, metres.
-        """
-        if tuple(animation.joint_names) != self.joint_names:
-            raise InvalidParameterError(
-                f"animation joints {list(animation.joint_names)[:4]}… do not match the "
-                f"avatar's {list(self.joint_names)[:4]}…"
-            )
-        child = np.arange(1, self.n_joints)
-        rest = np.linalg.norm(
-            self.joint_positions[child] - self.joint_positions[self.parents[child]], axis=-1
-        )
-        first = animation.joint_positions[0]
-        posed = np.linalg.norm(first[child] - first[self.parents[child]], axis=-1)
-        worst = int(np.argmax(np.abs(posed - rest)))
-        if abs(posed[worst] - rest[worst]) > 1e-3:
-            raise InvalidParameterError(
-                f"animation {animation.name!r} has bone {self.joint_names[child[worst]]!r} "
-                f"{posed[worst]:.4f} m long, avatar {self.name!r} {rest[worst]:.4f} m: it was "
-                "retargeted onto another body shape; retarget it onto this avatar"
-            )
-        return self.skin(animation.joint_rotations, animation.joint_positions)
-
-    def animate(
-        self,
-        motion: Motion,
-        mapping: dict[str, str | None] | None = None,
-        length_unit_m: float | None = None,
-        up_axis: str = "y",
-    ) -> tuple[AvatarAnimation, np.ndarray]:
-        """Retarget ``motion`` onto this avatar and skin it.
-
-        Shorthand for ``anim = retarget(motion, self, ...); (anim, self.pose(anim))``;
-        see :func:`eigmotion.body.retarget.retarget` for the parameters.
-
-        Returns
-        -------
-        animation : AvatarAnimation
-        vertices : (F, V, 3) float32
-            Skinned vertices per frame, metres.
-        """
-        from eigmotion.body.retarget import retarget
-
-        anim = retarget(motion, self, mapping, length_unit_m=length_unit_m, up_axis=up_axis)
-        return anim, self.pose(anim)
-
     @cached_property
     def support_vertex_ids(self) -> np.ndarray:
         """(N,) int64: vertices that can be the lowest point of a posed body.
@@ -474,24 +415,6 @@ class Avatar:
         adj.data[:] = 1.0  # duplicate edges were summed
         degree = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)
         return sparse.diags(1.0 / degree) @ adj
-
-    def dressed(self, garments: Sequence[str | Garment]) -> Avatar:
-        """This body wearing garments (see :mod:`eigmotion.body.garments`).
-
-        Parameters
-        ----------
-        garments : sequence of str or Garment
-            Names from :data:`eigmotion.body.garments.GARMENTS` (or patterns), each once.
-
-        Returns
-        -------
-        Avatar
-            A :class:`eigmotion.body.garments.DressedAvatar` whose mesh is the body and the
-            garments merged; this avatar itself for no garments.
-        """
-        from eigmotion.body.garments import dress
-
-        return dress(self, garments)
 
     def decimated(self, n_faces: int = DEFAULT_LOW_POLY_FACES) -> Avatar:
         """A low-poly copy for fast silhouettes (quadric edge-collapse decimation).

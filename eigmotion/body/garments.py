@@ -632,7 +632,7 @@ def _shell(
 class DressedAvatar(Avatar):
     """An avatar wearing garments: the body's mesh followed by each garment's.
 
-    Built by :func:`dress` (or :meth:`Avatar.dressed`).  Vertices, faces and skin
+    Built by :func:`dress`.  Vertices, faces and skin
     weights are the body's, then each garment's in order, so it skins, poses and
     renders as any :class:`Avatar`.
 
