@@ -26,7 +26,7 @@ from eigmotion.imaging.cameras import (  # noqa: E402
     ring_rig,
     view_direction,
 )
-from eigmotion.mocap.asf_amc import read_amc  # noqa: E402
+from eigmotion.mocap.amc import read_amc  # noqa: E402
 from eigmotion.mocap.motion import Motion  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]

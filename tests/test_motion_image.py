@@ -388,7 +388,7 @@ def avatar_walk(cmu_dir):
     """Vertices (F, V, 3) of the avatar walking (CMU 02_01, 1.5 s) at 120 and at
     30 fps, and the faces."""
     from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181)

@@ -137,7 +137,7 @@ def avatar():
 @pytest.fixture(scope="module")
 def walk_vertices(avatar, cmu_dir):
     """(3, V, 3) avatar vertices of three frames of CMU walk 02_01, metres."""
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf").trim(0, 120)
     _, vertices = animate_avatar(avatar, motion.resample(10))

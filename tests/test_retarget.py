@@ -18,7 +18,7 @@ from eigmotion.body.retarget import (
     retarget,
 )
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh, write_bvh
 from eigmotion.mocap.canonical import (
     BLENDER_TO_WORLD,

@@ -10,7 +10,7 @@ from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import intrinsics, look_at
 from eigmotion.imaging.silhouettes import render_masks
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.calibration import CameraPair
 from eigmotion.tracking.dictionary import (

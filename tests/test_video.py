@@ -68,7 +68,7 @@ def avatar_clip(cmu_dir):
     from eigmotion.imaging.cameras import ring_rig
     from eigmotion.imaging.render import render_shaded
     from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181).resample(30.0)

@@ -137,7 +137,7 @@ def plot_masks(rig: CameraRig, path: Path) -> None:
     from eigmotion.body.retarget import pose_avatar, retarget
     from eigmotion.imaging.figures import contact_sheet, save_image
     from eigmotion.imaging.silhouettes import render_rig_masks
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     cmu = HERE.parent / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{SHEET_CLIP}.amc", cmu / "asf" / f"{SHEET_SUBJECT}.asf")

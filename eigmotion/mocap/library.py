@@ -52,7 +52,7 @@ from pathlib import Path
 
 from eigmotion import resources
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.motion import Motion
