@@ -17,6 +17,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 import numpy as np  # noqa: E402
 
 from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.imaging.cameras import (  # noqa: E402
     Camera,
     fit_distance,
@@ -25,7 +26,7 @@ from eigmotion.imaging.cameras import (  # noqa: E402
     ring_rig,
     view_direction,
 )
-from eigmotion.mocap.asf_amc import read_amc  # noqa: E402
+from eigmotion.mocap.amc import read_amc  # noqa: E402
 from eigmotion.mocap.motion import Motion  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -73,7 +74,7 @@ def low_poly_avatar() -> Avatar:
 
 def walk_vertices(body: Avatar, fps: float, n_frames: int) -> np.ndarray:
     """(F, V, 3) vertices of ``body`` walking: the first ``n_frames`` at ``fps``."""
-    _, vertices = body.animate(walk_motion().resample(fps).trim(0, n_frames))
+    _, vertices = animate_avatar(body, walk_motion().resample(fps).trim(0, n_frames))
     return vertices
 
 

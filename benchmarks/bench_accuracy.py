@@ -75,6 +75,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from eigmotion.body.garments import dress  # noqa: E402
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
@@ -239,7 +241,7 @@ class ClipMaker:
         key = (height_m, girth, outfit)
         if key not in self._bodies:
             shaped = load_default_avatar().with_shape(height_m=height_m, girth=girth)
-            self._bodies[key] = shaped.dressed(outfit)
+            self._bodies[key] = dress(shaped, outfit)
         return self._bodies[key]
 
     def margin_for_person_px(
@@ -258,7 +260,7 @@ class ClipMaker:
         ``1 - 2 margin``.  Clipped to ``[SEEN_MARGIN, 0.45]``: a motion that travels far
         cannot show its person bigger.
         """
-        _, vertices = self.body(*shape, outfit).animate(item.motion.resample(CLIP_FPS))
+        _, vertices = animate_avatar(self.body(*shape, outfit), item.motion.resample(CLIP_FPS))
         camera = clip_camera(vertices, azimuth_deg, elevation_deg, WIDTH_PX, HEIGHT_PX, SEEN_MARGIN)
         pixels, _ = camera.project(vertices)
         full_px = float(np.median(np.ptp(pixels[..., 1], axis=1)))

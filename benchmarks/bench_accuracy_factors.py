@@ -55,7 +55,8 @@ from bench_accuracy import (  # noqa: E402
     variation_folds,
 )
 
-from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
+from eigmotion.body.garments import BENCHMARK_GARMENTS, dress  # noqa: E402
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
 from eigmotion.evaluation.scoring import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
@@ -82,7 +83,7 @@ def true_masks(
 ) -> np.ndarray:
     """(F, 240, 320) bool silhouettes of ``item`` on ``body``, filmed at 30 fps by a
     camera fitted as a query clip's is."""
-    _, vertices = body.animate(item.motion.resample(CLIP_FPS))
+    _, vertices = animate_avatar(body, item.motion.resample(CLIP_FPS))
     camera = clip_camera(vertices, azimuth_deg, elevation_deg, WIDTH_PX, HEIGHT_PX, margin)
     return render_masks(vertices, body.faces, camera)
 
@@ -112,7 +113,7 @@ class QueryMasks:
             view = (spec.azimuth_deg, spec.elevation_deg)
             return true_masks(item, self.db_body, *view, spec.margin), CLIP_FPS
         if condition == "clip body":
-            body = self.maker.body(spec.height_m, spec.girth).dressed(spec.outfit)
+            body = dress(self.maker.body(spec.height_m, spec.girth), spec.outfit)
             view = (spec.azimuth_deg, spec.elevation_deg)
             return true_masks(item, body, *view, spec.margin), CLIP_FPS
         from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX

@@ -32,7 +32,8 @@ from _timing import best_time  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 from eigmotion.body.avatar import Avatar, load_default_avatar  # noqa: E402
-from eigmotion.body.garments import GARMENTS, DressedAvatar, garment_mesh  # noqa: E402
+from eigmotion.body.garments import GARMENTS, DressedAvatar, dress, garment_mesh  # noqa: E402
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.imaging.cameras import virtual_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import find_motion  # noqa: E402
@@ -100,11 +101,11 @@ def figure(body: Avatar, path: str) -> None:
     images, labels = [], []
     with Renderer() as renderer:
         for outfit in [None, *GARMENTS]:
-            dressed = body if outfit is None else body.dressed([outfit])
+            dressed = body if outfit is None else dress(body, [outfit])
             colours = dressed.vertex_rgb(BODY_RGB) if isinstance(dressed, DressedAvatar) else None
             title = "body" if outfit is None else outfit
             for motion_name in MOTIONS:
-                anim, _ = dressed.animate(find_motion(motion_name))
+                anim, _ = animate_avatar(dressed, find_motion(motion_name))
                 frames = key_frames(body, anim, motion_name.split("_")[0])
                 posed = dressed.skin(anim.joint_rotations[frames], anim.joint_positions[frames])
                 for f, vertices in zip(frames, posed, strict=True):
@@ -128,7 +129,7 @@ def main() -> int:
 
     body = load_default_avatar()
     low_body = body.decimated(args.faces)
-    animations = {name: body.animate(find_motion(name)) for name in MOTIONS}
+    animations = {name: animate_avatar(body, find_motion(name)) for name in MOTIONS}
     walk, walk_skin = animations["walk_02_01"]
     rot, pos = walk.joint_rotations, walk.joint_positions
     camera = virtual_rig([30], [10], 160, 120).fitted(hull_points(walk_skin))[0]
@@ -142,7 +143,7 @@ def main() -> int:
             low, faces, verts, fit_ms, fit = low_body, 0, 0, 0.0, ("", "", "")
         else:
             fit_s, mesh = best_time(lambda name=name: garment_mesh(body, name))
-            low = body.dressed([name]).decimated(args.faces)
+            low = dress(body, [name]).decimated(args.faces)
             faces, verts, fit_ms = mesh.n_faces, len(mesh.vertices), fit_s * 1e3
             fit = tuple(f"{x:.2f}" for x in follow_measures(body, name, animations))
         low.skin(rot[:2], pos[:2])  # builds the cached sparse matrix

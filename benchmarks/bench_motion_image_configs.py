@@ -40,6 +40,7 @@ import numpy as np
 from _motion_image_common import PLAIN_CONFIG, int_list, offset_camera, ratio
 
 from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import VideoError
 from eigmotion.imaging.cameras import ring_rig
 from eigmotion.imaging.silhouettes import render_masks
@@ -93,8 +94,8 @@ def render_motion(item, out: Path) -> None:
     q_body = base.with_shape(height_m=1.85, girth=1.15).decimated(4000)
     rng = np.random.default_rng([7, zlib.crc32(item.name.encode())])
     motion = item.motion.resample(FPS)
-    _, v_db = db_body.animate(motion)
-    _, v_q = q_body.animate(motion)
+    _, v_db = animate_avatar(db_body, motion)
+    _, v_q = animate_avatar(q_body, motion)
     db_rig = ring_rig(8, 10.0, width=128, height=128).fitted(v_db[:, ::7].reshape(-1, 3))
     db = np.stack([render_masks(v_db, db_body.faces, cam) for cam in db_rig])
     clean, video = [], []

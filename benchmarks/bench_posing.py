@@ -33,7 +33,7 @@ from _timing import best_time  # noqa: E402
 
 from eigmotion.body.avatar import load_default_avatar, skinning_transforms  # noqa: E402
 from eigmotion.body.retarget import retarget  # noqa: E402
-from eigmotion.mocap.asf_amc import read_amc  # noqa: E402
+from eigmotion.mocap.amc import read_amc  # noqa: E402
 
 CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
 

@@ -60,7 +60,7 @@ def random_pose_transforms(n_frames: int, max_angle_deg: float, seed: int):
 def cmu_pose_transforms(clip: str, n_frames: int, avatar):
     """Joint world rotations (F, J, 3, 3) and positions (F, J, 3) of a CMU clip."""
     from eigmotion.body.retarget import retarget
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     cmu = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{clip}.amc", cmu / "asf" / f"{clip.split('_')[0]}.asf")

@@ -2,7 +2,7 @@
 
 Stages, one module each, data flowing one way::
 
-    bvh / asf_amc → motion → kinematics → naming → avatar → cameras → silhouettes
+    bvh / asf / amc → motion → kinematics → naming → avatar → cameras → silhouettes
     → motion_image → eigenspace → keys → store → database → cli
 
 and beside them the silhouette-dictionary tracker.

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import MotionFormatError
-from eigmotion.mocap.asf_amc import INCH_M, parse_amc, parse_asf, read_amc, read_asf
+from eigmotion.mocap.amc import parse_amc, read_amc
+from eigmotion.mocap.asf import INCH_M, parse_asf, read_asf
 from eigmotion.mocap.kinematics import forward_kinematics, rest_points
 
 ASF = """# a small test skeleton

@@ -16,8 +16,6 @@ from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.rotations import euler_to_matrix
 from eigmotion.synth.authoring import (
     GRAVITY_M_S2,
-    Key,
-    Target,
     aim_deg,
     animate,
     body_surface_points,
@@ -26,8 +24,9 @@ from eigmotion.synth.authoring import (
     lowest_point_m,
     rest_positions_m,
     standing_root_height_m,
-    two_bone_ik,
 )
+from eigmotion.synth.keyframes import Key, Target
+from eigmotion.synth.limb_ik import two_bone_ik
 
 REPO = Path(__file__).resolve().parents[1]
 AUTHORED = REPO / "database" / "motions" / "authored"

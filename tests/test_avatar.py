@@ -8,7 +8,8 @@ import pytest
 from mesh_helpers import winding_numbers
 from scipy.spatial.transform import Rotation
 
-from eigmotion.body.avatar import Avatar, load_avatar, load_default_avatar, read_obj
+from eigmotion.body.avatar import Avatar, load_avatar, load_default_avatar
+from eigmotion.body.makehuman_files import read_obj
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.canonical import makehuman_dir
 from eigmotion.mocap.kinematics import forward_kinematics

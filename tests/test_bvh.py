@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError, MotionFormatError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import ALL_CHANNELS, Motion, Skeleton

@@ -29,7 +29,8 @@ import numpy as np
 import pytest
 
 from eigmotion.cli.main import main
-from eigmotion.mocap.asf_amc import INCH_M, read_amc
+from eigmotion.mocap.amc import read_amc
+from eigmotion.mocap.asf import INCH_M
 from eigmotion.mocap.bvh import read_bvh, write_bvh
 from eigmotion.mocap.canonical import CANONICAL_JOINTS
 from eigmotion.mocap.kinematics import forward_kinematics, rest_points

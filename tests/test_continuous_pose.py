@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from eigmotion.body.avatar import load_default_avatar
-from eigmotion.body.retarget import retarget
+from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import load_rig, virtual_rig
@@ -81,7 +81,7 @@ def clip(library):
     body = AVATAR.with_shape(height_m=1.62, girth=1.15).decimated(4000)
     warped = time_warped(library[0].motion, SPEEDS, CLIP_FPS)
     anim = retarget(warped, body)
-    vertices = body.pose(anim)
+    vertices = pose_avatar(body, anim)
     camera = virtual_rig([azimuth_deg], [elevation_deg], 160, 120).fitted(
         hull_points(vertices), margin=0.08
     )[0]

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.cli.main import main
 from eigmotion.errors import DatabaseError, InvalidParameterError
 from eigmotion.imaging.cameras import load_rig, virtual_rig
@@ -74,7 +75,7 @@ def other_body():
 def _masks(motion, body, azimuth_deg, elevation_deg, size=(160, 120)):
     from eigmotion.imaging.silhouettes import render_masks
 
-    _, vertices = body.animate(motion.resample(30))
+    _, vertices = animate_avatar(body, motion.resample(30))
     cam = virtual_rig([azimuth_deg], [elevation_deg], *size).fitted(
         vertices[:, ::7].reshape(-1, 3)
     )[0]

@@ -17,7 +17,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import MotionFormatError
-from eigmotion.mocap.asf_amc import parse_amc, parse_asf
+from eigmotion.mocap.amc import parse_amc
+from eigmotion.mocap.asf import parse_asf
 from eigmotion.mocap.bvh import parse_bvh
 from eigmotion.mocap.motion import Motion
 

@@ -18,8 +18,10 @@ from eigmotion.body.garments import (
     GARMENTS,
     DressedAvatar,
     Garment,
+    dress,
     garment_mesh,
 )
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.imaging.silhouettes import render_masks
@@ -42,7 +44,7 @@ def clips(avatar):
     """A walk and a kick from the library, retargeted onto the plain body."""
     out = {}
     for name in ("walk_02_01", "kick_135_04"):
-        anim, vertices = avatar.animate(find_motion(name))
+        anim, vertices = animate_avatar(avatar, find_motion(name))
         out[name] = (anim, vertices)
     return out
 
@@ -130,9 +132,9 @@ def test_bad_garment_patterns_raise(kwargs, match):
 
 def test_unknown_garment_names_list_the_known_ones(avatar):
     with pytest.raises(InvalidParameterError, match="unknown garment 'kilt'.*long_coat"):
-        avatar.dressed(["kilt"])
+        dress(avatar, ["kilt"])
     with pytest.raises(InvalidParameterError, match="more than once"):
-        avatar.dressed(["skirt", "skirt"])
+        dress(avatar, ["skirt", "skirt"])
 
 
 # -- following the body --------------------------------------------------------------------
@@ -188,7 +190,7 @@ def test_skirt_hangs_as_one_tube_between_the_legs(avatar, clips):
 
 # -- the dressed avatar ----------------------------------------------------------------------
 def test_dressed_avatar_is_the_body_and_its_garments(avatar):
-    dressed = avatar.dressed(["skirt", "jacket"])
+    dressed = dress(avatar, ["skirt", "jacket"])
     assert isinstance(dressed, DressedAvatar) and dressed.body is avatar
     assert [g.name for g in dressed.garments] == ["skirt", "jacket"]
     parts = [garment_mesh(avatar, n) for n in ("skirt", "jacket")]
@@ -198,8 +200,8 @@ def test_dressed_avatar_is_the_body_and_its_garments(avatar):
     rot = np.broadcast_to(np.eye(3), (1, avatar.n_joints, 3, 3))
     posed = dressed.skin(rot, avatar.joint_positions[None])[0]
     np.testing.assert_allclose(posed, dressed.vertices, atol=1e-5)
-    assert avatar.dressed([]) is avatar
-    more = dressed.dressed(["loose_trousers"])  # dressing again adds to the outfit
+    assert dress(avatar, []) is avatar
+    more = dress(dressed, ["loose_trousers"])  # dressing again adds to the outfit
     assert [g.name for g in more.garments] == ["skirt", "jacket", "loose_trousers"]
     colours = dressed.vertex_rgb((0.8, 0.7, 0.6))
     assert colours.shape == (dressed.n_vertices, 3)
@@ -207,7 +209,7 @@ def test_dressed_avatar_is_the_body_and_its_garments(avatar):
 
 
 def test_decimated_dressed_avatar_keeps_its_garments(avatar):
-    dressed = avatar.dressed(["long_coat"])
+    dressed = dress(avatar, ["long_coat"])
     low = dressed.decimated(4000)
     garment_faces = dressed.n_faces - avatar.n_faces
     assert isinstance(low, DressedAvatar) and low.body.n_faces == 4000
@@ -217,12 +219,12 @@ def test_decimated_dressed_avatar_keeps_its_garments(avatar):
     )
     np.testing.assert_allclose(low.weights.sum(axis=1), 1.0, atol=1e-5)
     # Fitted to a coarse body (rings may find no vertex near them) it is still whole.
-    coarse = avatar.decimated(300).dressed(["long_coat"])
+    coarse = dress(avatar.decimated(300), ["long_coat"])
     assert coarse.n_faces == 300 + garment_faces and np.isfinite(coarse.vertices).all()
 
 
 def test_reshaped_dressed_avatar_is_dressed_anew(avatar):
-    dressed = avatar.dressed(["skirt"])
+    dressed = dress(avatar, ["skirt"])
     big = dressed.with_shape(height_m=1.85, girth=1.3)
     assert isinstance(big, DressedAvatar) and big.garments == dressed.garments
     assert big.body.height_m == pytest.approx(1.85, abs=1e-4)
@@ -241,7 +243,7 @@ def test_dressed_silhouette_covers_the_body_and_is_wider_at_the_garment(
     frames = slice(0, None, 40)
     rotations, positions = anim.joint_rotations[frames], anim.joint_positions[frames]
     plain = low_poly
-    dressed = plain.dressed([name])
+    dressed = dress(plain, [name])
     camera = virtual_rig([30], [10], 160, 200).fitted(
         hull_points(avatar.skin(rotations, positions))
     )[0]
@@ -261,7 +263,7 @@ def test_dressed_silhouette_covers_the_body_and_is_wider_at_the_garment(
 def test_shaded_garments_have_their_own_colour(avatar, low_poly):
     from eigmotion.imaging.render import BODY_RGB, Renderer
 
-    dressed = low_poly.dressed(["skirt"])
+    dressed = dress(low_poly, ["skirt"])
     vertices = np.stack([dressed.vertices, dressed.vertices + [0.02, 0.0, 0.0]])
     camera = virtual_rig([0], [0], 90, 120).fitted(dressed.vertices)[0]
     colours = dressed.vertex_rgb(BODY_RGB)

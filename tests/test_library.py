@@ -24,6 +24,7 @@ from eigmotion.mocap.library import (
     motion_names,
     read_manifest,
 )
+from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.naming import canonical_joint_map
 
 REPO = Path(__file__).resolve().parents[1]
@@ -514,7 +515,7 @@ def test_a_mirrored_walk_swaps_the_foot_heights(library):
             atol=1e-9,
         )
     # On the CMU skeleton too, mirroring twice gives the walk back.
-    twice = forward_kinematics(mirror.motion.mirrored())
+    twice = forward_kinematics(mirror_motion(mirror.motion))
     np.testing.assert_allclose(twice.positions, before.positions, atol=1e-9)
     # The left foot is not simply the right one: the walk is not symmetric.
     left = before.positions[:, before.names.index("lfoot"), 1]

@@ -8,6 +8,7 @@ import pytest
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.canonical import canonical_skeleton
 from eigmotion.mocap.kinematics import detect_length_unit, forward_kinematics
+from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.motion import Motion, Skeleton
 from eigmotion.mocap.naming import mirror_partners
 from eigmotion.mocap.rotations import align_vectors, euler_to_matrix, rotation_between
@@ -98,7 +99,7 @@ def test_bad_skeleton_and_values_are_named():
 
 def test_mirrored_twice_is_the_original(rng):
     m = _random_motion(rng, n_frames=20)
-    twice = m.mirrored().mirrored()
+    twice = mirror_motion(mirror_motion(m))
     np.testing.assert_allclose(
         forward_kinematics(twice, ground=False).positions,
         forward_kinematics(m, ground=False).positions,
@@ -110,7 +111,7 @@ def test_mirrored_twice_is_the_original(rng):
 def test_mirrored_is_a_reflection_with_the_sides_swapped(rng):
     m = _random_motion(rng, n_frames=20)
     before = forward_kinematics(m, ground=False)
-    after = forward_kinematics(m.mirrored(), ground=False)
+    after = forward_kinematics(mirror_motion(m), ground=False)
     partner = list(mirror_partners(m.skeleton))
     swapped = after.positions[:, partner]
     # Distances between joints and heights are kept, the first root position too ...
@@ -132,7 +133,7 @@ def test_mirrored_is_a_reflection_with_the_sides_swapped(rng):
 
 def test_mirrored_keeps_the_channels_and_timing(rng):
     m = _random_motion(rng)
-    mirror = m.mirrored()
+    mirror = mirror_motion(m)
     assert mirror.skeleton.names == m.skeleton.names
     assert mirror.skeleton.channels == m.skeleton.channels
     assert (mirror.n_frames, mirror.frame_time_s, mirror.length_unit_m, mirror.name) == (
@@ -154,9 +155,9 @@ def test_mirroring_needs_sides_along_x(rng):
         sk.end_sites,
     )
     with pytest.raises(InvalidParameterError, match="no joint name says its side"):
-        m.replace(skeleton=plain).mirrored()
+        mirror_motion(m.replace(skeleton=plain))
     # Facing +X at rest: left and right lie apart along z.
     quarter = euler_to_matrix(np.array([0.0, 90.0, 0.0]), "XYZ")
     turned = Skeleton(sk.names, sk.parents, sk.offsets @ quarter.T, sk.channels, sk.end_sites)
     with pytest.raises(InvalidParameterError, match="along x"):
-        m.replace(skeleton=turned).mirrored()
+        mirror_motion(m.replace(skeleton=turned))

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.retrieval.motion_image import (
     FILTERS,
@@ -387,13 +388,13 @@ def avatar_walk(cmu_dir):
     """Vertices (F, V, 3) of the avatar walking (CMU 02_01, 1.5 s) at 120 and at
     30 fps, and the faces."""
     from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, load_default_avatar
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181)
     body = load_default_avatar().decimated(DEFAULT_LOW_POLY_FACES)
-    _, vertices_120 = body.animate(motion)
-    _, vertices_30 = body.animate(motion.resample(30.0))
+    _, vertices_120 = animate_avatar(body, motion)
+    _, vertices_30 = animate_avatar(body, motion.resample(30.0))
     return vertices_120, vertices_30, body.faces
 
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import InvalidParameterError, SkeletonMappingError
-from eigmotion.mocap.asf_amc import asf_to_skeleton, read_asf
+from eigmotion.mocap.amc import asf_to_skeleton
+from eigmotion.mocap.asf import read_asf
 from eigmotion.mocap.canonical import CANONICAL_JOINTS, canonical_skeleton
 from eigmotion.mocap.motion import Skeleton
 from eigmotion.mocap.naming import (

@@ -10,7 +10,7 @@ from mesh_helpers import winding_numbers
 
 from eigmotion.body.proxy_body import MIN_BONE_M, capsule_mesh, proxy_body
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.canonical import canonical_skeleton
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import Motion, Skeleton, standard_channels

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import Camera, look_at, virtual_rig
 from eigmotion.imaging.framing import FOLLOW_TRAVEL_M, frame_cameras
@@ -135,10 +136,10 @@ def avatar():
 @pytest.fixture(scope="module")
 def walk_vertices(avatar, cmu_dir):
     """(3, V, 3) avatar vertices of three frames of CMU walk 02_01, metres."""
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf").trim(0, 120)
-    _, vertices = avatar.animate(motion.resample(10))
+    _, vertices = animate_avatar(avatar, motion.resample(10))
     return vertices[[0, 4, 9]]
 
 

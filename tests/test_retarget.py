@@ -10,9 +10,15 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from eigmotion.body.avatar import load_default_avatar
-from eigmotion.body.retarget import AvatarAnimation, animation_to_motion, retarget
+from eigmotion.body.retarget import (
+    AvatarAnimation,
+    animate_avatar,
+    animation_to_motion,
+    pose_avatar,
+    retarget,
+)
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh, write_bvh
 from eigmotion.mocap.canonical import (
     BLENDER_TO_WORLD,
@@ -105,7 +111,7 @@ def test_avatar_own_skeleton_retargets_to_identity(avatar):
         anim.joint_rotations[0], np.broadcast_to(np.eye(3), (31, 3, 3)), atol=1e-12
     )
     np.testing.assert_allclose(anim.joint_positions[0], avatar.joint_positions, atol=1e-9)
-    np.testing.assert_allclose(avatar.pose(anim)[0], avatar.vertices, atol=1e-5)
+    np.testing.assert_allclose(pose_avatar(avatar, anim)[0], avatar.vertices, atol=1e-5)
     moving = smooth_canonical_motion(5)
     motion = Motion(sk, moving.values, moving.frame_time_s, 1.0, "moving")
     anim = retarget(motion, avatar)
@@ -146,7 +152,7 @@ def test_makehuman_t_pose_lifts_the_arms_level(avatar):
     for arm, hand in (("LeftArm", "LeftHand"), ("RightArm", "RightHand")):
         d = joints[j(hand)] - joints[j(arm)]
         assert abs(d[1]) / np.linalg.norm(d) < 0.1  # within ~6° of level
-    vertices = avatar.pose(anim)[0]
+    vertices = pose_avatar(avatar, anim)[0]
     owner = np.argmax(avatar.weights, axis=1)
     for side, sign in (("Left", 1), ("Right", -1)):
         hand = vertices[owner == j(f"{side}Hand")]
@@ -206,7 +212,7 @@ def test_cmu_clip_keeps_bone_lengths_and_directions(avatar, clip):
 def test_cmu_walk_faces_forward_and_stands_on_the_floor(avatar, clip):
     motion = cmu_clip(clip, 360)
     anim = retarget(motion, avatar)
-    vertices = avatar.pose(anim)
+    vertices = pose_avatar(avatar, anim)
     assert vertices[..., 1].min() == pytest.approx(0.0, abs=2e-3)
     # Several frames have a foot on the floor, not just one.
     assert np.mean(vertices[..., 1].min(axis=1) < 0.06) > 0.5
@@ -268,9 +274,9 @@ def test_animation_to_motion_round_trips(avatar):
 def test_pose_refuses_an_animation_of_another_body(avatar):
     tall = avatar.with_shape(height_m=1.9)
     anim = retarget(cmu_clip("02_01", 10), tall)
-    assert tall.pose(anim).shape == (10, tall.n_vertices, 3)
+    assert pose_avatar(tall, anim).shape == (10, tall.n_vertices, 3)
     with pytest.raises(InvalidParameterError, match="retarget"):
-        avatar.pose(anim)
+        pose_avatar(avatar, anim)
 
 
 def test_animation_checks_its_arrays():
@@ -282,6 +288,6 @@ def test_animation_checks_its_arrays():
 
 def test_animate_is_retarget_then_pose(avatar):
     motion = cmu_clip("09_01", 20)
-    anim, vertices = avatar.animate(motion)
-    np.testing.assert_array_equal(vertices, avatar.pose(retarget(motion, avatar)))
+    anim, vertices = animate_avatar(avatar, motion)
+    np.testing.assert_array_equal(vertices, pose_avatar(avatar, retarget(motion, avatar)))
     assert anim.name == motion.name

@@ -278,7 +278,7 @@ def test_agrees_with_opengl(avatar, low_poly, gl_render, seed):
 def test_agrees_with_opengl_on_cmu_frames(avatar, low_poly, gl_render, cmu_dir, clip, subject):
     """Random frames of real CMU clips (walk, kick, sit, run) from a random view."""
     from eigmotion.body.retarget import retarget
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / f"{clip}.amc", cmu_dir / "asf" / f"{subject}.asf")
     rng = np.random.default_rng(int(clip.replace("_", "")))

@@ -15,7 +15,7 @@ from eigmotion.cli.main import main
 from eigmotion.imaging.cameras import intrinsics, look_at
 from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.imaging.silhouettes import render_masks
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.tracking.calibration import save_calibration
 from eigmotion.tracking.dictionary import mean_heading_deg, yaw_rotation

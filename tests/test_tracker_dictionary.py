@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.canonical import CANONICAL_JOINTS, CANONICAL_PARENTS
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.rotations import axis_rotation

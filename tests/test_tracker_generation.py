@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
 from eigmotion.tracking.generation import (

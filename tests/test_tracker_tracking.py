@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from eigmotion.body.avatar import load_default_avatar
-from eigmotion.body.retarget import retarget
+from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import intrinsics, look_at
 from eigmotion.imaging.silhouettes import render_masks
-from eigmotion.mocap.asf_amc import read_amc
+from eigmotion.mocap.amc import read_amc
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.calibration import CameraPair
 from eigmotion.tracking.dictionary import (
@@ -110,7 +110,7 @@ def test_single_camera_aligns_a_known_motion(cmu):
     side = np.cross([0.0, 1.0, 0.0], travel / np.linalg.norm(travel))
     middle = path.mean(axis=0)
     cam = look_at(middle + 4.5 * side + [0, 0.7, 0], middle, intrinsics(160, 120, 50), 160, 120)
-    masks = render_masks(subject.pose(anim), subject.faces, cam)
+    masks = render_masks(pose_avatar(subject, anim), subject.faces, cam)
     config = TrackerConfig(scales=(0.92, 1.0, 1.08), downsample=1, body_scale=1.0)
     result = SilhouetteTracker(dictionary, [cam], config=config).track([masks])
     # The walk repeats itself: a frame one gait cycle away is the same posture, so

@@ -13,6 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.retrieval.motion_image import motion_image
 from eigmotion.segmentation import background as scene_estimate
@@ -71,12 +72,12 @@ def avatar_clip(cmu_dir):
     from eigmotion.imaging.cameras import ring_rig
     from eigmotion.imaging.render import render_shaded
     from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     motion = read_amc(cmu_dir / "amc" / "02_01.amc", cmu_dir / "asf" / "02.asf")
     motion = motion.trim(0, 181).resample(30.0)
     body = load_default_avatar().decimated(DEFAULT_LOW_POLY_FACES)
-    _, vertices = body.animate(motion)
+    _, vertices = animate_avatar(body, motion)
     camera = ring_rig(4, 10.0, width=160, height=120).fitted(vertices[:, ::10])[1]
     masks = render_masks(vertices, body.faces, camera)
     rgb = render_shaded(vertices, body.faces, camera, floor=False)

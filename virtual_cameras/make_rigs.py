@@ -134,15 +134,15 @@ def plot_layout(rigs: dict[str, CameraRig], path: Path) -> None:
 def plot_masks(rig: CameraRig, path: Path) -> None:
     """Contact sheet of the avatar's silhouettes (one kick frame) from every view."""
     from eigmotion.body.avatar import load_default_avatar
-    from eigmotion.body.retarget import retarget
+    from eigmotion.body.retarget import pose_avatar, retarget
     from eigmotion.imaging.figures import contact_sheet, save_image
     from eigmotion.imaging.silhouettes import render_rig_masks
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
 
     cmu = HERE.parent / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{SHEET_CLIP}.amc", cmu / "asf" / f"{SHEET_SUBJECT}.asf")
     avatar = load_default_avatar()
-    vertices = avatar.pose(retarget(motion, avatar))[SHEET_FRAME : SHEET_FRAME + 1]
+    vertices = pose_avatar(avatar, retarget(motion, avatar))[SHEET_FRAME : SHEET_FRAME + 1]
     masks = render_rig_masks(vertices, avatar.faces, rig.fitted(vertices.reshape(-1, 3)))
     sheet = contact_sheet(
         list(masks[:, 0]),

@@ -16,35 +16,31 @@ Skinning is linear blend skinning: a rest vertex ``v`` goes to
 position, ``A_j`` its world rotation relative to the rest pose and ``p_j`` its posed
 position.  The per-joint 3×4 transforms of a batch of frames are blended and applied
 by one sparse matrix product (see :meth:`Avatar.skin`).
+
+Retargeting a motion onto an avatar and skinning it is
+:mod:`eigmotion.body.retarget` (:func:`~eigmotion.body.retarget.animate_avatar`,
+:func:`~eigmotion.body.retarget.pose_avatar`); garments are put on by
+:func:`eigmotion.body.garments.dress`.
 """
 
 from __future__ import annotations
 
-import json
-from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.canonical import (
-    BLENDER_TO_WORLD,
-    CANONICAL_JOINTS,
-    CANONICAL_PARENTS,
-    makehuman_dir,
+from eigmotion.body.makehuman_files import (
+    OBJ_UNIT_M,
+    group_mesh,
+    read_obj,
+    read_weights,
+    rig_joint_positions,
 )
+from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.canonical import CANONICAL_JOINTS, CANONICAL_PARENTS, makehuman_dir
 from eigmotion.mocap.motion import Skeleton, standard_channels
-
-if TYPE_CHECKING:
-    from eigmotion.body.garments import Garment
-    from eigmotion.body.retarget import AvatarAnimation
-    from eigmotion.mocap.motion import Motion
-
-#: Scale of the MakeHuman OBJ: its lengths are decimetres.
-OBJ_UNIT_M = 0.1
 
 #: The OBJ group that is the body (the others are helper geometry and joint cubes).
 BODY_GROUP = "body"
@@ -245,6 +241,7 @@ class Avatar:
         blending of the transforms and their application (a vertex has ~2 influences,
         so P is ~95 % zeros).
         """
+        # Lazy: a query imports this module (through retrieval.build) and never skins.
         from scipy import sparse
 
         rows, cols = np.nonzero(self.weights)
@@ -308,63 +305,6 @@ class Avatar:
             out[start:stop] = flat.reshape(-1, stop - start, 3).transpose(1, 0, 2)
         return out
 
-    def pose(self, animation: AvatarAnimation) -> np.ndarray:
-        """Skinned vertices of a retargeted animation.
-
-        Parameters
-        ----------
-        animation : AvatarAnimation
-            From :func:`eigmotion.body.retarget.retarget` onto this avatar (or one with the
-            same joints and bone lengths).
-
-        Returns
-        -------
-        (F, V, 3) float32
-            Vertices per frame, metres.
-        """
-        if tuple(animation.joint_names) != self.joint_names:
-            raise InvalidParameterError(
-                f"animation joints {list(animation.joint_names)[:4]}… do not match the "
-                f"avatar's {list(self.joint_names)[:4]}…"
-            )
-        child = np.arange(1, self.n_joints)
-        rest = np.linalg.norm(
-            self.joint_positions[child] - self.joint_positions[self.parents[child]], axis=-1
-        )
-        first = animation.joint_positions[0]
-        posed = np.linalg.norm(first[child] - first[self.parents[child]], axis=-1)
-        worst = int(np.argmax(np.abs(posed - rest)))
-        if abs(posed[worst] - rest[worst]) > 1e-3:
-            raise InvalidParameterError(
-                f"animation {animation.name!r} has bone {self.joint_names[child[worst]]!r} "
-                f"{posed[worst]:.4f} m long, avatar {self.name!r} {rest[worst]:.4f} m: it was "
-                "retargeted onto another body shape; retarget it onto this avatar"
-            )
-        return self.skin(animation.joint_rotations, animation.joint_positions)
-
-    def animate(
-        self,
-        motion: Motion,
-        mapping: dict[str, str | None] | None = None,
-        length_unit_m: float | None = None,
-        up_axis: str = "y",
-    ) -> tuple[AvatarAnimation, np.ndarray]:
-        """Retarget ``motion`` onto this avatar and skin it.
-
-        Shorthand for ``anim = retarget(motion, self, ...); (anim, self.pose(anim))``;
-        see :func:`eigmotion.body.retarget.retarget` for the parameters.
-
-        Returns
-        -------
-        animation : AvatarAnimation
-        vertices : (F, V, 3) float32
-            Skinned vertices per frame, metres.
-        """
-        from eigmotion.body.retarget import retarget
-
-        anim = retarget(motion, self, mapping, length_unit_m=length_unit_m, up_axis=up_axis)
-        return anim, self.pose(anim)
-
     @cached_property
     def support_vertex_ids(self) -> np.ndarray:
         """(N,) int64: vertices that can be the lowest point of a posed body.
@@ -375,6 +315,7 @@ class Avatar:
         fifth of the mesh (2,833 of 13,380 vertices for the default avatar), so
         finding the floor contact of a clip is cheap.
         """
+        # Lazy: scipy.spatial costs a query, which imports this module, ~0.14 s.
         from scipy.spatial import ConvexHull, QhullError
 
         owner = np.argmax(self.weights, axis=1)
@@ -461,6 +402,7 @@ class Avatar:
     @cached_property
     def _neighbour_mean(self):
         """(V, V) CSR matrix averaging each vertex's mesh neighbours."""
+        # Lazy: a query imports this module (through retrieval.build) and never skins.
         from scipy import sparse
 
         edges = np.concatenate(
@@ -474,24 +416,6 @@ class Avatar:
         adj.data[:] = 1.0  # duplicate edges were summed
         degree = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)
         return sparse.diags(1.0 / degree) @ adj
-
-    def dressed(self, garments: Sequence[str | Garment]) -> Avatar:
-        """This body wearing garments (see :mod:`eigmotion.body.garments`).
-
-        Parameters
-        ----------
-        garments : sequence of str or Garment
-            Names from :data:`eigmotion.body.garments.GARMENTS` (or patterns), each once.
-
-        Returns
-        -------
-        Avatar
-            A :class:`eigmotion.body.garments.DressedAvatar` whose mesh is the body and the
-            garments merged; this avatar itself for no garments.
-        """
-        from eigmotion.body.garments import dress
-
-        return dress(self, garments)
 
     def decimated(self, n_faces: int = DEFAULT_LOW_POLY_FACES) -> Avatar:
         """A low-poly copy for fast silhouettes (quadric edge-collapse decimation).
@@ -570,235 +494,6 @@ def skinning_transforms(
 
 
 # -- loading -----------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class ObjMesh:
-    """The vertices and grouped polygons of a Wavefront OBJ file.
-
-    Attributes
-    ----------
-    path : str
-    vertices : (N, 3) float64
-        Every ``v`` line, in the file's units and axes.
-    groups : dict of str to list of list of int
-        Per ``g`` group, its polygons as 0-based vertex indices.
-    """
-
-    path: str
-    vertices: np.ndarray
-    groups: dict[str, list[list[int]]]
-
-    def group_vertex_ids(self, group: str) -> np.ndarray:
-        """(K,) int64: sorted indices of the vertices used by ``group``."""
-        if group not in self.groups:
-            raise InvalidParameterError(f"{self.path}: no group {group!r}")
-        return np.unique(np.concatenate([np.asarray(p) for p in self.groups[group]]))
-
-    def triangles(self, group: str) -> np.ndarray:
-        """(T, 3) int64: the group's polygons split into triangle fans (file indices)."""
-        if group not in self.groups:
-            raise InvalidParameterError(f"{self.path}: no faces in group {group!r}")
-        tris = [
-            [poly[0], poly[k], poly[k + 1]]
-            for poly in self.groups[group]
-            for k in range(1, len(poly) - 1)
-        ]
-        return np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-
-
-def read_obj(path: str | Path) -> ObjMesh:
-    """Read the vertices and the grouped faces of a Wavefront OBJ file.
-
-    Parameters
-    ----------
-    path : str or Path
-
-    Returns
-    -------
-    ObjMesh
-
-    Raises
-    ------
-    InvalidParameterError
-        A malformed ``v`` or ``f`` line, or a face index out of range (names the
-        file and line).
-    """
-    path = Path(path)
-    coords: list[list[float]] = []
-    groups: dict[str, list[list[int]]] = {}
-    current = groups.setdefault("default", [])
-    with path.open() as fh:
-        for lineno, line in enumerate(fh, 1):
-            head, _, rest = line.partition(" ")
-            if head == "v":
-                try:
-                    xyz = [float(x) for x in rest.split()[:3]]
-                except ValueError:
-                    xyz = []
-                if len(xyz) != 3:
-                    raise InvalidParameterError(
-                        f"{path}:{lineno}: expected 'v x y z' with three numbers, "
-                        f"got {line.strip()!r}"
-                    )
-                coords.append(xyz)
-            elif head == "g":
-                current = groups.setdefault(rest.strip(), [])
-            elif head == "f":
-                try:
-                    idx = [int(tok.split("/")[0]) for tok in rest.split()]
-                except ValueError:
-                    idx = []
-                # Negative indices count back from the vertices read so far.
-                idx = [i - 1 if i > 0 else len(coords) + i for i in idx]
-                if len(idx) < 3 or min(idx) < 0 or max(idx) >= len(coords):
-                    raise InvalidParameterError(
-                        f"{path}:{lineno}: expected a face of 3+ indices of vertices "
-                        f"defined above (1..{len(coords)}), got {line.strip()!r}"
-                    )
-                current.append(idx)
-    groups = {name: polys for name, polys in groups.items() if polys}
-    return ObjMesh(str(path), np.asarray(coords, dtype=np.float64).reshape(-1, 3), groups)
-
-
-def read_obj_group(path: str | Path, group: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices and triangles of one group of a Wavefront OBJ file.
-
-    Polygons are split into triangle fans; vertices not used by the group are
-    dropped and the faces re-indexed.
-
-    Parameters
-    ----------
-    path : str or Path
-    group : str
-        The ``g`` group to keep.
-
-    Returns
-    -------
-    vertices : (V, 3) float64
-        In the file's units and axes.
-    faces : (T, 3) int32
-        Triangles into ``vertices``.
-    kept : (V,) int64
-        Index of each kept vertex in the file's full vertex list (0-based).
-    """
-    return _compact(read_obj(path), group)
-
-
-def _compact(obj: ObjMesh, group: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    tris = obj.triangles(group)
-    kept = np.unique(tris)
-    remap = np.full(len(obj.vertices), -1, dtype=np.int64)
-    remap[kept] = np.arange(len(kept))
-    return obj.vertices[kept], remap[tris].astype(np.int32), kept
-
-
-def rig_joint_positions(
-    rig_path: str | Path, obj: ObjMesh, bones: tuple[str, ...], unit_m: float = OBJ_UNIT_M
-) -> tuple[np.ndarray, np.ndarray]:
-    """Bone heads and tails placed on the mesh the way MakeHuman places them.
-
-    A MakeHuman rig locates each bone end on the mesh: ``CUBE`` is the centre of a
-    helper cube (an OBJ group ``joint-*``), ``MEAN`` the mean of listed vertices,
-    ``VERTEX`` one vertex.  The rig's ``default_position`` values belong to
-    MakeHuman's default character, not to the bare base mesh (they miss its ankles
-    by up to 4 cm), so they are used only for other strategies.
-
-    Parameters
-    ----------
-    rig_path : str or Path
-        A ``rig.*.json``.
-    obj : ObjMesh
-        The mesh with its helper groups.
-    bones : tuple of str
-        The bones wanted, in order.
-    unit_m : float
-        Metres per OBJ unit (to convert ``default_position``).
-
-    Returns
-    -------
-    heads, tails : (J, 3) float64
-        In the OBJ's units and axes.
-    """
-    try:
-        rig = json.loads(Path(rig_path).read_text())
-    except json.JSONDecodeError as exc:
-        raise InvalidParameterError(f"{rig_path}: not a JSON rig file ({exc})") from None
-    missing = [n for n in bones if n not in rig]
-    if missing:
-        raise InvalidParameterError(f"{rig_path}: no bones {missing}")
-    out = np.empty((2, len(bones), 3))
-    for j, name in enumerate(bones):
-        for k, end in enumerate(("head", "tail")):
-            spec = rig[name].get(end, {})
-            strategy = spec.get("strategy")
-            if strategy == "CUBE" and spec.get("cube_name") in obj.groups:
-                out[k, j] = obj.vertices[obj.group_vertex_ids(spec["cube_name"])].mean(axis=0)
-            elif strategy in ("MEAN", "VERTEX") and "vertex_indices" in spec:
-                ids = np.atleast_1d(np.asarray(spec["vertex_indices"], dtype=np.int64))
-                if ids.min() < 0 or ids.max() >= len(obj.vertices):
-                    raise InvalidParameterError(
-                        f"{rig_path}: bone {name!r} {end} uses vertex {ids.max()} of "
-                        f"{len(obj.vertices)}"
-                    )
-                out[k, j] = obj.vertices[ids].mean(axis=0)
-            elif "default_position" in spec:
-                # Blender frame, metres → the OBJ's frame and units.
-                pos = BLENDER_TO_WORLD @ np.asarray(spec["default_position"], dtype=np.float64)
-                out[k, j] = pos / unit_m
-            else:
-                raise InvalidParameterError(
-                    f"{rig_path}: bone {name!r} {end}: cannot place it (strategy "
-                    f"{strategy!r}, no default_position)"
-                )
-    return out[0], out[1]
-
-
-def read_weights(
-    path: str | Path, joint_names: tuple[str, ...], kept: np.ndarray, n_file_vertices: int
-) -> np.ndarray:
-    """Skin weights of a MakeHuman ``weights.*.json`` as a dense normalised matrix.
-
-    Parameters
-    ----------
-    path : str or Path
-    joint_names : tuple of str
-        The bones to keep, in column order; each must be in the file.
-    kept : (V,) int
-        Indices of the mesh's vertices in the OBJ's full vertex list.
-    n_file_vertices : int
-        Length of that full list.
-
-    Returns
-    -------
-    (V, J) float32
-        Rows normalised to sum 1.
-    """
-    path = Path(path)
-    try:
-        table = json.loads(path.read_text())["weights"]
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise InvalidParameterError(f"{path}: not a MakeHuman weights file ({exc})") from None
-    missing = [n for n in joint_names if n not in table]
-    if missing:
-        raise InvalidParameterError(f"{path}: no weights for bones {missing}")
-    full = np.zeros((n_file_vertices, len(joint_names)), dtype=np.float64)
-    for j, name in enumerate(joint_names):
-        pairs = np.asarray(table[name], dtype=np.float64).reshape(-1, 2)
-        idx = pairs[:, 0].astype(np.int64)
-        if len(idx) and (idx.min() < 0 or idx.max() >= n_file_vertices):
-            raise InvalidParameterError(
-                f"{path}: bone {name!r} weights vertex {idx.max()}, the mesh has {n_file_vertices}"
-            )
-        np.add.at(full[:, j], idx, pairs[:, 1])
-    w = full[kept]
-    sums = w.sum(axis=1)
-    if np.any(sums <= 0):
-        raise InvalidParameterError(
-            f"{path}: {int(np.sum(sums <= 0))} body vertices carry no weight "
-            f"(first: OBJ vertex {int(kept[np.argmax(sums <= 0)]) + 1})"
-        )
-    return (w / sums[:, None]).astype(np.float32)
-
-
 def load_avatar(
     obj_path: str | Path,
     rig_path: str | Path,
@@ -830,7 +525,7 @@ def load_avatar(
         Standing on y = 0 (the mesh and the rig shifted together).
     """
     obj = read_obj(obj_path)
-    vertices, faces, kept = _compact(obj, group)
+    vertices, faces, kept = group_mesh(obj, group)
     heads, tails = rig_joint_positions(rig_path, obj, CANONICAL_JOINTS, unit_m)
     weights = read_weights(weights_path, CANONICAL_JOINTS, kept, len(obj.vertices))
     lift = np.array([0.0, -vertices[:, 1].min(), 0.0])

@@ -324,6 +324,8 @@ class _BodyFit:
 
     def nearest_weights(self, points: np.ndarray, ids: np.ndarray) -> np.ndarray:
         """(P, J) skin weights of the nearest body vertex among vertices ``ids``."""
+        # Lazy: a query imports this module (a database's build config names garments), and
+        # scipy.spatial would cost it ~0.14 s.
         from scipy.spatial import cKDTree
 
         _, nearest = cKDTree(self.body.vertices[ids]).query(points.reshape(-1, 3))
@@ -530,6 +532,8 @@ def _hull_distances(points: np.ndarray, directions: np.ndarray) -> np.ndarray:
     An origin outside the hull (or too few points for one) gives the distance to the
     farthest point instead, so that a ring of that radius still encloses them.
     """
+    # Lazy: a query imports this module (a database's build config names garments), and
+    # scipy.spatial would cost it ~0.14 s.
     from scipy.spatial import ConvexHull, QhullError
 
     fallback = np.full(len(directions), np.linalg.norm(points, axis=1).max())
@@ -632,7 +636,7 @@ def _shell(
 class DressedAvatar(Avatar):
     """An avatar wearing garments: the body's mesh followed by each garment's.
 
-    Built by :func:`dress` (or :meth:`Avatar.dressed`).  Vertices, faces and skin
+    Built by :func:`dress`.  Vertices, faces and skin
     weights are the body's, then each garment's in order, so it skins, poses and
     renders as any :class:`Avatar`.
 

@@ -33,19 +33,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from eigmotion.body.avatar import Avatar
 from eigmotion.errors import InvalidParameterError, SkeletonMappingError
 from eigmotion.mocap.kinematics import detect_length_unit, forward_kinematics
 from eigmotion.mocap.motion import Motion, Skeleton
 from eigmotion.mocap.naming import canonical_joint_map
 from eigmotion.mocap.rotations import rotation_between
-
-if TYPE_CHECKING:
-    from eigmotion.body.avatar import Avatar
 
 #: Joints whose facing is fixed by a left-right vector: joint → (left, right).
 LEFT_RIGHT_JOINTS = {
@@ -203,6 +200,70 @@ def retarget(
         joint_map,
         motion.name,
     )
+
+
+def pose_avatar(avatar: Avatar, animation: AvatarAnimation) -> np.ndarray:
+    """Skinned vertices of a retargeted animation.
+
+    Parameters
+    ----------
+    avatar : Avatar
+        The body to skin.
+    animation : AvatarAnimation
+        From :func:`retarget` onto ``avatar`` (or one with the same joints and bone
+        lengths).
+
+    Returns
+    -------
+    (F, V, 3) float32
+        Vertices per frame, metres.
+
+    Raises
+    ------
+    InvalidParameterError
+        The animation's joints are not the avatar's, or its bones are not as long.
+    """
+    if tuple(animation.joint_names) != avatar.joint_names:
+        raise InvalidParameterError(
+            f"animation joints {list(animation.joint_names)[:4]}… do not match the "
+            f"avatar's {list(avatar.joint_names)[:4]}…"
+        )
+    child = np.arange(1, avatar.n_joints)
+    rest = np.linalg.norm(
+        avatar.joint_positions[child] - avatar.joint_positions[avatar.parents[child]], axis=-1
+    )
+    first = animation.joint_positions[0]
+    posed = np.linalg.norm(first[child] - first[avatar.parents[child]], axis=-1)
+    worst = int(np.argmax(np.abs(posed - rest)))
+    if abs(posed[worst] - rest[worst]) > 1e-3:
+        raise InvalidParameterError(
+            f"animation {animation.name!r} has bone {avatar.joint_names[child[worst]]!r} "
+            f"{posed[worst]:.4f} m long, avatar {avatar.name!r} {rest[worst]:.4f} m: it was "
+            "retargeted onto another body shape; retarget it onto this avatar"
+        )
+    return avatar.skin(animation.joint_rotations, animation.joint_positions)
+
+
+def animate_avatar(
+    avatar: Avatar,
+    motion: Motion,
+    mapping: dict[str, str | None] | None = None,
+    length_unit_m: float | None = None,
+    up_axis: str = "y",
+) -> tuple[AvatarAnimation, np.ndarray]:
+    """Retarget ``motion`` onto ``avatar`` and skin it.
+
+    Shorthand for ``anim = retarget(motion, avatar, ...); (anim, pose_avatar(avatar,
+    anim))``; see :func:`retarget` for the parameters.
+
+    Returns
+    -------
+    animation : AvatarAnimation
+    vertices : (F, V, 3) float32
+        Skinned vertices per frame, metres.
+    """
+    anim = retarget(motion, avatar, mapping, length_unit_m=length_unit_m, up_axis=up_axis)
+    return anim, pose_avatar(avatar, anim)
 
 
 def _source_rest(sk: Skeleton, unit: float, up_axis: str) -> tuple[np.ndarray, np.ndarray]:

@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.mocap.asf_amc import read_amc
+    from eigmotion.mocap.amc import read_amc
     from eigmotion.mocap.bvh import read_bvh, write_bvh
     from eigmotion.mocap.naming import canonical_names, load_joint_map
 

@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidParameterError(f"--size must be at least 16×16 pixels, got {width}×{height}")
 
     from eigmotion.body.avatar import load_default_avatar
-    from eigmotion.body.retarget import retarget
+    from eigmotion.body.retarget import animate_avatar, retarget
     from eigmotion.mocap.library import find_motion
 
     motion = find_motion(args.motion, asf=args.asf)
@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         times_s = frames * motion.frame_time_s
     else:
         motion = motion.resample(args.fps)
-        anim, vertices = avatar.animate(motion)
+        anim, vertices = animate_avatar(avatar, motion)
         times_s = np.arange(motion.n_frames) * motion.frame_time_s
 
     from eigmotion.imaging.framing import frame_cameras

@@ -24,7 +24,7 @@ whole file is used.  Motions with ``role = "distractor"`` are real motions that 
 *not* basic motions: they are left out of the default library and serve to test that
 unknown motions are rejected.
 
-``mirror = true`` adds the entry's mirror image (:meth:`eigmotion.mocap.motion.Motion.mirrored`:
+``mirror = true`` adds the entry's mirror image (:func:`eigmotion.mocap.mirror.mirror_motion`:
 left and right swapped, a left-handed wave from a right-handed one) to the library as a
 motion of its own, named ``<name>_mirror``, with the same label, performer, role and
 source.  :func:`load_library` makes it, right after the original, so everything that
@@ -52,6 +52,9 @@ from pathlib import Path
 
 from eigmotion import resources
 from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.amc import read_amc
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.motion import Motion
 
 #: The basic-motion labels: the patent's six examples, then those of the CMU clips.
@@ -425,8 +428,8 @@ def mirror_image(item: LibraryMotion) -> LibraryMotion:
     Returns
     -------
     LibraryMotion
-        Named ``item.name + MIRROR_SUFFIX``, its motion :meth:`Motion.mirrored
-        <eigmotion.mocap.motion.Motion.mirrored>`, the variation marked as mirrored,
+        Named ``item.name + MIRROR_SUFFIX``, its motion :func:`mirror_motion
+        <eigmotion.mocap.mirror.mirror_motion>`, the variation marked as mirrored,
         ``mirror_of = item.name``; label, performer, role, source, action span,
         filler and the rest as ``item``'s.
     """
@@ -434,7 +437,7 @@ def mirror_image(item: LibraryMotion) -> LibraryMotion:
     return dataclasses.replace(
         item,
         name=name,
-        motion=item.motion.mirrored().replace(name=name),
+        motion=mirror_motion(item.motion).replace(name=name),
         variation=f"{item.variation} (mirror image: left and right swapped)",
         mirror_of=item.name,
     )
@@ -537,9 +540,5 @@ def find_motion(
 def _read_motion_file(path: Path, asf: Path | None = None) -> Motion:
     """Read a ``.bvh`` file, or an ``.amc`` file with its ``.asf``."""
     if path.suffix.lower() == ".amc":
-        from eigmotion.mocap.asf_amc import read_amc
-
         return read_amc(path, asf)
-    from eigmotion.mocap.bvh import read_bvh
-
     return read_bvh(path)

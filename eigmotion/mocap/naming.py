@@ -15,7 +15,7 @@ for a known joint that is deliberately ignored (fingers, face, ``_end`` nubs):
     (``LeftHandIndex1`` → ``LeftHandFinger1``).
 ``cmu_asf``
     CMU ASF bone names (``root``, ``lfemur``, ``ltibia`` …), as read by
-    :func:`eigmotion.mocap.asf_amc.read_amc`.
+    :func:`eigmotion.mocap.amc.read_amc`.
 ``exporter``
     Common exporter naming (Mixamo, MotionBuilder): ``Hips Spine Spine1 Spine2 Neck
     Head LeftShoulder LeftArm LeftForeArm LeftHand LeftUpLeg LeftLeg LeftFoot

@@ -9,6 +9,8 @@ sequences are exactly this intrinsic convention.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -19,7 +21,7 @@ _AXES = {"X", "Y", "Z"}
 def _rotation_class():
     """:class:`scipy.spatial.transform.Rotation`, imported on first use: importing
     ``scipy.spatial`` takes about 0.14 s, which a query that writes no motion never
-    needs."""
+    needs (``tests/test_motion.py`` checks that the query path does not import it)."""
     from scipy.spatial.transform import Rotation
 
     return Rotation
@@ -73,8 +75,6 @@ def matrix_to_euler(matrices: np.ndarray, order: str) -> np.ndarray:
     shape = matrices.shape[:-2]
     rot = _rotation_class().from_matrix(matrices.reshape(-1, 3, 3))
     with np.errstate(all="ignore"):
-        import warnings
-
         with warnings.catch_warnings():
             # Gimbal lock is exact and harmless here: scipy picks one of the
             # equivalent angle sets and says so.
@@ -153,8 +153,6 @@ def align_vectors(source: np.ndarray, target: np.ndarray, weights: np.ndarray | 
     target = np.asarray(target, dtype=np.float64).reshape(-1, 3)
     if len(source) == 1:
         return rotation_between(source[0], target[0])
-    import warnings
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         rot, _ = _rotation_class().align_vectors(target, source, weights=weights)

@@ -257,12 +257,14 @@ class ContinuousPose:
         """The aligned motion skinned on the avatar (for :func:`eigmotion.pose.replay.
         replay_video`)."""
         from eigmotion.body.avatar import load_default_avatar
-        from eigmotion.body.retarget import retarget
+        from eigmotion.body.retarget import pose_avatar, retarget
         from eigmotion.pose.replay import Replay
 
         avatar = avatar or load_default_avatar()
         anim = retarget(self.motion, avatar)
-        return Replay(self.motion, avatar.pose(anim), avatar.faces, float(self.elevation_deg))
+        return Replay(
+            self.motion, pose_avatar(avatar, anim), avatar.faces, float(self.elevation_deg)
+        )
 
 
 # -- the pieces --------------------------------------------------------------------

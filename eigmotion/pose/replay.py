@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from eigmotion.body.avatar import Avatar, load_default_avatar
-from eigmotion.body.retarget import animation_to_motion, retarget
+from eigmotion.body.retarget import animation_to_motion, pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.motion import Motion
 from eigmotion.mocap.rotations import axis_rotation
@@ -129,7 +129,7 @@ def replay(
         on_avatar = on_avatar.trim(0, 1).replace(frame_time_s=1.0 / fps)
     on_avatar = on_avatar.replace(name=f"{motion.name}_{start}_{stop}")
     anim_out = retarget(on_avatar, avatar)
-    return Replay(on_avatar, avatar.pose(anim_out), avatar.faces, float(elevation_deg))
+    return Replay(on_avatar, pose_avatar(avatar, anim_out), avatar.faces, float(elevation_deg))
 
 
 def replay_video(

@@ -275,12 +275,13 @@ def _outfits(garments) -> tuple[tuple[str, ...], ...]:
 @lru_cache(maxsize=32)
 def _body(shape: tuple[float | None, float], garments: tuple[str, ...], low_poly_faces: int):
     from eigmotion.body.avatar import load_default_avatar
+    from eigmotion.body.garments import dress
 
     avatar = load_default_avatar()
     height, girth = shape
     if height is not None or girth != 1.0:
         avatar = avatar.with_shape(height_m=height, girth=girth)
-    return avatar.dressed(garments).decimated(low_poly_faces)
+    return dress(avatar, garments).decimated(low_poly_faces)
 
 
 def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
@@ -301,7 +302,9 @@ def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
     fitted : CameraRig
         The rig re-aimed so that the whole motion stays in every camera's frame.
     """
-    _, vertices = body.animate(motion.resample(render_fps))
+    from eigmotion.body.retarget import animate_avatar
+
+    _, vertices = animate_avatar(body, motion.resample(render_fps))
     return vertices, rig.fitted(hull_points(vertices))
 
 

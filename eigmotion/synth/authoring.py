@@ -33,16 +33,20 @@ The pipeline of :func:`animate`, one stage after the other:
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 from scipy.spatial.transform import Rotation
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.mocap.canonical import canonical_skeleton
+from eigmotion.mocap.canonical import (
+    CANONICAL_JOINTS,
+    canonical_skeleton,
+    load_rig,
+    makehuman_dir,
+)
 from eigmotion.mocap.kinematics import rest_points
 from eigmotion.mocap.motion import Motion, Skeleton
 from eigmotion.mocap.rotations import (
@@ -51,6 +55,14 @@ from eigmotion.mocap.rotations import (
     euler_to_matrix,
     matrix_to_euler,
 )
+from eigmotion.synth.keyframes import (
+    Key,
+    Target,
+    interpolate_rotations,
+    pchip_interpolate,
+    unwrap_rotvecs,
+)
+from eigmotion.synth.limb_ik import frame_change, solve_limb, unit_vectors
 
 #: Euler order of key rotations unless :func:`animate` is told otherwise.
 KEY_EULER_ORDER = "ZXY"
@@ -60,103 +72,6 @@ DEFAULT_FPS = 30.0
 
 #: Gravity, m/s²: the root of a body in flight falls with this acceleration.
 GRAVITY_M_S2 = 9.81
-
-
-@dataclass(frozen=True)
-class Target:
-    """Where the end joint of a two-bone limb must be, in a key.
-
-    Parameters
-    ----------
-    position_m : (3,) float
-        Position of the end joint (ankle, wrist), metres, in the frame of
-        ``relative_to``: the world when ``None``, else that joint's frame (origin at the
-        joint, axes parallel to the world at rest and turning with the joint).
-    relative_to : str, optional
-        A joint outside every IK limb (e.g. ``"Spine"``, ``"Head"``); the same for all
-        keys that give a target to this limb.
-    rotation_deg : (3,) float, optional
-        Orientation of the end joint relative to its rest orientation, Euler degrees
-        ``(x, y, z)`` in the key order, in the same frame as ``position_m``: ``(0, 0, 0)``
-        keeps a foot flat on the floor.  ``None``: the end joint keeps the rotation
-        relative to its parent that the keys give it.
-    """
-
-    position_m: tuple[float, float, float]
-    relative_to: str | None = None
-    rotation_deg: tuple[float, float, float] | None = None
-
-    def __post_init__(self):
-        pos = np.asarray(self.position_m, dtype=np.float64)
-        if pos.shape != (3,) or not np.all(np.isfinite(pos)):
-            raise InvalidParameterError(
-                f"Target position_m must be 3 finite numbers (metres), got {self.position_m!r}"
-            )
-        object.__setattr__(self, "position_m", tuple(float(v) for v in pos))
-        if self.rotation_deg is not None:
-            rot = np.asarray(self.rotation_deg, dtype=np.float64)
-            if rot.shape != (3,) or not np.all(np.isfinite(rot)):
-                raise InvalidParameterError(
-                    f"Target rotation_deg must be 3 finite angles (degrees), "
-                    f"got {self.rotation_deg!r}"
-                )
-            object.__setattr__(self, "rotation_deg", tuple(float(v) for v in rot))
-
-
-@dataclass(frozen=True)
-class Key:
-    """One key pose.
-
-    Parameters
-    ----------
-    time_s : float
-        Time of the key, seconds.
-    rotations_deg : mapping of str to (3,) float
-        Joint name → rotation relative to rest, Euler degrees ``(x, y, z)``.  The root
-        joint's rotation turns the whole body.  Joints not named keep the previous key's
-        rotation (rest in the first key).
-    root_offset_m : (3,) float, optional
-        Displacement of the root from where it is when standing at the origin, metres.
-        Not given: the previous key's (zero in the first key).
-    targets : mapping of str to Target or None
-        End joint of a two-bone limb (``"LeftFoot"``, ``"RightHand"`` …) → its target;
-        ``None`` releases a limb.  Limbs not named keep the previous key's target.
-    """
-
-    time_s: float
-    rotations_deg: Mapping[str, Sequence[float]] = field(default_factory=dict)
-    root_offset_m: Sequence[float] | None = None
-    targets: Mapping[str, Target | None] = field(default_factory=dict)
-
-    def __post_init__(self):
-        if not np.isfinite(self.time_s):
-            raise InvalidParameterError(f"Key time_s must be finite, got {self.time_s!r}")
-        rots = {}
-        for joint, angles in dict(self.rotations_deg).items():
-            a = np.asarray(angles, dtype=np.float64)
-            if a.shape != (3,) or not np.all(np.isfinite(a)):
-                raise InvalidParameterError(
-                    f"key at {self.time_s} s: rotation of {joint!r} must be 3 finite angles "
-                    f"(x, y, z degrees), got {angles!r}"
-                )
-            rots[joint] = tuple(float(v) for v in a)
-        object.__setattr__(self, "rotations_deg", rots)
-        if self.root_offset_m is not None:
-            off = np.asarray(self.root_offset_m, dtype=np.float64)
-            if off.shape != (3,) or not np.all(np.isfinite(off)):
-                raise InvalidParameterError(
-                    f"key at {self.time_s} s: root_offset_m must be 3 finite numbers (metres), "
-                    f"got {self.root_offset_m!r}"
-                )
-            object.__setattr__(self, "root_offset_m", tuple(float(v) for v in off))
-        targets = dict(self.targets)
-        for joint, target in targets.items():
-            if target is not None and not isinstance(target, Target):
-                raise InvalidParameterError(
-                    f"key at {self.time_s} s: target of {joint!r} must be a Target or None, "
-                    f"got {type(target).__name__}"
-                )
-        object.__setattr__(self, "targets", targets)
 
 
 # -- rest geometry ---------------------------------------------------------------------------
@@ -315,8 +230,8 @@ def aim_deg(
     (float, float, float)
         ``(x, y, z)`` degrees, composed in ``order``.
     """
-    rest = _unit(np.asarray(rest_vectors, dtype=np.float64).reshape(-1, 3))
-    target = _unit(np.asarray(target_vectors, dtype=np.float64).reshape(-1, 3))
+    rest = unit_vectors(np.asarray(rest_vectors, dtype=np.float64).reshape(-1, 3))
+    target = unit_vectors(np.asarray(target_vectors, dtype=np.float64).reshape(-1, 3))
     if rest.shape != target.shape:
         raise InvalidParameterError(
             f"aim_deg needs as many target vectors as rest vectors, got {len(rest)} and "
@@ -324,7 +239,7 @@ def aim_deg(
         )
     if len(rest) == 2:
         # Exact on the first pair, the second only fixes the turn about it.
-        rot = _frame_change(rest[:1], rest[1:], target[:1], target[1:])[0]
+        rot = frame_change(rest[:1], rest[1:], target[:1], target[1:])[0]
     else:
         rot = align_vectors(rest, target)
     order = check_euler_order(order)
@@ -407,8 +322,8 @@ def animate(
 
     n_frames = int(np.floor((key_times[-1] - key_times[0]) * fps + 1e-9)) + 1
     times = key_times[0] + np.arange(n_frames) / fps
-    local = _interpolate_rotations(key_times, rot_k, times)
-    root = standing_root_position_m(skeleton) + _pchip(key_times, root_k, times)
+    local = interpolate_rotations(key_times, rot_k, times)
+    root = standing_root_position_m(skeleton) + pchip_interpolate(key_times, root_k, times)
 
     if chains:
         glob_r, glob_p = _forward(skeleton, local, root)
@@ -420,7 +335,7 @@ def animate(
             standing_root_position_m(skeleton) + root_k,
         )
         for end, per_key in chains.items():
-            _solve_chain(
+            solve_limb(
                 skeleton, end, per_key, order, key_times, times, key_r, key_p, glob_r, glob_p, local
             )
     if ground:
@@ -523,10 +438,6 @@ def body_surface_points(
 
 @lru_cache(maxsize=1)
 def _body_surface_points() -> dict[str, np.ndarray]:
-    import json
-
-    from eigmotion.mocap.canonical import CANONICAL_JOINTS, load_rig, makehuman_dir
-
     folder = makehuman_dir()
     vertices = []
     body: set[int] = set()
@@ -642,17 +553,6 @@ def _subtree(skeleton: Skeleton, joint: int) -> set[int]:
     return out
 
 
-def _pchip(key_times: np.ndarray, values: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Monotone cubic interpolation along axis 0 (values (K, ...) → (F, ...))."""
-    return PchipInterpolator(key_times, values, axis=0)(times)
-
-
-def _interpolate_rotations(key_times, rot_k, times) -> np.ndarray:
-    """(F, J, 3, 3) local rotations from per-key rotation vectors (K, J, 3)."""
-    rv = _pchip(key_times, rot_k, times)
-    return Rotation.from_rotvec(rv.reshape(-1, 3)).as_matrix().reshape(*rv.shape[:2], 3, 3)
-
-
 def _forward(skeleton: Skeleton, local: np.ndarray, root: np.ndarray):
     """World rotations (F, J, 3, 3) and positions (F, J, 3) in metres."""
     local = np.asarray(local)
@@ -677,185 +577,3 @@ def _end_site_positions(skeleton: Skeleton, glob_r: np.ndarray, glob_p: np.ndarr
         return np.zeros((glob_p.shape[0], 0, 3))
     offs = np.stack([skeleton.end_sites[j] for j in joints])
     return glob_p[:, joints] + np.einsum("feab,eb->fea", glob_r[:, joints], offs)
-
-
-def _solve_chain(
-    skeleton, end, per_key, order, key_times, times, key_r, key_p, glob_r, glob_p, local
-) -> None:
-    """Move one two-bone limb to its interpolated targets; updates ``local`` in place."""
-    c = skeleton.index(end)
-    b = int(skeleton.parents[c])
-    a = int(skeleton.parents[b])
-    frame_name = next(t.relative_to for t in per_key if t is not None)
-    f = None if frame_name is None else skeleton.index(frame_name)
-    perm = ["XYZ".index(x) for x in order]
-
-    def in_frame(rot, pos, k):
-        # Key k's own end pose, expressed in the target frame.
-        if f is None:
-            return pos[k, c], rot[k, c]
-        r_f = rot[k, f]
-        return r_f.T @ (pos[k, c] - pos[k, f]), r_f.T @ rot[k, c]
-
-    pos_k = np.zeros((len(per_key), 3))
-    rot_k = np.zeros((len(per_key), 3))
-    use_rotation = any(t is not None and t.rotation_deg is not None for t in per_key)
-    for k, target in enumerate(per_key):
-        fk_pos, fk_rot = in_frame(key_r, key_p, k)
-        pos_k[k] = fk_pos if target is None else target.position_m
-        if target is not None and target.rotation_deg is not None:
-            m = euler_to_matrix(np.asarray(target.rotation_deg)[perm], order)
-        else:
-            m = fk_rot
-        rot_k[k] = Rotation.from_matrix(m).as_rotvec()
-    tgt = _pchip(key_times, pos_k, times)
-    if f is not None:
-        tgt = glob_p[:, f] + np.einsum("fab,fb->fa", glob_r[:, f], tgt)
-    # A straight limb bends the way it is bent at rest, turned with its upper bone.
-    fallback = glob_r[:, a] @ _rest_pole(skeleton, a, b, c)
-    geo = _ik(glob_p[:, a], glob_p[:, b], glob_p[:, c], tgt, fallback)
-    q_a = _frame_change(
-        glob_p[:, b] - glob_p[:, a], geo.normal_old, geo.mid - glob_p[:, a], geo.normal
-    )
-    carried = np.einsum("fab,fb->fa", q_a, glob_p[:, c] - glob_p[:, b])
-    q_b = _frame_change(carried, geo.normal, geo.end - geo.mid, geo.normal)
-    parent_a = int(skeleton.parents[a])
-    g_a = q_a @ glob_r[:, a]
-    g_b = q_b @ q_a @ glob_r[:, b]
-    g_pa = glob_r[:, parent_a] if parent_a >= 0 else np.eye(3)
-    local[:, a] = np.swapaxes(g_pa, -1, -2) @ g_a
-    local[:, b] = np.swapaxes(g_a, -1, -2) @ g_b
-    if use_rotation:
-        rv = _pchip(key_times, unwrap_rotvecs(rot_k), times)
-        g_c = Rotation.from_rotvec(rv).as_matrix()
-        if f is not None:
-            g_c = glob_r[:, f] @ g_c
-        local[:, c] = np.swapaxes(g_b, -1, -2) @ g_c
-
-
-def unwrap_rotvecs(rv: np.ndarray) -> np.ndarray:
-    """Rotation vectors made continuous along the first axis, for interpolation.
-
-    Parameters
-    ----------
-    rv : (K, ..., 3) float
-        Rotation vectors, radians, in key order.
-
-    Returns
-    -------
-    (K, ..., 3) float64
-        Each vector replaced by its equivalent (the same rotation, 2π longer or shorter)
-        nearest the previous one, so that interpolating them takes the short way round.
-    """
-    rv = np.array(rv, dtype=np.float64)
-    for i in range(1, len(rv)):
-        cur = rv[i]
-        angle = np.linalg.norm(cur, axis=-1, keepdims=True)
-        alt = cur - 2 * np.pi * cur / np.where(angle > 0, angle, 1.0)
-        flip = np.linalg.norm(alt - rv[i - 1], axis=-1) < np.linalg.norm(cur - rv[i - 1], axis=-1)
-        rv[i] = np.where(flip[..., None], alt, cur)
-    return rv
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
-def _rest_pole(skeleton: Skeleton, a: int, b: int, c: int) -> np.ndarray:
-    """(3,) unit direction from the rest a→c line to the rest middle joint b (+Z if straight)."""
-    pts = rest_points(skeleton)
-    axis = _unit(pts[c] - pts[a])
-    off = pts[b] - pts[a]
-    off = off - np.dot(off, axis) * axis
-    n = np.linalg.norm(off)
-    return off / n if n > 1e-6 else np.array([0.0, 0.0, 1.0])
-
-
-def _orthogonal(v: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """Component of v (F, 3) orthogonal to unit ``axis`` (F, 3)."""
-    return v - np.sum(v * axis, axis=-1, keepdims=True) * axis
-
-
-@dataclass(frozen=True)
-class _Geometry:
-    mid: np.ndarray  # (F, 3) new middle joint
-    end: np.ndarray  # (F, 3) new end joint
-    normal_old: np.ndarray  # (F, 3) unit normal of the current limb plane
-    normal: np.ndarray  # (F, 3) unit normal of the new limb plane
-
-
-def _ik(a, b, c, t, fallback) -> _Geometry:
-    l1 = np.linalg.norm(b - a, axis=-1)
-    l2 = np.linalg.norm(c - b, axis=-1)
-    if np.any(l1 <= 0) or np.any(l2 <= 0):
-        raise InvalidParameterError("two-bone IK: a bone of zero length cannot bend")
-    axis_old = _unit(c - a)
-    pole_old = _orthogonal(b - a, axis_old)
-    fb = _orthogonal(fallback, axis_old)
-    # Nearly straight: the bend direction of the pose is noise, use the fallback.
-    straight = np.linalg.norm(pole_old, axis=-1) < 0.02 * l1
-    pole_old[straight] = fb[straight]
-    pole_old = _unit(pole_old)
-    to_target = t - a
-    dist = np.linalg.norm(to_target, axis=-1)
-    u = _unit(np.where(dist[:, None] > 1e-9, to_target, c - a))
-    pole = _orthogonal(pole_old, u)
-    flat = np.linalg.norm(pole, axis=-1) < 1e-6
-    pole[flat] = _orthogonal(fallback, u)[flat]
-    pole = _unit(pole)
-    reach = np.clip(dist, np.abs(l1 - l2) + 1e-9, (l1 + l2) * (1 - 1e-9))
-    cos_a = np.clip((l1**2 + reach**2 - l2**2) / (2 * l1 * reach), -1.0, 1.0)
-    sin_a = np.sqrt(1.0 - cos_a**2)
-    mid = a + l1[:, None] * (cos_a[:, None] * u + sin_a[:, None] * pole)
-    end = a + reach[:, None] * u
-    return _Geometry(mid, end, _unit(np.cross(pole_old, axis_old)), _unit(np.cross(pole, u)))
-
-
-def _frame_change(u_old, n_old, u_new, n_new):
-    """(F, 3, 3) rotation taking (u_old, n_old) to (u_new, n_new); n ⟂ u assumed."""
-
-    def frame(u, n):
-        e1 = _unit(u)
-        e2 = _unit(_orthogonal(n, e1))
-        return np.stack([e1, e2, np.cross(e1, e2)], axis=-1)
-
-    return frame(u_new, n_new) @ np.swapaxes(frame(u_old, n_old), -1, -2)
-
-
-def two_bone_ik(
-    root_m: np.ndarray,
-    mid_m: np.ndarray,
-    end_m: np.ndarray,
-    target_m: np.ndarray,
-    pole_hint: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Analytic two-bone IK: new middle and end joint positions reaching ``target_m``.
-
-    The bone lengths are those of the current pose; the middle joint bends the way it
-    is bent now (towards ``pole_hint`` when the limb is nearly straight); a target out of
-    reach is approached along the root→target line.
-
-    Parameters
-    ----------
-    root_m, mid_m, end_m : (F, 3) float
-        Current positions of the limb's joints (e.g. hip, knee, ankle), metres.
-    target_m : (F, 3) float
-        Wanted end positions, metres.
-    pole_hint : (F, 3) or (3,) float, optional
-        Direction the middle joint bends towards when the limb is straight; default +Z.
-
-    Returns
-    -------
-    mid : (F, 3) float64
-        New middle joint positions, metres.
-    end : (F, 3) float64
-        New end positions (the target, or as near as the limb reaches), metres.
-    """
-    a, b, c, t = (
-        np.atleast_2d(np.asarray(x, dtype=np.float64)) for x in (root_m, mid_m, end_m, target_m)
-    )
-    hint = [0.0, 0.0, 1.0] if pole_hint is None else pole_hint
-    hint = np.broadcast_to(np.asarray(hint, dtype=np.float64), a.shape).copy()
-    geo = _ik(a, b, c, t, hint)
-    return geo.mid, geo.end

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.body.avatar import Avatar
+from eigmotion.body.retarget import animate_avatar
 from eigmotion.imaging.cameras import Camera, virtual_rig
 from eigmotion.mocap.motion import Motion
 from eigmotion.retrieval.build import hull_points
@@ -113,13 +114,13 @@ def render_clip(
     -------
     SyntheticClip
     """
-    from eigmotion.body.garments import DressedAvatar
+    from eigmotion.body.garments import DressedAvatar, dress
     from eigmotion.imaging.render import BODY_RGB, render_shaded
     from eigmotion.imaging.silhouettes import render_masks
     from eigmotion.synth.scene import compose_scene
 
-    body = avatar.dressed(garments)
-    _, vertices = body.animate(motion.resample(fps))
+    body = dress(avatar, garments)
+    _, vertices = animate_avatar(body, motion.resample(fps))
     camera = clip_camera(vertices, azimuth_deg, elevation_deg, width, height, margin)
     colours = body.vertex_rgb(BODY_RGB) if isinstance(body, DressedAvatar) else None
     shaded = render_shaded(vertices, body.faces, camera, floor=False, vertex_rgb=colours)

@@ -39,16 +39,14 @@ from eigmotion.mocap.motion import Motion
 from eigmotion.mocap.rotations import euler_to_matrix, matrix_to_euler
 from eigmotion.synth.authoring import (
     DEFAULT_FPS,
-    Key,
-    Target,
     aim_deg,
     animate,
     body_surface_points,
     foot_target,
     foot_targets,
     rest_positions_m,
-    unwrap_rotvecs,
 )
+from eigmotion.synth.keyframes import Key, Target, unwrap_rotvecs
 
 HERE = Path(__file__).resolve().parent
 
