@@ -246,12 +246,13 @@ def run(args: argparse.Namespace) -> int:
     positions[:first] = positions[first]
     if args.reference:
         from eigmotion.mocap.kinematics import forward_kinematics
-        from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
+        from eigmotion.tracking.dictionary import posture_sequence
         from eigmotion.tracking.generation import (
             playback_motion,
             smooth_headings_deg,
             variable_speed_playback,
         )
+        from eigmotion.tracking.postures import heading_deg, posture_vectors
 
         sequence = posture_sequence(_read_motion(args.reference, args.asf))
         joint_ids = [dictionary.joint_names.index(n) for n in dictionary.vector_joints]
