@@ -15,9 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.body.avatar import Avatar
+from eigmotion.body.garments import DressedAvatar
 from eigmotion.imaging.cameras import Camera, virtual_rig
+from eigmotion.imaging.render import BODY_RGB, render_shaded
+from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.motion import Motion
 from eigmotion.retrieval.build import hull_points
+from eigmotion.synth.scene import compose_scene
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,11 +117,6 @@ def render_clip(
     -------
     SyntheticClip
     """
-    from eigmotion.body.garments import DressedAvatar
-    from eigmotion.imaging.render import BODY_RGB, render_shaded
-    from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.synth.scene import compose_scene
-
     body = avatar.dressed(garments)
     _, vertices = body.animate(motion.resample(fps))
     camera = clip_camera(vertices, azimuth_deg, elevation_deg, width, height, margin)
