@@ -82,10 +82,10 @@ from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
     format_operating_points,
     format_score,
-    markdown_table,
     operating_points,
     score,
 )
+from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.mocap.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
 from eigmotion.retrieval.build import BuildConfig  # noqa: E402

@@ -58,7 +58,7 @@ from bench_accuracy import (  # noqa: E402
 from eigmotion.body.garments import BENCHMARK_GARMENTS, dress  # noqa: E402
 from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
-from eigmotion.evaluation.scoring import markdown_table  # noqa: E402
+from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402

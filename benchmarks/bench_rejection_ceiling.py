@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_rerank import EntryTable  # noqa: E402
 
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
-from eigmotion.evaluation.scoring import format_rate, markdown_table  # noqa: E402
+from eigmotion.evaluation.statistics import format_rate, markdown_table  # noqa: E402
 from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase  # noqa: E402
 
 #: Share of new performances turned away at the operating point compared.

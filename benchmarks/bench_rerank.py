@@ -49,7 +49,7 @@ or text (``background=median``).
 part: its label), and each clip followed by another of a different label (two parts;
 the partner drawn with a fixed seed, both folds out of the search).  Per run: the
 share of frames whose segment has their part's label, the share given another
-specific action (:func:`~eigmotion.evaluation.scoring.segment_agreement`), the segmental F1
+specific action (:func:`~eigmotion.evaluation.segments.segment_agreement`), the segmental F1
 at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` gives each
 window its nearest entry's label (the clip's answer where every window has the same).
 About 20 s per run.
@@ -104,16 +104,13 @@ from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
-    SegmentAgreement,
     format_operating_points,
-    format_rate,
-    markdown_table,
     operating_points,
-    paired_comparison,
     rejection_rates,
-    segment_agreement,
     separation,
 )
+from eigmotion.evaluation.segments import SegmentAgreement, segment_agreement  # noqa: E402
+from eigmotion.evaluation.statistics import format_rate, markdown_table, paired_comparison  # noqa: E402
 from eigmotion.mocap.library import FILLER_LABELS, load_library  # noqa: E402
 from eigmotion.retrieval.database import (  # noqa: E402
     DEFAULT_DB_PATH,
@@ -483,7 +480,7 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     """Each run's top-1 and top-k beside the first (shipped) run's on the same clips.
 
     Beside each count, the ratio to the shipped one and the clips it gained and lost,
-    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.scoring.
+    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.statistics.
     paired_comparison`): a variant that gains 7 clips and loses 3 has p = 0.34, no
     evidence of a better setting.  Then top-1 per label.
 

@@ -65,7 +65,7 @@ from bench_accuracy_factors import (  # noqa: E402
 
 from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
-from eigmotion.evaluation.scoring import markdown_table  # noqa: E402
+from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402

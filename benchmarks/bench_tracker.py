@@ -42,12 +42,8 @@ from eigmotion.imaging.cameras import intrinsics, look_at  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import find_motion  # noqa: E402
 from eigmotion.tracking.body import avatar_bodies  # noqa: E402
-from eigmotion.tracking.dictionary import (  # noqa: E402
-    dictionary_from_sequences,
-    mean_heading_deg,
-    posture_sequence,
-    yaw_rotation,
-)
+from eigmotion.tracking.dictionary import dictionary_from_sequences, posture_sequence  # noqa: E402
+from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation  # noqa: E402
 from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig  # noqa: E402
 
 DICTIONARY_MOTIONS = ("walk_02_01", "walk_16_15", "turn_16_17")

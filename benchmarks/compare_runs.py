@@ -5,8 +5,8 @@ asked (the same video asked of the database of the same name) are paired, and fo
 measure — top-1 and top-k of the in-library clips, their false rejections, the
 rejection of out-of-library ones — this prints both counts, the clips the second run
 gained and lost, and the exact McNemar test's p-value of that split
-(:func:`eigmotion.evaluation.scoring.paired_comparison`): the chance of a split at least as
-uneven from a change that made no difference.  Then the clips whose top-1 answer
+(:func:`eigmotion.evaluation.statistics.paired_comparison`): the chance of a split at
+least as uneven from a change that made no difference.  Then the clips whose top-1 answer
 changed, by name.  On the holdout suite's 220 in-library clips a single run's top-1 is
 known to about ±4 points; two runs on the same clips tell far finer differences apart,
 but only those the p-value backs::
@@ -29,7 +29,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from eigmotion.errors import EigmotionError, InvalidParameterError
-from eigmotion.evaluation.scoring import QueryOutcome, markdown_table, paired_comparison
+from eigmotion.evaluation.scoring import QueryOutcome
+from eigmotion.evaluation.statistics import markdown_table, paired_comparison
 
 #: The rank of the top-k measure when a run does not say.
 DEFAULT_K = 3

@@ -190,7 +190,7 @@ def test_pairs_join_clips_of_other_labels_of_one_size(bench):
 
 
 def test_segment_tables_compare_each_run_with_the_shipped_one(bench, capsys):
-    from eigmotion.evaluation.scoring import SegmentAgreement
+    from eigmotion.evaluation.segments import SegmentAgreement
 
     one = SegmentAgreement(100, 80, 20, 1, 1, 0)
     two = SegmentAgreement(100, 60, 30, 1, 3, 1)

@@ -26,13 +26,8 @@ from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
 from eigmotion.mocap.rotations import axis_rotation
-from eigmotion.pose.continuous_pose import (
-    ContinuousPoseConfig,
-    align_motion,
-    continuous_pose,
-    monotone_path,
-    speed_costs,
-)
+from eigmotion.pose.continuous_pose import ContinuousPoseConfig, align_motion, continuous_pose
+from eigmotion.pose.playback import monotone_path, speed_costs
 from eigmotion.pose.replay import replay
 from eigmotion.retrieval.build import BuildConfig, hull_points
 from eigmotion.retrieval.database import MotionDatabase, build_database

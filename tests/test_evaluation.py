@@ -18,16 +18,18 @@ from eigmotion.evaluation.scoring import (
     confusion_matrix,
     format_confusion,
     format_operating_points,
-    format_rate,
     format_score,
-    markdown_table,
     operating_points,
-    paired_comparison,
-    proportion_interval,
     rejection_rates,
     score,
-    segment_agreement,
     separation,
+)
+from eigmotion.evaluation.segments import segment_agreement
+from eigmotion.evaluation.statistics import (
+    format_rate,
+    markdown_table,
+    paired_comparison,
+    proportion_interval,
 )
 
 REPO = Path(__file__).resolve().parents[1]

@@ -18,7 +18,7 @@ from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.tracking.calibration import save_calibration
-from eigmotion.tracking.dictionary import mean_heading_deg, yaw_rotation
+from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation
 
 N_FRAMES = 10
 

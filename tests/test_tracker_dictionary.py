@@ -14,15 +14,17 @@ from eigmotion.tracking.body import avatar_bodies, proxy_bodies
 from eigmotion.tracking.dictionary import (
     PostureDictionary,
     build_dictionary,
+    dictionary_from_motion,
+    select_candidates,
+)
+from eigmotion.tracking.postures import (
     d1_distance,
     d1_matrix,
     d2_distance,
-    dictionary_from_motion,
     heading_deg,
     posture_vectors,
     projected_joints,
     prune_postures,
-    select_candidates,
     wrap_deg,
     yaw_rotation,
 )

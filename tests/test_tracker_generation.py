@@ -10,13 +10,14 @@ from hypothesis import strategies as st
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.kinematics import forward_kinematics
-from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
+from eigmotion.tracking.dictionary import posture_sequence
 from eigmotion.tracking.generation import (
     VariableSpeedPlayback,
     playback_motion,
     smooth_headings_deg,
     variable_speed_playback,
 )
+from eigmotion.tracking.postures import heading_deg, posture_vectors
 
 
 def ramp_reference(n=100, dims=5):

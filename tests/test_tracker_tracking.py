@@ -13,12 +13,8 @@ from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.amc import read_amc
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.calibration import CameraPair
-from eigmotion.tracking.dictionary import (
-    build_dictionary,
-    dictionary_from_motion,
-    mean_heading_deg,
-    yaw_rotation,
-)
+from eigmotion.tracking.dictionary import build_dictionary, dictionary_from_motion
+from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation
 from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
 
 BODY_JOINTS = [

@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from eigmotion import resources
-
-HELP = "build a motion database from a basic-motion library and a camera rig"
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.cameras import load_rig
+from eigmotion.mocap.library import load_library
+from eigmotion.retrieval.build import BuildConfig
+from eigmotion.retrieval.database import DEFAULT_DB_PATH, build_database
 
 DEFAULT_RIG = resources.default_rig()
 
@@ -55,14 +59,6 @@ def manifest_path(motions: Path | None) -> Path | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    from eigmotion.errors import InvalidParameterError
-    from eigmotion.imaging.cameras import load_rig
-    from eigmotion.mocap.library import load_library
-    from eigmotion.retrieval.build import BuildConfig
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, build_database
-
     if args.workers is not None and args.workers < 1:
         raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
     library = load_library(manifest_path(args.motions))

@@ -31,8 +31,13 @@ import sys
 from pathlib import Path
 
 from eigmotion.errors import InvalidParameterError
-
-HELP = "calibrate cameras from chessboard images (one folder per camera) into a JSON file"
+from eigmotion.imaging.media import IMAGE_EXTENSIONS
+from eigmotion.tracking.calibration import (
+    calibrate_cameras,
+    group_images_by_camera,
+    parse_pattern,
+    save_calibration,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -63,8 +68,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _expand(paths: list[Path]) -> list[Path]:
-    from eigmotion.imaging.media import IMAGE_EXTENSIONS
-
     out = []
     for p in paths:
         if p.is_dir():
@@ -77,13 +80,6 @@ def _expand(paths: list[Path]) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.tracking.calibration import (
-        calibrate_cameras,
-        group_images_by_camera,
-        parse_pattern,
-        save_calibration,
-    )
-
     pattern = parse_pattern(args.pattern)
     groups = group_images_by_camera(_expand(list(args.images)))
     calibration, errors = calibrate_cameras(groups, pattern, args.square_m, args.floor)

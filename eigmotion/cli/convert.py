@@ -13,8 +13,9 @@ import argparse
 from pathlib import Path
 
 from eigmotion.errors import InvalidParameterError
-
-HELP = "convert a BVH or CMU ASF/AMC motion to BVH (resample, trim, rename joints)"
+from eigmotion.mocap.amc import read_amc
+from eigmotion.mocap.bvh import read_bvh, write_bvh
+from eigmotion.mocap.naming import canonical_names, load_joint_map
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,10 +52,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.mocap.amc import read_amc
-    from eigmotion.mocap.bvh import read_bvh, write_bvh
-    from eigmotion.mocap.naming import canonical_names, load_joint_map
-
     suffix = args.input.suffix.lower()
     if suffix == ".amc":
         if args.asf is None:

@@ -12,7 +12,9 @@ import argparse
 import sys
 from pathlib import Path
 
-HELP = "index a new basic motion into an existing database (no rebuild unless --refit)"
+from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.library import LibraryMotion, find_motion
+from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,10 +32,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.errors import InvalidParameterError
-    from eigmotion.mocap.library import LibraryMotion, find_motion
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database
-
     label = args.label.strip()
     if not label:
         raise InvalidParameterError("--label must not be empty")

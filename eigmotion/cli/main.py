@@ -1,9 +1,11 @@
 """The ``eigmotion`` command line.
 
-Each sub-command lives in :mod:`eigmotion.cli` as a module with ``HELP`` (one
-line), ``add_arguments(parser)`` and ``run(args) -> int``.  Any
-:class:`~eigmotion.errors.EigmotionError` (or an unreadable file) becomes one line on
-stderr and exit code 2, never a traceback.
+Each sub-command lives in :mod:`eigmotion.cli` as a module with
+``add_arguments(parser)`` and ``run(args) -> int``; its one-line help is in
+:data:`COMMANDS`.  Only the module of the sub-command asked for is imported, so that
+``eigmotion --help`` and one command's run do not load every other command's work.
+Any :class:`~eigmotion.errors.EigmotionError` (or an unreadable file) becomes one line
+on stderr and exit code 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import argparse
 import importlib
 import os
 import sys
+from types import ModuleType
 
 from eigmotion.errors import EigmotionError
 
@@ -21,54 +24,66 @@ from eigmotion.errors import EigmotionError
 os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 
-#: Sub-commands in the order ``--help`` lists them.
-COMMANDS = (
-    "build",
-    "query",
-    "index",
-    "track",
-    "calibrate",
-    "convert",
-    "show",
-    "render",
-)
+#: Sub-commands in the order ``--help`` lists them, each with its one-line help.
+COMMANDS = {
+    "build": "build a motion database from a basic-motion library and a camera rig",
+    "query": "answer a single-camera clip with the nearest basic motion and its view",
+    "index": "index a new basic motion into an existing database (no rebuild unless --refit)",
+    "track": "track a person's posture in 2+ calibrated videos against a posture dictionary",
+    "calibrate": (
+        "calibrate cameras from chessboard images (one folder per camera) into a JSON file"
+    ),
+    "convert": "convert a BVH or CMU ASF/AMC motion to BVH (resample, trim, rename joints)",
+    "show": "render a motion on the avatar: a contact sheet (.png) or a replay (.gif, .mp4)",
+    "render": "render a motion's silhouettes and motion images from every camera of a rig",
+}
 
 EXIT_BAD_INPUT = 2
 
 
-def _load_commands() -> dict:
-    modules = {}
-    for name in COMMANDS:
-        qualified = f"eigmotion.cli.{name}"
-        try:
-            modules[name] = importlib.import_module(qualified)
-        except ModuleNotFoundError as exc:
-            if exc.name != qualified:
-                raise
-    return modules
+def requested_command(argv: list[str]) -> str | None:
+    """The sub-command named on a command line, ``None`` without a known one.
+
+    The top-level parser takes no option with a value, so the command is the first
+    argument that is not an option.
+    """
+    for arg in argv:
+        if arg == "--":
+            return None
+        if not arg.startswith("-"):
+            return arg if arg in COMMANDS else None
+    return None
 
 
-def build_parser() -> tuple[argparse.ArgumentParser, dict]:
+def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, ModuleType | None]:
+    """The parser, with the arguments of ``command`` only, and that command's module.
+
+    Every sub-command is listed (with its help); only ``command``'s module is imported
+    and its arguments added.
+    """
     parser = argparse.ArgumentParser(
         prog="eigmotion",
         description="3D human motion from one uncalibrated camera.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    modules = _load_commands()
-    for name, module in modules.items():
-        p = sub.add_parser(name, help=module.HELP, description=module.HELP)
-        module.add_arguments(p)
-    return parser, modules
+    module = None
+    for name, help_line in COMMANDS.items():
+        p = sub.add_parser(name, help=help_line, description=help_line)
+        if name == command:
+            module = importlib.import_module(f"eigmotion.cli.{name}")
+            module.add_arguments(p)
+    return parser, module
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser, modules = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser, module = build_parser(requested_command(argv))
     args = parser.parse_args(argv)
     if not args.command:
         parser.print_help()
         return EXIT_BAD_INPUT
     try:
-        return int(modules[args.command].run(args) or 0)
+        return int(module.run(args) or 0)
     except EigmotionError as exc:
         print(f"eigmotion {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

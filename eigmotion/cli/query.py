@@ -26,7 +26,12 @@ import json
 import sys
 from pathlib import Path
 
-HELP = "answer a single-camera clip with the nearest basic motion and its view"
+from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.bvh import write_bvh
+from eigmotion.pose.continuous_pose import continuous_pose
+from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
+from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase
+from eigmotion.retrieval.motion_image import motion_image_picture
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,9 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.errors import InvalidParameterError
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase
-
     if args.top < 1:
         raise InvalidParameterError(f"--top must be >= 1, got {args.top}")
     for out in (args.bvh_out, args.replay_out, args.pose_out):
@@ -128,11 +130,6 @@ def _described(match) -> str:
 
 
 def _write_replay(db, result, masks, fps, args) -> None:
-    from eigmotion.mocap.bvh import write_bvh
-    from eigmotion.pose.continuous_pose import continuous_pose
-    from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
-    from eigmotion.retrieval.motion_image import motion_image_picture
-
     best = result.best
     pose = None
     if args.pose_out or not args.linear_replay:

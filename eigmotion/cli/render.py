@@ -17,11 +17,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import cv2
 import numpy as np
+from tqdm import tqdm
 
 from eigmotion import resources
-
-HELP = "render a motion's silhouettes and motion images from every camera of a rig"
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.cameras import load_rig
+from eigmotion.imaging.figures import contact_sheet, save_image
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.library import find_motion, load_library
+from eigmotion.retrieval.build import BuildConfig, build_body, pose_for_views
+from eigmotion.retrieval.motion_image import motion_image, motion_image_picture
 
 DEFAULT_RIG = resources.default_rig()
 
@@ -41,17 +48,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import cv2
-    from tqdm import tqdm
-
-    from eigmotion.errors import InvalidParameterError
-    from eigmotion.imaging.cameras import load_rig
-    from eigmotion.imaging.figures import contact_sheet, save_image
-    from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.mocap.library import find_motion, load_library
-    from eigmotion.retrieval.build import BuildConfig, build_body, pose_for_views
-    from eigmotion.retrieval.motion_image import motion_image, motion_image_picture
-
     rig = load_rig(args.rig)
     if args.motions == ["all"]:
         motions = [(m.name, m.motion) for m in load_library()]

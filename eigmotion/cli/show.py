@@ -20,9 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import animate_avatar, retarget
 from eigmotion.errors import InvalidParameterError
-
-HELP = "render a motion on the avatar: a contact sheet (.png) or a replay (.gif, .mp4)"
+from eigmotion.imaging.figures import contact_sheet, save_image
+from eigmotion.imaging.framing import frame_cameras
+from eigmotion.imaging.media import write_video
+from eigmotion.imaging.render import Renderer
+from eigmotion.mocap.library import find_motion
 
 SHEET_EXTENSIONS = (".png", ".jpg", ".jpeg")
 VIDEO_EXTENSIONS = (".gif", ".mp4", ".mov", ".avi")
@@ -102,10 +107,6 @@ def run(args: argparse.Namespace) -> int:
     if width < 16 or height < 16:
         raise InvalidParameterError(f"--size must be at least 16×16 pixels, got {width}×{height}")
 
-    from eigmotion.body.avatar import load_default_avatar
-    from eigmotion.body.retarget import animate_avatar, retarget
-    from eigmotion.mocap.library import find_motion
-
     motion = find_motion(args.motion, asf=args.asf)
     avatar = load_default_avatar()
     if sheet:
@@ -122,9 +123,6 @@ def run(args: argparse.Namespace) -> int:
         anim, vertices = animate_avatar(avatar, motion)
         times_s = np.arange(motion.n_frames) * motion.frame_time_s
 
-    from eigmotion.imaging.framing import frame_cameras
-    from eigmotion.imaging.render import Renderer
-
     cameras = frame_cameras(vertices, times_s, az, el, width, height, args.framing)
 
     with Renderer() as renderer:
@@ -139,15 +137,11 @@ def run(args: argparse.Namespace) -> int:
         )
     name = motion.name or Path(args.motion).stem
     if sheet:
-        from eigmotion.imaging.figures import contact_sheet, save_image
-
         labels = [f"{t:.2f} s" for t in times_s]
         title = f"{name}: {motion.n_frames} frames at {motion.fps:g} fps, view az {az:g} el {el:g}"
         save_image(contact_sheet(list(images), args.cols, labels, title), out)
         print(f"wrote {out}: {_frames(len(images))} of {name} on a contact sheet")
     else:
-        from eigmotion.imaging.media import write_video
-
         write_video(images, out, args.fps)
         print(
             f"wrote {out}: {_frames(len(images))} of {name}, {width}×{height} at {args.fps:g} fps",

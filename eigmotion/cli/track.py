@@ -26,8 +26,21 @@ from pathlib import Path
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
-
-HELP = "track a person's posture in 2+ calibrated videos against a posture dictionary"
+from eigmotion.imaging.media import read_frames, write_video
+from eigmotion.mocap.bvh import write_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import find_motion
+from eigmotion.segmentation.video import load_clip_masks
+from eigmotion.tracking.calibration import load_calibration
+from eigmotion.tracking.dictionary import PostureDictionary, build_dictionary, posture_sequence
+from eigmotion.tracking.generation import (
+    playback_motion,
+    smooth_headings_deg,
+    variable_speed_playback,
+)
+from eigmotion.tracking.overlay import draw_outline
+from eigmotion.tracking.postures import heading_deg, posture_vectors
+from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
 
 #: Motions of the default dictionary (library names): CMU walks and both turns.
 DEFAULT_DICTIONARY = ("walk_02_01", "walk_16_15", "turn_16_17", "turn_16_19")
@@ -124,8 +137,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _read_motion(spec: str, asf: Path | None):
     """A motion from a ``.bvh`` / ``.amc`` file or a library name."""
-    from eigmotion.mocap.library import find_motion
-
     if Path(spec).suffix.lower() in (".bvh", ".amc") and not Path(spec).is_file():
         raise InvalidParameterError(f"{spec}: motion file not found")
     return find_motion(spec, asf)
@@ -133,8 +144,6 @@ def _read_motion(spec: str, asf: Path | None):
 
 def load_dictionary(args: argparse.Namespace):
     """The posture dictionary the command line asks for."""
-    from eigmotion.tracking.dictionary import PostureDictionary, build_dictionary
-
     specs = args.dictionary or list(DEFAULT_DICTIONARY)
     if len(specs) == 1 and specs[0].lower().endswith(".npz"):
         return PostureDictionary.load(specs[0])
@@ -151,8 +160,6 @@ def load_dictionary(args: argparse.Namespace):
 
 
 def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], float]:
-    from eigmotion.segmentation.video import load_clip_masks
-
     backgrounds = args.background or [None] * len(args.videos)
     all_masks, rates = [], []
     for cam, video, background in zip(cameras, args.videos, backgrounds, strict=True):
@@ -174,15 +181,11 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
 
 def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
     """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow."""
-    from eigmotion.tracking.overlay import draw_outline
-
     views = []
     for c, video in enumerate(args.videos):
         if Path(video).suffix.lower() == ".npz":
             rgb = np.repeat((masks[c][result.frames] * 160).astype(np.uint8)[..., None], 3, -1)
         else:
-            from eigmotion.imaging.media import read_frames
-
             frames, _ = read_frames(video)
             rgb = frames[result.frames]
         out = np.empty_like(rgb)
@@ -198,9 +201,6 @@ def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from eigmotion.tracking.calibration import load_calibration
-    from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
-
     calibration = load_calibration(args.calib)
     if len(args.videos) != len(calibration.cameras):
         raise InvalidParameterError(
@@ -245,14 +245,6 @@ def run(args: argparse.Namespace) -> int:
     positions = result.positions_m.copy()
     positions[:first] = positions[first]
     if args.reference:
-        from eigmotion.mocap.kinematics import forward_kinematics
-        from eigmotion.tracking.dictionary import heading_deg, posture_sequence, posture_vectors
-        from eigmotion.tracking.generation import (
-            playback_motion,
-            smooth_headings_deg,
-            variable_speed_playback,
-        )
-
         sequence = posture_sequence(_read_motion(args.reference, args.asf))
         joint_ids = [dictionary.joint_names.index(n) for n in dictionary.vector_joints]
         reference = posture_vectors(sequence.local_rotations(), joint_ids)
@@ -274,8 +266,6 @@ def run(args: argparse.Namespace) -> int:
         joints[:first] = joints[first]
         names = dictionary.joint_names
     if args.bvh_out:
-        from eigmotion.mocap.bvh import write_bvh
-
         write_bvh(motion, args.bvh_out)
     if args.joints_out:
         np.savez_compressed(
@@ -286,8 +276,6 @@ def run(args: argparse.Namespace) -> int:
             frames=result.frames,
         )
     if args.overlay_out:
-        from eigmotion.imaging.media import write_video
-
         write_video(_overlay_frames(args, tracker, result, masks), args.overlay_out, fps / step)
     print(
         f"tracked {result.n_estimates} frames of {len(masks[0])} ({fps:g} fps, every {step}): "

@@ -15,12 +15,13 @@ match, and whether the true label is one the database holds at all ("in library"
 * how well the answer's distance alone separates out-of-library from in-library
   queries (:func:`separation`), whatever threshold the database stores.
 
-Every overall rate comes with its 95 % confidence interval (:func:`proportion_interval`):
-on a few hundred clips a rate is known to a few points only.  :func:`paired_comparison`
-tells whether a change answered the same queries better than chance would (exact
-McNemar test).  :func:`segment_agreement` scores a clip's segments against the parts
-it shows.  :func:`format_score` prints a score as Markdown tables.  Nothing here runs
-a query.
+Every overall rate comes with its 95 % confidence interval
+(:func:`eigmotion.evaluation.statistics.proportion_interval`): on a few hundred clips a
+rate is known to a few points only.  :func:`eigmotion.evaluation.statistics.
+paired_comparison` tells whether a change answered the same queries better than chance
+would (exact McNemar test).  :func:`eigmotion.evaluation.segments.segment_agreement`
+scores a clip's segments against the parts it shows.  :func:`format_score` prints a
+score as Markdown tables.  Nothing here runs a query.
 """
 
 from __future__ import annotations
@@ -32,12 +33,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.statistics import (
+    CONFIDENCE,
+    format_percent,
+    format_rate,
+    json_interval,
+    json_rate,
+    markdown_table,
+    rate_or_nan,
+)
 
 #: Cell shown for a zero count in printed confusion matrices.
 ZERO_CELL = "·"
-
-#: Confidence level of the intervals given beside every rate.
-CONFIDENCE = 0.95
 
 
 @dataclass(frozen=True)
@@ -183,110 +190,6 @@ def confusion_matrix(
 # -- scores --------------------------------------------------------------------------
 
 
-def _rate(numerator: int, denominator: int) -> float:
-    return numerator / denominator if denominator else float("nan")
-
-
-def _json_rate(value: float) -> float | None:
-    return None if math.isnan(value) else round(value, 6)
-
-
-def proportion_interval(
-    successes: int, n: int, confidence: float = CONFIDENCE
-) -> tuple[float, float]:
-    """Confidence interval of a rate ``successes / n`` (Wilson score interval).
-
-    The Wilson interval keeps its coverage near 0 and 1 (215/220, 0/8), where the
-    normal approximation runs outside [0, 1] and the exact Clopper–Pearson interval is
-    needlessly wide; computed by :func:`scipy.stats.binomtest`.
-
-    Parameters
-    ----------
-    successes, n : int
-        ``0 <= successes <= n``.
-    confidence : float
-        In (0, 1).
-
-    Returns
-    -------
-    (low, high) : tuple of float
-        Fractions in [0, 1]; ``(nan, nan)`` when ``n`` is 0.
-    """
-    if not 0.0 < confidence < 1.0:
-        raise InvalidParameterError(f"confidence must be in (0, 1), got {confidence}")
-    if not 0 <= successes <= n:
-        raise InvalidParameterError(f"need 0 <= successes <= n, got {successes} of {n}")
-    if n == 0:
-        return float("nan"), float("nan")
-    from scipy.stats import binomtest
-
-    found = binomtest(successes, n).proportion_ci(confidence, method="wilson")
-    return float(found.low), float(found.high)
-
-
-def _json_interval(successes: int, n: int) -> list[float] | None:
-    low, high = proportion_interval(successes, n)
-    return None if math.isnan(low) else [round(low, 6), round(high, 6)]
-
-
-@dataclass(frozen=True)
-class PairedComparison:
-    """Two runs' right-or-wrong answers to the same queries, side by side.
-
-    Attributes
-    ----------
-    n : int
-        Queries both runs answered.
-    before, after : int
-        Right answers of each run.
-    gained, lost : int
-        Queries wrong before and right after, and right before and wrong after.
-    p_value : float
-        Two-sided exact McNemar test: the chance that ``gained`` and ``lost`` split at
-        least this unevenly if the change made no difference (each changed query as
-        likely to go either way); 1 when none changed.
-    """
-
-    n: int
-    before: int
-    after: int
-    gained: int
-    lost: int
-    p_value: float
-
-
-def paired_comparison(before: Sequence[bool], after: Sequence[bool]) -> PairedComparison:
-    """Whether a change answered the same queries better or worse than chance would.
-
-    Only the queries whose answer changed tell: with ``d`` of them, a split of
-    ``gained`` to ``lost`` is compared with ``d`` fair coin tosses
-    (:func:`scipy.stats.binomtest`).  Ten changed queries must split 9 to 1 for p <
-    0.05; 7 to 3 (a net gain of four) has p = 0.34.
-
-    Parameters
-    ----------
-    before, after : sequence of bool
-        Per query, in the same order: right (True) or wrong, for each run.
-
-    Returns
-    -------
-    PairedComparison
-    """
-    b = np.asarray(before, dtype=bool)
-    a = np.asarray(after, dtype=bool)
-    if b.ndim != 1 or b.shape != a.shape:
-        raise InvalidParameterError(
-            f"before and after must be 1-D and of one length, got shapes {b.shape} and {a.shape}"
-        )
-    gained, lost = int(np.sum(a & ~b)), int(np.sum(b & ~a))
-    p_value = 1.0
-    if gained + lost:
-        from scipy.stats import binomtest
-
-        p_value = float(binomtest(gained, gained + lost, 0.5).pvalue)
-    return PairedComparison(len(b), int(b.sum()), int(a.sum()), gained, lost, p_value)
-
-
 @dataclass(frozen=True)
 class LabelScore:
     """The queries of one true label.
@@ -313,15 +216,15 @@ class LabelScore:
 
     @property
     def top1_rate(self) -> float:
-        return _rate(self.top1, self.n)
+        return rate_or_nan(self.top1, self.n)
 
     @property
     def topk_rate(self) -> float:
-        return _rate(self.topk, self.n)
+        return rate_or_nan(self.topk, self.n)
 
     @property
     def rejected_rate(self) -> float:
-        return _rate(self.rejected, self.n)
+        return rate_or_nan(self.rejected, self.n)
 
     def to_json(self) -> dict:
         return {
@@ -331,9 +234,9 @@ class LabelScore:
             "top1": self.top1,
             "topk": self.topk,
             "rejected": self.rejected,
-            "top1_rate": _json_rate(self.top1_rate),
-            "topk_rate": _json_rate(self.topk_rate),
-            "rejected_rate": _json_rate(self.rejected_rate),
+            "top1_rate": json_rate(self.top1_rate),
+            "topk_rate": json_rate(self.topk_rate),
+            "rejected_rate": json_rate(self.rejected_rate),
         }
 
 
@@ -361,23 +264,23 @@ class RejectionRates:
     @property
     def false_rejection_rate(self) -> float:
         """Fraction of in-library queries rejected (NaN without any)."""
-        return _rate(self.false_rejected, self.n_in_library)
+        return rate_or_nan(self.false_rejected, self.n_in_library)
 
     @property
     def rejection_rate(self) -> float:
         """Fraction of out-of-library queries rejected (NaN without any)."""
-        return _rate(self.rejected, self.n_out_of_library)
+        return rate_or_nan(self.rejected, self.n_out_of_library)
 
     def to_json(self) -> dict:
         return {
             "n_in_library": self.n_in_library,
             "false_rejected": self.false_rejected,
-            "false_rejection_rate": _json_rate(self.false_rejection_rate),
-            "false_rejection_interval": _json_interval(self.false_rejected, self.n_in_library),
+            "false_rejection_rate": json_rate(self.false_rejection_rate),
+            "false_rejection_interval": json_interval(self.false_rejected, self.n_in_library),
             "n_out_of_library": self.n_out_of_library,
             "rejected": self.rejected,
-            "rejection_rate": _json_rate(self.rejection_rate),
-            "rejection_interval": _json_interval(self.rejected, self.n_out_of_library),
+            "rejection_rate": json_rate(self.rejection_rate),
+            "rejection_interval": json_interval(self.rejected, self.n_out_of_library),
         }
 
 
@@ -418,7 +321,7 @@ class Separation:
 
     @property
     def rejection_rate(self) -> float:
-        return _rate(self.rejected, self.n_out_of_library)
+        return rate_or_nan(self.rejected, self.n_out_of_library)
 
     def to_json(self) -> dict:
         return {
@@ -427,7 +330,7 @@ class Separation:
             "threshold": round(self.threshold, 6),
             "rejected": self.rejected,
             "n_out_of_library": self.n_out_of_library,
-            "rejection_rate": _json_rate(self.rejection_rate),
+            "rejection_rate": json_rate(self.rejection_rate),
         }
 
 
@@ -541,83 +444,6 @@ def format_operating_points(points: Sequence[OperatingPoint]) -> str:
     return "\n".join(markdown_table(header, rows))
 
 
-#: A found segment counts as a part found when its intersection over union with a
-#: part of the same label is at least this (segmental F1 at 50 %).
-SEGMENT_MIN_IOU = 0.5
-
-
-@dataclass(frozen=True)
-class SegmentAgreement:
-    """How a clip's segments agree with the parts it shows (:func:`segment_agreement`).
-
-    Attributes
-    ----------
-    frames : int
-        The clip's frames.
-    right : int
-        Frames whose segment has their part's label.
-    wrong : int
-        Frames whose segment has a specific label (not filler) other than their part's.
-    found, extra, missed : int
-        Segments that match a part (the same label, overlapping it by at least
-        :data:`SEGMENT_MIN_IOU` intersection over union, each part matched once),
-        segments that match none, and parts no segment matches.
-    """
-
-    frames: int
-    right: int
-    wrong: int
-    found: int
-    extra: int
-    missed: int
-
-
-def segment_agreement(
-    segments: Sequence[tuple[int, int, str]],
-    parts: Sequence[tuple[int, int, str]],
-    filler: Iterable[str] = (),
-) -> SegmentAgreement:
-    """A clip's segments against the parts it shows.
-
-    Parameters
-    ----------
-    segments, parts : sequence of (start, end, label)
-        ``[start, end)`` frames; ``parts`` cover the clip, in order and without gaps.
-    filler : iterable of str
-        Labels that are no action of their own (walking to an action): a frame of
-        another part given one of these is not counted wrong.
-
-    Returns
-    -------
-    SegmentAgreement
-    """
-    gaps = any(a[1] != b[0] for a, b in zip(parts, parts[1:], strict=False))
-    if not parts or parts[0][0] != 0 or gaps:
-        raise InvalidParameterError(f"parts must cover the clip in order, got {list(parts)}")
-    n = parts[-1][1]
-    truth = np.empty(n, dtype=object)
-    shown = np.full(n, None, dtype=object)
-    for start, end, label in parts:
-        truth[start:end] = label
-    for start, end, label in segments:
-        shown[max(start, 0) : min(end, n)] = label
-    filler = set(filler)
-    right = int(np.sum(shown == truth))
-    wrong = sum(
-        s is not None and s != t and s not in filler for s, t in zip(shown, truth, strict=True)
-    )
-    matched: set[int] = set()
-    for start, end, label in segments:
-        for k, (p_start, p_end, p_label) in enumerate(parts):
-            overlap = min(end, p_end) - max(start, p_start)
-            union = max(end, p_end) - min(start, p_start)
-            if k not in matched and p_label == label and overlap >= SEGMENT_MIN_IOU * union:
-                matched.add(k)
-                break
-    found = len(matched)
-    return SegmentAgreement(n, right, int(wrong), found, len(segments) - found, len(parts) - found)
-
-
 @dataclass(frozen=True)
 class Score:
     """Everything :func:`score` measures over a list of queries.
@@ -660,15 +486,15 @@ class Score:
 
     @property
     def top1_rate(self) -> float:
-        return _rate(self.top1, self.n)
+        return rate_or_nan(self.top1, self.n)
 
     @property
     def topk_rate(self) -> float:
-        return _rate(self.topk, self.n)
+        return rate_or_nan(self.topk, self.n)
 
     @property
     def top1_accepted_rate(self) -> float:
-        return _rate(self.top1_accepted, self.n)
+        return rate_or_nan(self.top1_accepted, self.n)
 
     def to_json(self) -> dict:
         return {
@@ -678,16 +504,16 @@ class Score:
             "top1": self.top1,
             "topk": self.topk,
             "top1_accepted": self.top1_accepted,
-            "top1_rate": _json_rate(self.top1_rate),
-            "topk_rate": _json_rate(self.topk_rate),
-            "top1_accepted_rate": _json_rate(self.top1_accepted_rate),
+            "top1_rate": json_rate(self.top1_rate),
+            "topk_rate": json_rate(self.topk_rate),
+            "top1_accepted_rate": json_rate(self.top1_accepted_rate),
             "confidence": CONFIDENCE,
-            "top1_interval": _json_interval(self.top1, self.n),
-            "topk_interval": _json_interval(self.topk, self.n),
+            "top1_interval": json_interval(self.top1, self.n),
+            "topk_interval": json_interval(self.topk, self.n),
             "per_label": [s.to_json() for s in self.per_label],
             "confusion": self.confusion.to_json(),
             "rejection": self.rejection.to_json(),
-            "mean_query_s": _json_rate(self.mean_query_s),
+            "mean_query_s": json_rate(self.mean_query_s),
             "separation": None if self.separation is None else self.separation.to_json(),
         }
 
@@ -768,50 +594,6 @@ def score(
 # -- printing ------------------------------------------------------------------------
 
 
-def _percent(value: float) -> str:
-    return "—" if math.isnan(value) else f"{100 * value:.1f}%"
-
-
-def format_rate(successes: int, n: int) -> str:
-    """``"194/220 (88.2%; 95% CI 83.2–91.8%)"``: a count, its rate and interval."""
-    low, high = proportion_interval(successes, n)
-    if math.isnan(low):
-        return f"{successes}/{n} (—)"
-    return (
-        f"{successes}/{n} ({_percent(successes / n)}; {100 * CONFIDENCE:.0f}% CI "
-        f"{100 * low:.1f}–{100 * high:.1f}%)"
-    )
-
-
-def markdown_table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> list[str]:
-    """A Markdown table, columns padded to their widest cell.
-
-    Parameters
-    ----------
-    header : sequence of str
-    rows : iterable of sequences
-        One cell per header column each (printed with ``str``).
-
-    Returns
-    -------
-    list of str
-        The lines: header, rule, one per row.
-    """
-    rows = [[str(c) for c in r] for r in rows]
-    for i, r in enumerate(rows):
-        if len(r) != len(header):
-            raise InvalidParameterError(
-                f"table row {i} has {len(r)} cells, expected {len(header)} (one per column)"
-            )
-    widths = [max([len(h), *(len(r[i]) for r in rows)]) for i, h in enumerate(header)]
-
-    def line(cells):
-        return "| " + " | ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)) + " |"
-
-    rule = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
-    return [line(header), rule, *(line(r) for r in rows)]
-
-
 def format_confusion(confusion: ConfusionMatrix) -> str:
     """The matrix as a Markdown table (rows: true labels, columns: top-1 labels)."""
     header = ["true \\ top-1", *confusion.predicted_labels]
@@ -836,7 +618,7 @@ def format_score(result: Score) -> str:
                     s.label,
                     str(s.n),
                     format_rate(s.top1, s.n),
-                    f"{s.topk}/{s.n} ({_percent(s.topk_rate)})",
+                    f"{s.topk}/{s.n} ({format_percent(s.topk_rate)})",
                     f"{s.rejected}/{s.n}",
                 ]
             )
@@ -848,7 +630,7 @@ def format_score(result: Score) -> str:
         "",
         f"overall (in-library queries): top-1 {format_rate(result.top1, result.n)}, "
         f"top-{k} {format_rate(result.topk, result.n)}, top-1 and accepted "
-        f"{result.top1_accepted}/{result.n} ({_percent(result.top1_accepted_rate)})",
+        f"{result.top1_accepted}/{result.n} ({format_percent(result.top1_accepted_rate)})",
         f"rejection: out-of-library rejected {format_rate(rej.rejected, rej.n_out_of_library)}; "
         f"in-library falsely rejected {format_rate(rej.false_rejected, rej.n_in_library)}",
         f"mean query time: {result.mean_query_s:.2f} s over {result.n_queries} queries",
@@ -866,5 +648,5 @@ def _separation_lines(sep: Separation | None) -> list[str]:
         f"distance alone: AUC {sep.auc:.2f} (out-of-library farther than in-library); a "
         f"threshold at the {100 * sep.quantile:.0f}th percentile of in-library distances "
         f"({sep.threshold:.3f}) would reject {sep.rejected}/{sep.n_out_of_library} "
-        f"out-of-library queries ({_percent(sep.rejection_rate)})"
+        f"out-of-library queries ({format_percent(sep.rejection_rate)})"
     ]

@@ -46,26 +46,38 @@ the ray through the silhouette's centroid meets the plane of the body centre's h
 a level camera (elevation 0°, most rig views) looks along that plane, so the place is
 undetermined.  Here size and place come from each silhouette, and the whole clip is
 known, so the playback is solved over all frames rather than greedily.
+
+Steps 1 to 3 live in :mod:`eigmotion.pose.silhouette_scoring`, the playback's path
+and the output's sampling in :mod:`eigmotion.pose.playback`; this module searches
+(coarse pass, view, fine pass) and assembles the answer.
 """
 
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.cameras import Camera, virtual_rig
+from eigmotion.body.avatar import Avatar, load_default_avatar
+from eigmotion.body.retarget import pose_avatar, retarget
+from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import Motion
+from eigmotion.pose.playback import monotone_path, sample_motion, smooth_path, speed_costs
+from eigmotion.pose.replay import Replay, turn_about_vertical
+from eigmotion.pose.silhouette_scoring import (
+    SilhouetteScorer,
+    fitted_camera,
+    observe_silhouettes,
+    reference_window,
+)
 
 if TYPE_CHECKING:
-    from eigmotion.body.avatar import Avatar
-    from eigmotion.pose.replay import Replay
     from eigmotion.retrieval.database import MotionDatabase, QueryResult
-    from eigmotion.tracking import PostureBodies
 
 
 @dataclass(frozen=True)
@@ -256,10 +268,6 @@ class ContinuousPose:
     def as_replay(self, avatar: Avatar | None = None) -> Replay:
         """The aligned motion skinned on the avatar (for :func:`eigmotion.pose.replay.
         replay_video`)."""
-        from eigmotion.body.avatar import load_default_avatar
-        from eigmotion.body.retarget import pose_avatar, retarget
-        from eigmotion.pose.replay import Replay
-
         avatar = avatar or load_default_avatar()
         anim = retarget(self.motion, avatar)
         return Replay(
@@ -267,341 +275,14 @@ class ContinuousPose:
         )
 
 
-# -- the pieces --------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class _Reference:
-    """The extended window on the avatar, frame ``i`` = dictionary entry ``i``."""
-
-    on_avatar: Motion  # avatar skeleton, metres, reference_fps
-    root_m: np.ndarray  # (R, 3) root positions, metres
-    bodies: PostureBodies  # entry i = reference frame i, root at the origin
-    first_source_frame: int
-    source_per_reference: float  # source frames per reference frame
-    window: tuple[int, int]  # matched window in reference frames
-
-    @property
-    def n_frames(self) -> int:
-        return len(self.root_m)
-
-
-def _reference(
-    motion: Motion,
-    window: tuple[int, int],
-    reference_fps: float,
-    margin_s: float,
-    avatar: Avatar,
-    n_faces: int,
-) -> _Reference:
-    """The matched window ± ``margin_s`` of ``motion`` on the avatar, resampled to
-    ``reference_fps``, with the low-poly body posed in every frame."""
-    from eigmotion.body.retarget import animation_to_motion, retarget
-    from eigmotion.tracking import PostureSequence, avatar_bodies, dictionary_from_sequences
-
-    start, stop = window
-    margin = int(round(margin_s * motion.fps))
-    lo, hi = max(0, start - margin), min(motion.n_frames, stop + margin)
-    part = motion.trim(lo, hi).resample(reference_fps)
-    anim = retarget(part, avatar)
-    sequence = PostureSequence(
-        tuple(avatar.joint_names),
-        np.asarray(avatar.parents),
-        np.asarray(avatar.joint_positions, dtype=np.float64),
-        np.asarray(anim.joint_rotations, dtype=np.float64),
-        np.asarray(anim.joint_positions[:, 0], dtype=np.float64),
-        float(anim.frame_time_s),
-        motion.name,
-    )
-    dictionary = dictionary_from_sequences([sequence], threshold_deg=0.0)
-    bodies = avatar_bodies(dictionary, avatar, n_faces)
-    per = motion.fps / reference_fps
-    w0 = int(np.clip(round((start - lo) / per), 0, part.n_frames - 1))
-    w1 = int(np.clip(round((stop - lo) / per), w0 + 1, part.n_frames))
-    return _Reference(
-        animation_to_motion(anim, avatar),
-        sequence.root_positions,
-        bodies,
-        lo,
-        per,
-        (w0, w1),
-    )
-
-
-@dataclass(frozen=True, eq=False)
-class _Observed:
-    """Per clip frame: the silhouette's box, centroid and whether it holds a person."""
-
-    masks: np.ndarray  # (F, H, W) bool
-    present: np.ndarray  # (F,) bool
-    centroids_px: np.ndarray  # (F, 2) (u, v), NaN where absent
-    boxes_px: np.ndarray  # (F, 4) x0, y0, x1, y1 (inclusive), NaN where absent
-    areas_px: np.ndarray  # (F,) silhouette pixels
-
-
-def _observe(masks: np.ndarray, min_px: int) -> _Observed:
-    """What the tracker needs of each clip frame's silhouette (``VideoError`` if no
-    frame shows a person)."""
-    n = len(masks)
-    present = np.zeros(n, dtype=bool)
-    centroids = np.full((n, 2), np.nan)
-    boxes = np.full((n, 4), np.nan)
-    for f, mask in enumerate(masks):
-        ys, xs = np.nonzero(mask)
-        if len(xs) < min_px:
-            continue
-        present[f] = True
-        centroids[f] = xs.mean(), ys.mean()
-        boxes[f] = xs.min(), ys.min(), xs.max(), ys.max()
-    if not present.any():
-        raise VideoError(
-            f"no clip frame shows a silhouette of at least {min_px} pixels: nothing to align"
-        )
-    return _Observed(masks, present, centroids, boxes, masks.sum(axis=(1, 2)).astype(np.float64))
-
-
-def _fitted_camera(
-    reference: _Reference,
-    observed: _Observed,
-    azimuth_deg: float,
-    elevation_deg: float,
-    yfov_deg: float,
-) -> Camera:
-    """The virtual camera at a view, its intrinsics fitted to the clip's silhouettes.
-
-    The camera is aimed at the whole reference as the build aims its rig; then a 2D
-    scale (from the boxes' heights) and translation (their centres) map the box
-    around the reference's silhouettes over the matched window onto the box around
-    all of the clip's silhouettes.
-    """
-    from eigmotion.retrieval.build import hull_points
-
-    height, width = observed.masks.shape[1:]
-    every = max(1, reference.n_frames // 40)
-    verts = reference.bodies.vertices(np.arange(0, reference.n_frames, every), np.zeros(3))
-    verts = verts + reference.root_m[::every, None, :].astype(np.float32)
-    cam = virtual_rig([azimuth_deg], [elevation_deg], width, height, yfov_deg).fitted(
-        hull_points(verts)
-    )[0]
-    w0, w1 = reference.window
-    step = max(1, (w1 - w0) // 30)
-    frames = np.arange(w0, w1, step)
-    window_verts = reference.bodies.vertices(frames, np.zeros(3))[:, ::4]
-    window_verts = window_verts + reference.root_m[frames, None, :].astype(np.float32)
-    px, _ = cam.project(window_verts.reshape(-1, 3))
-    ref_box = np.array([px[:, 0].min(), px[:, 1].min(), px[:, 0].max(), px[:, 1].max()])
-    boxes = observed.boxes_px[observed.present]
-    obs_box = np.array(
-        [boxes[:, 0].min(), boxes[:, 1].min(), boxes[:, 2].max() + 1, boxes[:, 3].max() + 1]
-    )
-    scale = (obs_box[3] - obs_box[1]) / max(ref_box[3] - ref_box[1], 1e-6)
-    ref_centre = 0.5 * (ref_box[:2] + ref_box[2:])
-    obs_centre = 0.5 * (obs_box[:2] + obs_box[2:])
-    K = cam.K.copy()
-    K[0, 0] *= scale
-    K[1, 1] *= scale
-    K[:2, 2] = obs_centre + scale * (K[:2, 2] - ref_centre)
-    return Camera(K, cam.R, cam.t, width, height, cam.name, azimuth_deg, elevation_deg)
-
-
-class _Scorer:
-    """Similarity of reference frames against clip frames, under one virtual camera.
-
-    Calling it with a clip frame and (M,) reference frames returns their (M,) scores.
-    """
-
-    def __init__(
-        self,
-        reference: _Reference,
-        observed: _Observed,
-        camera: Camera,
-        config: ContinuousPoseConfig,
-    ):
-        self.reference = reference
-        self.observed = observed
-        self.camera = camera
-        self.config = config
-        boxes = observed.boxes_px[observed.present]
-        person_px = float(np.median(boxes[:, 3] - boxes[:, 1] + 1))
-        self.downsample = max(1, int(person_px // config.comparison_height_px))
-        self.centroid_offsets_px, self.sizes_px = self._silhouette_facts()
-
-    def _silhouette_facts(self) -> tuple[np.ndarray, np.ndarray]:
-        """Each reference frame's silhouette at its place on the reference's path.
-
-        Returns
-        -------
-        centroid_offsets_px : (R, 2) float64
-            Silhouette centroid minus the root's projection, full-resolution pixels.
-        sizes_px : (R,) float64
-            Square root of the silhouette's area, full-resolution pixels (1 if empty).
-        """
-        from eigmotion.imaging.silhouettes import render_masks
-
-        ref, cam = self.reference, self.camera
-        offsets = np.zeros((ref.n_frames, 2))
-        sizes = np.ones(ref.n_frames)
-        root_px, _ = cam.project(ref.root_m)
-        u = np.arange(cam.width, dtype=np.float64)
-        v = np.arange(cam.height, dtype=np.float64)
-        for lo in range(0, ref.n_frames, 64):
-            entries = np.arange(lo, min(lo + 64, ref.n_frames))
-            verts = ref.bodies.vertices(entries, np.zeros(3))
-            verts += ref.root_m[entries, None, :].astype(np.float32)
-            masks = render_masks(verts, ref.bodies.faces, cam)
-            area = masks.sum(axis=(1, 2)).astype(np.float64)
-            seen = area > 0
-            safe = np.where(seen, area, 1.0)
-            centroid = np.stack([masks.sum(axis=1) @ u, masks.sum(axis=2) @ v], axis=1)
-            offsets[entries] = np.where(
-                seen[:, None], centroid / safe[:, None] - root_px[entries], 0.0
-            )
-            sizes[entries] = np.where(seen, np.sqrt(safe), 1.0)
-        return offsets, sizes
-
-    def placed_vertices(self, frame: int, entries: np.ndarray) -> np.ndarray:
-        """(M, V, 3) float32 candidate meshes placed for a clip frame, metres.
-
-        Each posture is moved (not scaled) along the camera's axis until its
-        silhouette's area is the clip frame's, and parallel to the image until its
-        silhouette's centroid falls on the clip frame's: the person's distance and
-        size are unknown, and another performance does not follow the reference's
-        path.  The area, unlike the height, hardly depends on the posture (a raised
-        arm, a body lying on the floor).
-        """
-        ref, cam = self.reference, self.camera
-        magnify = np.sqrt(self.observed.areas_px[frame]) / self.sizes_px[entries]
-        depth_m = cam.to_camera(ref.root_m[entries])[:, 2] / magnify
-        root_px = (
-            self.observed.centroids_px[frame] - magnify[:, None] * self.centroid_offsets_px[entries]
-        )
-        root_cam = np.stack(
-            [
-                (root_px[:, 0] - cam.cx) * depth_m / cam.fx,
-                (root_px[:, 1] - cam.cy) * depth_m / cam.fy,
-                depth_m,
-            ],
-            axis=1,
-        )
-        verts = ref.bodies.vertices(entries, np.zeros(3))
-        verts += ((root_cam - cam.t) @ cam.R)[:, None, :].astype(np.float32)
-        return verts
-
-    def __call__(self, frame: int, entries: np.ndarray) -> np.ndarray:
-        """(M,) float64: each entry's best similarity over shifts and scales (0 for a
-        clip frame without a person)."""
-        from eigmotion.imaging.silhouettes import render_masks
-        from eigmotion.tracking import score_masks
-        from eigmotion.tracking.similarity import view_window
-
-        entries = np.asarray(entries, dtype=np.int64).reshape(-1)
-        if not self.observed.present[frame] or len(entries) == 0:
-            return np.zeros(len(entries))
-        cfg, cam = self.config, self.camera
-        verts = self.placed_vertices(frame, entries)
-        centre = self.observed.centroids_px[frame]
-        lo, hi = verts.min(axis=1), verts.max(axis=1)
-        corners = np.concatenate(
-            [np.where(np.array(bits, bool), hi, lo) for bits in np.ndindex(2, 2, 2)]
-        )
-        corners_px, _ = cam.project(corners.astype(np.float64))
-        x0, y0, x1, y1 = self.observed.boxes_px[frame]
-        points = np.concatenate(
-            [centre + s * (corners_px - centre) for s in cfg.scales] + [[[x0, y0], [x1, y1]]]
-        )
-        margin_px = (cfg.shift_radius_px + 1) * self.downsample
-        try:
-            window = view_window(cam, points, margin_px, self.downsample)
-        except InvalidParameterError:  # nothing of it inside the image
-            return np.zeros(len(entries))
-        observed = window.crop(self.observed.masks[frame])
-        best = np.full(len(entries), -np.inf)
-        for s in cfg.scales:
-            camera = window.window_camera(s, centre)
-            rendered = render_masks(verts, self.reference.bodies.faces, camera)
-            scores, _ = score_masks(observed, rendered, cfg.shift_radius_px)
-            best = np.maximum(best, scores)
-        return best
-
-
-def monotone_path(
-    scores: np.ndarray, max_step: int, step_costs: np.ndarray | None = None
-) -> np.ndarray:
-    """The best non-decreasing path through a score matrix (variable-speed playback).
-
-    Parameters
-    ----------
-    scores : (F, R) float
-        Score of showing reference frame ``r`` at clip frame ``f`` (higher is better;
-        ``-inf``: not allowed).
-    max_step : int
-        Largest step ``r[f + 1] - r[f]``, ≥ 1.
-    step_costs : (max_step + 1,) float, optional
-        Cost subtracted for each step of ``k`` frames (a prior on the speed); default
-        none.
-
-    Returns
-    -------
-    (F,) int64
-        ``r[f]``, non-decreasing, steps at most ``max_step``, maximising
-        ``sum_f scores[f, r[f]] - sum_f step_costs[r[f + 1] - r[f]]`` (ties: the
-        smaller step).
-    """
-    scores = np.asarray(scores, dtype=np.float64)
-    if scores.ndim != 2 or scores.shape[0] == 0 or scores.shape[1] == 0:
-        raise InvalidParameterError(f"scores must be a non-empty (F, R) array, got {scores.shape}")
-    if int(max_step) != max_step or max_step < 1:
-        raise InvalidParameterError(f"max_step must be an integer >= 1, got {max_step!r}")
-    max_step = int(max_step)
-    if step_costs is None:
-        costs = np.zeros(max_step + 1)
-    else:
-        costs = np.asarray(step_costs, dtype=np.float64).reshape(-1)
-        if costs.shape != (max_step + 1,) or not np.all(np.isfinite(costs)):
-            raise InvalidParameterError(
-                f"step_costs must be {max_step + 1} finite numbers, got shape {costs.shape}"
-            )
-    n_f, n_r = scores.shape
-    total = scores[0].copy()
-    back = np.zeros((n_f, n_r), dtype=np.int64)
-    idx = np.arange(n_r)
-    for f in range(1, n_f):
-        best = total - costs[0]
-        arg = idx.copy()
-        for k in range(1, min(max_step, n_r - 1) + 1):
-            shifted = np.full(n_r, -np.inf)
-            shifted[k:] = total[:-k] - costs[k]
-            better = shifted > best
-            best[better] = shifted[better]
-            arg[better] = idx[better] - k
-        total = best + scores[f]
-        back[f] = arg
-    if not np.isfinite(total).any():
-        raise InvalidParameterError("no path through the allowed reference frames")
-    path = np.empty(n_f, dtype=np.int64)
-    path[-1] = int(np.argmax(total))
-    for f in range(n_f - 1, 0, -1):
-        path[f - 1] = back[f, path[f]]
-    return path
-
-
-def speed_costs(max_step: int, unit_step: float, weight: float) -> np.ndarray:
-    """(max_step + 1,) float64: ``weight * |k / unit_step - 1|`` for steps ``k``.
-
-    The playback's prior: the person moves at the reference's speed (a step of
-    ``unit_step`` reference frames per clip frame), and every departure from it costs
-    in proportion.
-    """
-    k = np.arange(int(max_step) + 1, dtype=np.float64)
-    return float(weight) * np.abs(k / float(unit_step) - 1.0)
+# -- the search ----------------------------------------------------------------
 
 
 def _coarse_path(
-    scorer: _Scorer, fps: float, reference_fps: float
+    scorer: SilhouetteScorer, fps: float, reference_fps: float, cfg: ContinuousPoseConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Clip frames sampled at ``coarse_fps`` and their reference frames (every
     reference frame at ``coarse_reference_fps`` scored)."""
-    cfg = scorer.config
     n_clip = len(scorer.observed.masks)
     clip_step = max(1, int(round(fps / cfg.coarse_fps)))
     ref_step = max(1, int(round(reference_fps / cfg.coarse_reference_fps)))
@@ -616,23 +297,23 @@ def _coarse_path(
     return frames, entries[monotone_path(matrix, max_step, costs)]
 
 
-def _path_score(scorer: _Scorer, frames: np.ndarray, path: np.ndarray) -> float:
+def _path_score(scorer: SilhouetteScorer, frames: np.ndarray, path: np.ndarray) -> float:
     return float(sum(scorer(int(f), np.array([r]))[0] for f, r in zip(frames, path, strict=True)))
 
 
 def _fine_path(
-    scorer: _Scorer,
+    scorer: SilhouetteScorer,
     coarse_frames: np.ndarray,
     coarse_path: np.ndarray,
     fps: float,
     reference_fps: float,
     max_step: int,
+    cfg: ContinuousPoseConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Every clip frame, reference frames within ``band_s`` of the coarse path.
 
     Returns the (F,) reference frame per clip frame and its (F,) score (NaN where the
     clip frame shows no person)."""
-    cfg = scorer.config
     n_clip = len(scorer.observed.masks)
     n_ref = scorer.reference.n_frames
     guess = np.interp(np.arange(n_clip), coarse_frames, coarse_path)
@@ -648,34 +329,6 @@ def _fine_path(
     scores = matrix[np.arange(n_clip), path]
     scores[~scorer.observed.present] = np.nan
     return path, scores
-
-
-def _smooth_path(path: np.ndarray, width: int) -> np.ndarray:
-    """(F,) float64 moving average (edges held), still non-decreasing."""
-    path = np.asarray(path, dtype=np.float64)
-    if width <= 1 or len(path) < 2:
-        return path
-    kernel = np.ones(width) / width
-    padded = np.pad(path, (width // 2, width - 1 - width // 2), mode="edge")
-    return np.convolve(padded, kernel, mode="valid")
-
-
-def _sample(motion: Motion, frames: np.ndarray, frame_time_s: float) -> Motion:
-    """The motion at fractional frames (slerp rotations, lerp translations)."""
-    from eigmotion.mocap.rotations import slerp_matrices
-
-    frames = np.clip(np.asarray(frames, dtype=np.float64), 0, motion.n_frames - 1)
-    i0 = np.floor(frames).astype(np.int64)
-    i1 = np.minimum(i0 + 1, motion.n_frames - 1)
-    w = frames - i0
-    rot = motion.local_rotations()
-    trans = motion.local_translations()
-    j = motion.skeleton.n_joints
-    r = slerp_matrices(
-        rot[i0].reshape(-1, 3, 3), rot[i1].reshape(-1, 3, 3), np.repeat(w, j)
-    ).reshape(len(frames), j, 3, 3)
-    t = trans[i0] * (1 - w)[:, None, None] + trans[i1] * w[:, None, None]
-    return motion.with_local_transforms(r, t, frame_time_s=frame_time_s)
 
 
 def _offsets(search_deg: float, step_deg: float) -> np.ndarray:
@@ -724,11 +377,6 @@ def align_motion(
     -------
     ContinuousPose
     """
-    import time
-
-    from eigmotion.mocap.kinematics import forward_kinematics
-    from eigmotion.pose.replay import turn_about_vertical
-
     config = config or ContinuousPoseConfig()
     masks = np.asarray(masks)
     if masks.ndim != 3 or masks.shape[0] < 1:
@@ -748,26 +396,31 @@ def align_motion(
             f"({azimuth_deg!r}, {elevation_deg!r})"
         )
     if avatar is None:
-        from eigmotion.body.avatar import load_default_avatar
-
         avatar = load_default_avatar()
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     reference_fps = config.reference_fps or max(2.0 * fps, 30.0)
-    reference = _reference(
+    reference = reference_window(
         motion, (start, stop), reference_fps, config.margin_s, avatar, config.n_faces
     )
-    observed = _observe(masks, config.min_silhouette_px)
+    observed = observe_silhouettes(masks, config.min_silhouette_px)
     t1 = time.perf_counter()
     timings["reference"] = t1 - t0
 
-    def scorer_at(view: tuple[float, float]) -> _Scorer:
-        camera = _fitted_camera(reference, observed, view[0], view[1], yfov_deg)
-        return _Scorer(reference, observed, camera, config)
+    def scorer_at(view: tuple[float, float]) -> SilhouetteScorer:
+        camera = fitted_camera(reference, observed, view[0], view[1], yfov_deg)
+        return SilhouetteScorer(
+            reference,
+            observed,
+            camera,
+            config.scales,
+            config.shift_radius_px,
+            config.comparison_height_px,
+        )
 
     matched = (float(azimuth_deg), float(elevation_deg))
     scorer = scorer_at(matched)
-    coarse_frames, coarse = _coarse_path(scorer, fps, reference_fps)
+    coarse_frames, coarse = _coarse_path(scorer, fps, reference_fps, config)
     t2 = time.perf_counter()
     timings["coarse"] = t2 - t1
     view = _refine_view(scorer_at, matched, coarse_frames, coarse, config)
@@ -776,12 +429,12 @@ def align_motion(
     t3 = time.perf_counter()
     timings["view"] = t3 - t2
     max_step = max(1, int(np.ceil(config.max_speed * reference_fps / fps)))
-    path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps, max_step)
+    path, scores = _fine_path(scorer, coarse_frames, coarse, fps, reference_fps, max_step, config)
     t4 = time.perf_counter()
     timings["fine"] = t4 - t3
 
-    frames = _smooth_path(path, config.smoothing_frames)
-    aligned = _sample(reference.on_avatar, frames, 1.0 / fps)
+    frames = smooth_path(path, config.smoothing_frames)
+    aligned = sample_motion(reference.on_avatar, frames, 1.0 / fps)
     aligned = turn_about_vertical(aligned, -view[0]).replace(
         name=f"{motion.name}_aligned", length_unit_m=1.0
     )

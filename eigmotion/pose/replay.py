@@ -14,11 +14,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from eigmotion.body.avatar import Avatar, load_default_avatar
 from eigmotion.body.retarget import animation_to_motion, pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.figures import side_by_side, stretched_frames, with_captions
+from eigmotion.imaging.framing import frame_cameras
+from eigmotion.imaging.media import FrameSampleStream, write_video
+from eigmotion.imaging.render import render_shaded
 from eigmotion.mocap.motion import Motion
 from eigmotion.mocap.rotations import axis_rotation
 
@@ -168,11 +173,6 @@ def replay_video(
     -------
     Path
     """
-    from eigmotion.imaging.figures import side_by_side, stretched_frames, with_captions
-    from eigmotion.imaging.framing import frame_cameras
-    from eigmotion.imaging.media import write_video
-    from eigmotion.imaging.render import render_shaded
-
     if captions is not None and len(captions) != len(masks):
         raise InvalidParameterError(
             f"captions must hold one string per mask: {len(captions)} for {len(masks)}"
@@ -233,9 +233,6 @@ def read_input_panel(path: str | Path, height_px: int = PANEL_HEIGHT_PX) -> np.n
         are decoded (area averaging, the aspect ratio kept), so that a long clip in
         high definition is never held at its full size.
     """
-    import cv2
-
-    from eigmotion.imaging.media import FrameSampleStream
 
     def to_panel(frame: np.ndarray) -> np.ndarray:
         h, w = frame.shape[:2]

@@ -15,10 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.body.avatar import Avatar
+from eigmotion.body.garments import DressedAvatar, dress
 from eigmotion.body.retarget import animate_avatar
 from eigmotion.imaging.cameras import Camera, virtual_rig
+from eigmotion.imaging.render import BODY_RGB, render_shaded
+from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.motion import Motion
 from eigmotion.retrieval.build import hull_points
+from eigmotion.synth.scene import compose_scene
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,11 +118,6 @@ def render_clip(
     -------
     SyntheticClip
     """
-    from eigmotion.body.garments import DressedAvatar, dress
-    from eigmotion.imaging.render import BODY_RGB, render_shaded
-    from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.synth.scene import compose_scene
-
     body = dress(avatar, garments)
     _, vertices = animate_avatar(body, motion.resample(fps))
     camera = clip_camera(vertices, azimuth_deg, elevation_deg, width, height, margin)

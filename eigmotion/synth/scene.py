@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -119,8 +120,6 @@ def compose_scene_with_layout(
     blur_sigma_px: float = 0.7,
 ) -> tuple[np.ndarray, np.ndarray, SceneLayout]:
     """:func:`compose_scene`, also returning the :class:`SceneLayout` it used."""
-    import cv2
-
     masks = _check_person(person_rgb, person_masks)
     if not isinstance(rng, np.random.Generator):
         raise InvalidParameterError(
@@ -195,8 +194,6 @@ def procedural_background(
         and smooth noise.  The floor: another colour with perspective tiles and
         fine noise.
     """
-    import cv2
-
     if height < 2 or width < 2:
         raise InvalidParameterError(f"image size must be at least 2×2, got {width}×{height}")
     horizon_row = int(np.clip(horizon_row, 0, height))
@@ -275,8 +272,6 @@ def stick_figure_masks(
     -------
     (n_frames, height, width) bool
     """
-    import cv2
-
     if n_frames < 1:
         raise InvalidParameterError(f"n_frames must be >= 1, got {n_frames}")
     if fps <= 0 or cycle_s <= 0 or body_height_px <= 0:
@@ -406,8 +401,6 @@ def _camouflage(person, masks, body, background, fraction, delta, rng):
 
 def _cast_shadow(mask: np.ndarray, box: np.ndarray, shear: float, flat: float) -> np.ndarray:
     """(H, W) float in [0, 1]: the silhouette sheared and flattened from its feet."""
-    import cv2
-
     h, w = mask.shape
     y_foot = float(box[1])  # the shear pivots about the lowest row of the silhouette
     matrix = np.array([[1.0, -shear, shear * y_foot], [0.0, flat, y_foot * (1.0 - flat)]])

@@ -26,8 +26,6 @@ from eigmotion.tracking.dictionary import (
     PostureDictionary,
     PostureSequence,
     build_dictionary,
-    d1_distance,
-    d2_distance,
     dictionary_from_motion,
     dictionary_from_sequences,
     posture_sequence,
@@ -39,6 +37,7 @@ from eigmotion.tracking.generation import (
     variable_speed_playback,
 )
 from eigmotion.tracking.position import intersect_plane_lines, locate, mask_centroid, select_pair
+from eigmotion.tracking.postures import d1_distance, d2_distance
 from eigmotion.tracking.search import (
     beam_search,
     build_cluster_tree,

@@ -17,8 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.proxy_body import proxy_body
 from eigmotion.errors import InvalidParameterError
-from eigmotion.tracking.dictionary import PostureDictionary, relative_joint_positions, yaw_rotation
+from eigmotion.mocap.canonical import CANONICAL_JOINTS, canonical_skeleton
+from eigmotion.mocap.kinematics import Pose
+from eigmotion.tracking.dictionary import PostureDictionary
+from eigmotion.tracking.postures import relative_joint_positions, yaw_rotation
 
 #: Triangle count of the default low-poly body (about 2,000 vertices).
 DEFAULT_BODY_FACES = 4000
@@ -172,8 +177,6 @@ def avatar_bodies(
     PostureBodies
     """
     if avatar is None:
-        from eigmotion.body.avatar import load_default_avatar
-
         avatar = load_default_avatar()
     if tuple(avatar.joint_names) != tuple(dictionary.joint_names):
         raise InvalidParameterError(
@@ -204,10 +207,6 @@ def proxy_bodies(dictionary: PostureDictionary, end_sites=None, **kwargs) -> Pos
     **kwargs
         Passed to :func:`eigmotion.body.proxy_body.proxy_body` (radii, tessellation).
     """
-    from eigmotion.body.proxy_body import proxy_body
-    from eigmotion.mocap.canonical import CANONICAL_JOINTS, canonical_skeleton
-    from eigmotion.mocap.kinematics import Pose
-
     if end_sites is None:
         same = tuple(dictionary.joint_names) == CANONICAL_JOINTS
         end_sites = canonical_skeleton().end_sites if same else {}

@@ -33,6 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -240,8 +241,6 @@ def board_points(pattern: Sequence[int], square_m: float) -> np.ndarray:
 
 
 def _gray(image: np.ndarray) -> np.ndarray:
-    import cv2
-
     image = np.asarray(image)
     if image.ndim == 3 and image.shape[2] == 3:
         return cv2.cvtColor(image.astype(np.uint8), cv2.COLOR_RGB2GRAY)
@@ -285,8 +284,6 @@ def find_board_corners(
     InvalidParameterError
         The board is not found.
     """
-    import cv2
-
     cols, rows = check_pattern(pattern)
     gray = _gray(image)
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
@@ -351,8 +348,6 @@ def calibrate_camera(
     rms_px : float
         Root-mean-square reprojection error over all views, pixels.
     """
-    import cv2
-
     if len(images) == 0:
         raise InvalidParameterError(f"camera {name!r}: no images")
     if not 0 <= floor_index < len(images):
@@ -426,8 +421,6 @@ def calibrate_cameras(
     rms_px : dict of str to float
         Reprojection error per camera, pixels.
     """
-    import cv2
-
     cameras, errors = [], {}
     for cam_name, paths in groups.items():
         paths = [Path(p) for p in paths]

@@ -22,13 +22,8 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.motion import Motion, Skeleton, standard_channels
-from eigmotion.tracking.dictionary import (
-    PostureSequence,
-    d1_distance,
-    heading_deg,
-    wrap_deg,
-    yaw_rotation,
-)
+from eigmotion.tracking.dictionary import PostureSequence
+from eigmotion.tracking.postures import d1_distance, heading_deg, wrap_deg, yaw_rotation
 
 
 class VariableSpeedPlayback:

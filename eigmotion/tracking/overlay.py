@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -32,8 +33,6 @@ def draw_outline(
     (H, W, 3) uint8
         A copy of ``image`` with the outline.
     """
-    import cv2
-
     image = np.asarray(image)
     silhouette = np.asarray(silhouette)
     if image.ndim != 3 or image.shape[2] != 3 or silhouette.shape != image.shape[:2]:

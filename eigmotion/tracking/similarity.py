@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -38,8 +39,6 @@ def _shift_sums(padded: np.ndarray, template: np.ndarray, y0: int, x0: int, r: i
     sits at rows ``y0…`` and columns ``x0…`` of the (unpadded) image.  Entry
     ``[dy + r, dx + r]`` is the sum with the template moved by ``(dx, dy)``.
     """
-    import cv2
-
     th, tw = template.shape
     window = padded[y0 : y0 + th + 2 * r, x0 : x0 + tw + 2 * r]
     return cv2.matchTemplate(window, template, cv2.TM_CCORR).astype(np.float64)

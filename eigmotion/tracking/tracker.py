@@ -29,15 +29,12 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import Camera
+from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.tracking.body import PostureBodies, avatar_bodies
 from eigmotion.tracking.calibration import CameraPair
-from eigmotion.tracking.dictionary import (
-    PostureDictionary,
-    closeness_matrix,
-    d1_distance,
-    select_candidates,
-)
+from eigmotion.tracking.dictionary import PostureDictionary, closeness_matrix, select_candidates
 from eigmotion.tracking.position import intersect_plane_lines, mask_centroid, select_pair
+from eigmotion.tracking.postures import d1_distance
 from eigmotion.tracking.search import (
     ClusterNode,
     SearchResult,
@@ -261,8 +258,6 @@ def _row_extent(mask: np.ndarray) -> int:
 
 
 def _default_renderer() -> RenderMasks:
-    from eigmotion.imaging.silhouettes import render_masks
-
     return render_masks
 
 
