@@ -30,10 +30,10 @@ alignment would score.
 
 Run from the repository root::
 
-    python benchmarks/bench_single_camera.py              # the default database
-    python benchmarks/bench_single_camera.py --quick      # 4 clips
-    python benchmarks/bench_single_camera.py --db other.fs --masks true
-    python benchmarks/bench_single_camera.py --config speed_weight=0   # an ablation
+    python benchmarks/accuracy/bench_single_camera.py              # the default database
+    python benchmarks/accuracy/bench_single_camera.py --quick      # 4 clips
+    python benchmarks/accuracy/bench_single_camera.py --db other.fs --masks true
+    python benchmarks/accuracy/bench_single_camera.py --config speed_weight=0   # an ablation
 
 ``--config NAME=VALUE`` (repeatable) changes one field of
 :class:`eigmotion.pose.continuous_pose.ContinuousPoseConfig` (numbers; tuples as
@@ -70,7 +70,7 @@ from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose
 from eigmotion.pose.replay import replay  # noqa: E402
 from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RING6 = REPO / "virtual_cameras" / "ring6.toml"
 WIDTH_PX, HEIGHT_PX = 320, 240
 CLIP_FPS = 30.0
