@@ -26,8 +26,8 @@ settings run first and are the baseline every variant is compared with, clip by 
 the clips a variant gained and lost, and the exact McNemar test's p-value of that split
 (below 0.05: unlikely to be chance)::
 
-    python benchmarks/accuracy/bench_rerank.py [--seed 0 [--seed 1 ...]] [--clips-dir DIR] [--db PATH]
-        [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
+    python benchmarks/accuracy/bench_rerank.py [--seed 0 [--seed 1 ...]] [--clips-dir DIR]
+        [--db PATH] [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
         [--no-background [--compare-cuts]] [--silhouettes NAME=VALUE ...] [--unknown]
         [--segments]
 

@@ -20,7 +20,8 @@ person-frame distance (above 1: the person frame is the more invariant).
 The same cases are asserted in ``tests/test_motion_image.py``.  Run from the
 repository root with the venv active (a few seconds)::
 
-    python benchmarks/studies/bench_motion_image_invariance.py [--scale 0.6] [--body-px 80] [--no-avatar]
+    python benchmarks/studies/bench_motion_image_invariance.py [--scale 0.6] [--body-px 80]
+        [--no-avatar]
 """
 
 from __future__ import annotations

@@ -15,7 +15,8 @@ true motion image the file takes the silhouettes than cutting them out already d
 
 Run from the repository root with the venv active::
 
-    python benchmarks/studies/bench_video_roundtrip.py [--seeds 3] [--views side90 side270 side90-320]
+    python benchmarks/studies/bench_video_roundtrip.py [--seeds 3]
+        [--views side90 side270 side90-320]
         [--formats .mp4 .avi]
 
 With the defaults it takes under a minute on two cores.
