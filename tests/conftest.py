@@ -1,15 +1,18 @@
-"""Shared fixtures: paths to the bundled data, small synthetic skeletons."""
+"""Shared fixtures: paths to the bundled data, small synthetic skeletons, real databases."""
 
 from __future__ import annotations
 
-import contextlib
-import importlib.util
 import os
-import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from eigmotion.imaging.cameras import load_rig
+from eigmotion.mocap.library import load_library
+from eigmotion.retrieval.build import BuildConfig
+from eigmotion.retrieval.database import build_database
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -27,28 +30,23 @@ def cmu_dir() -> Path:
     return CMU_DIR
 
 
-@contextlib.contextmanager
-def _benchmark_script(name: str):
-    """``benchmarks/<name>.py`` imported as a module, and forgotten afterwards with any
-    other script it imported (the scripts import each other from their folder)."""
-    folder = str(REPO / "benchmarks")
-    before = set(sys.modules)
-    sys.path.insert(0, folder)
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module  # dataclasses look their module up
-    try:
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        for added in set(sys.modules) - before:
-            origin = getattr(sys.modules[added], "__file__", None) or ""
-            if Path(origin).parent == Path(folder):  # the package's own modules stay
-                del sys.modules[added]
-        sys.path.remove(folder)
-
-
 @pytest.fixture(scope="session")
-def benchmark_script():
-    """``with benchmark_script("bench_accuracy") as module:`` a script of benchmarks/."""
-    return _benchmark_script
+def ring6_database(tmp_path_factory) -> Callable[[Sequence[str], BuildConfig], Path]:
+    """``ring6_database(names, config)``: the path of a real database of the library
+    motions ``names`` seen by ``virtual_cameras/ring6.toml``, built with ``config``
+    once per session (two workers) and shared by every module that asks for the same
+    motions and configuration.  Tests must not change it."""
+    built: dict[tuple[tuple[str, ...], BuildConfig], Path] = {}
+
+    def database(names: Sequence[str], config: BuildConfig) -> Path:
+        key = (tuple(names), config)
+        if key not in built:
+            by_name = {m.name: m for m in load_library()}
+            path = tmp_path_factory.mktemp("db") / "real.fs"
+            rig = load_rig(REPO / "virtual_cameras" / "ring6.toml")
+            motions = [by_name[name] for name in names]
+            build_database(motions, rig, path, config, workers=2, progress=False)
+            built[key] = path
+        return built[key]
+
+    return database

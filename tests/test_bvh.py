@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import bvhio
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -216,7 +217,6 @@ def test_breadth_first_skeleton_is_written_depth_first():
 
 def _bvhio_positions(path: Path) -> tuple[list[str], np.ndarray]:
     """World joint positions per frame as the ``bvhio`` package computes them."""
-    bvhio = pytest.importorskip("bvhio")
     root = bvhio.readAsHierarchy(str(path))
     layout = [joint for joint, _, _ in root.layout()]
     n_frames = root.getKeyframeRange()[1] + 1

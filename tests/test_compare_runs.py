@@ -1,4 +1,5 @@
-"""benchmarks/compare_runs.py: two bench_accuracy.py runs paired clip by clip."""
+"""eigmotion.evaluation.compare and benchmarks/accuracy/compare_runs.py: two
+bench_accuracy.py runs paired clip by clip."""
 
 from __future__ import annotations
 
@@ -10,14 +11,9 @@ from pathlib import Path
 import pytest
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.compare import compare_runs
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def compare(benchmark_script):
-    with benchmark_script("compare_runs") as module:
-        yield module
 
 
 def record(video, label, ranked, accepted=True, in_library=None, target="without_a"):
@@ -34,7 +30,7 @@ def write_run(path, queries, out_of_library=("kick",)):
     return path
 
 
-def test_runs_are_paired_by_clip_and_database(compare, tmp_path, capsys):
+def test_runs_are_paired_by_clip_and_database(tmp_path):
     before = [record(f"w{i}.mp4", "walk", ["run", "walk"], in_library=True) for i in range(10)]
     before += [
         record("r0.mp4", "run", ["run"], in_library=True),
@@ -51,8 +47,7 @@ def test_runs_are_paired_by_clip_and_database(compare, tmp_path, capsys):
         record("w0.mp4", "walk", ["walk"], in_library=True, target="without_b"),
     ]
     paths = write_run(tmp_path / "a.json", before), write_run(tmp_path / "b.json", after)
-    assert compare.main([str(p) for p in paths]) == 0
-    out = capsys.readouterr().out
+    out = "\n".join(compare_runs(*paths))
     assert (
         "13 clips asked in both runs (11 in library); not compared: 2 asked in one run "
         "only, 0 in the library in one run only"
@@ -66,12 +61,11 @@ def test_runs_are_paired_by_clip_and_database(compare, tmp_path, capsys):
     assert "r0.mp4 (without_a): run → walk" in lost
 
 
-def test_a_clip_whose_library_status_changed_is_not_compared(compare, tmp_path, capsys):
+def test_a_clip_whose_library_status_changed_is_not_compared(tmp_path):
     before = [record("a.mp4", "walk", ["walk"], in_library=True)]
     after = [record("a.mp4", "walk", ["walk"], in_library=False)]
     paths = write_run(tmp_path / "a.json", before), write_run(tmp_path / "b.json", after)
-    compare.main([str(p) for p in paths])
-    out = capsys.readouterr().out
+    out = "\n".join(compare_runs(*paths))
     assert "0 clips asked in both runs (0 in library); not compared: 0 asked in one run" in out
     assert "1 in the library in one run only" in out
 
@@ -90,23 +84,28 @@ def test_a_clip_whose_library_status_changed_is_not_compared(compare, tmp_path, 
         ),
     ],
 )
-def test_bad_runs_are_named(compare, tmp_path, text, message):
+def test_bad_runs_are_named(tmp_path, text, message):
     bad = tmp_path / "bad.json"
     bad.write_text(text)
     good = write_run(tmp_path / "good.json", [record("a.mp4", "walk", ["walk"])])
     with pytest.raises(InvalidParameterError, match=message):
-        compare.main([str(bad), str(good)])
+        compare_runs(bad, good)
 
 
-def test_a_suite_not_in_both_runs_is_refused(compare, tmp_path):
+def test_a_suite_not_in_both_runs_is_refused(tmp_path):
     good = write_run(tmp_path / "good.json", [record("a.mp4", "walk", ["walk"])])
     with pytest.raises(InvalidParameterError, match="seen.*both hold: holdout"):
-        compare.main([str(good), str(good), "--suite", "seen"])
+        compare_runs(good, good, ["seen"])
 
 
 def test_a_missing_file_is_one_line_and_exit_2(tmp_path):
     done = subprocess.run(
-        [sys.executable, str(REPO / "benchmarks" / "compare_runs.py"), "x.json", "y.json"],
+        [
+            sys.executable,
+            str(REPO / "benchmarks" / "accuracy" / "compare_runs.py"),
+            "x.json",
+            "y.json",
+        ],
         cwd=tmp_path,
         capture_output=True,
         text=True,

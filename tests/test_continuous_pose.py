@@ -21,7 +21,7 @@ from eigmotion.body.avatar import load_default_avatar
 from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.cameras import load_rig, virtual_rig
+from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
@@ -30,7 +30,7 @@ from eigmotion.pose.continuous_pose import ContinuousPoseConfig, align_motion, c
 from eigmotion.pose.playback import monotone_path, speed_costs
 from eigmotion.pose.replay import replay
 from eigmotion.retrieval.build import BuildConfig, hull_points
-from eigmotion.retrieval.database import MotionDatabase, build_database
+from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.synth.clips import time_warped
 
 REPO = Path(__file__).resolve().parents[1]
@@ -60,11 +60,8 @@ def library():
 
 
 @pytest.fixture(scope="module")
-def db_path(tmp_path_factory, library):
-    path = tmp_path_factory.mktemp("db") / "tiny.fs"
-    rig = load_rig(REPO / "virtual_cameras" / "ring6.toml")
-    build_database(library, rig, path, CONFIG, workers=2, progress=False)
-    return path
+def db_path(ring6_database):
+    return ring6_database(MOTIONS, CONFIG)
 
 
 @pytest.fixture(scope="module")

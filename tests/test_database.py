@@ -23,7 +23,9 @@ import pytest
 from eigmotion.body.retarget import animate_avatar
 from eigmotion.cli.main import main
 from eigmotion.errors import DatabaseError, InvalidParameterError
-from eigmotion.imaging.cameras import load_rig, virtual_rig
+from eigmotion.evaluation.query_variants import EntryTable
+from eigmotion.evaluation.rejection_ceiling import ask_both_ways, rejection_ceiling_report
+from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
@@ -58,11 +60,8 @@ def library():
 
 
 @pytest.fixture(scope="module")
-def db_path(tmp_path_factory, library):
-    path = tmp_path_factory.mktemp("db") / "small.fs"
-    rig = load_rig(REPO / "virtual_cameras" / "ring6.toml")
-    build_database(library, rig, path, CONFIG, workers=2, progress=False)
-    return path
+def db_path(ring6_database):
+    return ring6_database(MOTIONS, CONFIG)
 
 
 @pytest.fixture(scope="module")
@@ -217,12 +216,12 @@ def test_a_build_calibrates_each_entry_against_the_other_bodies(tmp_path):
     assert elsewhere > leave_one_motion_out_threshold(arrays.points, arrays.motions, whole)
 
 
-def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_script):
+def test_the_entry_table_reads_each_entry_as_the_build_made_it(db_path):
     """The entry table behind ``bench_rerank.py --unknown``: calibrating the threshold
     from it gives the one the build stored, and leaving a label out leaves its
     motions' entries out."""
-    with benchmark_script("bench_rerank") as bench, MotionDatabase.open(db_path) as db:
-        table = bench.EntryTable(db)
+    with MotionDatabase.open(db_path) as db:
+        table = EntryTable(db)
         whole, body = table.calibration(db)
         n_views = len(CONFIG.bodies) * len(db.rig)
         assert whole.sum() == n_views * len(MOTIONS)
@@ -236,24 +235,23 @@ def test_bench_rerank_reads_each_entry_as_the_build_made_it(db_path, benchmark_s
         assert db.index.n_entries == kept.sum() < len(table.motion)
 
 
-def test_rejection_ceiling_asks_each_whole_entry_both_ways(db_path, benchmark_script, capsys):
+def test_rejection_ceiling_asks_each_whole_entry_both_ways(db_path):
     """``bench_rejection_ceiling.py``: each whole-motion entry, without its own
     performance, finds another entry no farther than without its whole label (a
     label of one performance here: both leave the same entries out)."""
-    with benchmark_script("bench_rejection_ceiling") as bench, MotionDatabase.open(db_path) as db:
-        table = bench.EntryTable(db)
+    with MotionDatabase.open(db_path) as db:
+        table = EntryTable(db)
         whole, body = table.calibration(db)
-        label, known, unknown, known_answer, unknown_answer = bench.ask_both_ways(
+        label, known, unknown, known_answer, unknown_answer = ask_both_ways(
             table, whole, body, own_body=False
         )
         assert len(label) == whole.sum() and sorted(set(label)) == sorted(set(table.label))
         np.testing.assert_array_equal(known, unknown)  # one performance per label
         assert not np.any(unknown_answer == label)
         assert np.quantile(known, 0.95) == pytest.approx(db.threshold, rel=1e-6)
-        _, own_known, *_ = bench.ask_both_ways(table, whole, body, own_body=True)
+        _, own_known, *_ = ask_both_ways(table, whole, body, own_body=True)
         assert np.all(own_known <= known)
-        assert bench.main(["--db", str(db_path)]) == 0
-    out = capsys.readouterr().out
+    out = rejection_ceiling_report(db_path)
     for name in set(label):
         assert f"| {name}" in out
     assert "one threshold: AUC 0.500" in out  # the same distances both ways

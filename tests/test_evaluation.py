@@ -6,31 +6,32 @@ from __future__ import annotations
 import json
 import math
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.evaluation.query_clips import BODY_SHAPES, halfway_views, person_height_px
 from eigmotion.evaluation.scoring import (
     ZERO_CELL,
     QueryOutcome,
     confusion_matrix,
     format_confusion,
     format_operating_points,
+    format_rate,
     format_score,
+    markdown_table,
     operating_points,
     rejection_rates,
     score,
     separation,
 )
 from eigmotion.evaluation.segments import segment_agreement
-from eigmotion.evaluation.statistics import (
-    format_rate,
-    markdown_table,
-    paired_comparison,
-    proportion_interval,
-)
+from eigmotion.evaluation.statistics import paired_comparison, proportion_interval
+from eigmotion.imaging.cameras import load_rig
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -360,13 +361,7 @@ def test_markdown_table_pads_columns_and_checks_rows():
         markdown_table(["a", "b"], [["1", "2"], ["3"]])
 
 
-# -- the benchmark script --------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def bench(benchmark_script):
-    with benchmark_script("bench_accuracy") as module:
-        yield module
+# -- the query clips and the accuracy script ------------------------------------------
 
 
 @pytest.mark.parametrize(
@@ -376,24 +371,22 @@ def bench(benchmark_script):
         ("ring6.toml", np.arange(30.0, 360.0, 60.0), [10.0]),
     ],
 )
-def test_halfway_views(bench, rig_file, azimuths, elevations):
-    from eigmotion.imaging.cameras import load_rig
-
-    az, el = bench.halfway_views(load_rig(REPO / "virtual_cameras" / rig_file))
+def test_halfway_views(rig_file, azimuths, elevations):
+    az, el = halfway_views(load_rig(REPO / "virtual_cameras" / rig_file))
     np.testing.assert_allclose(np.sort(az), azimuths)
     np.testing.assert_allclose(el, elevations)
 
 
-def test_person_height_px(bench):
+def test_person_height_px():
     masks = np.zeros((3, 20, 10), dtype=bool)
     masks[0, 2:12, 3] = True  # 10 rows
     masks[1, 5:19, 4:6] = True  # 14 rows
-    assert bench.person_height_px(masks) == pytest.approx(12.0)  # frame 2 is empty
-    assert bench.person_height_px(np.zeros((2, 4, 4), dtype=bool)) == 0.0
+    assert person_height_px(masks) == pytest.approx(12.0)  # frame 2 is empty
+    assert person_height_px(np.zeros((2, 4, 4), dtype=bool)) == 0.0
 
 
 @pytest.mark.slow
-def test_seen_quick_smoke_run(bench, tmp_path):
+def test_seen_quick_smoke_run(tmp_path):
     """Two motions, a ring6 database built into tmp, one clip each, through the CLI."""
     out = tmp_path / "seen.json"
     argv = [
@@ -415,7 +408,9 @@ def test_seen_quick_smoke_run(bench, tmp_path):
         "--json-out",
         str(out),
     ]
-    assert bench.main(argv) == 0
+    script = REPO / "benchmarks" / "accuracy" / "bench_accuracy.py"
+    done = subprocess.run([sys.executable, str(script), *argv], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
     data = json.loads(out.read_text())
     seen = data["suites"]["seen"]
     assert seen["built"]["n_motions"] == 2
@@ -425,7 +420,7 @@ def test_seen_quick_smoke_run(bench, tmp_path):
     # Two labels far apart (a kick, a wave): both must be told apart.
     assert scored["top1"] == 2
     for query in seen["queries"]:
-        assert (query["height_m"], query["girth"]) in bench.BODY_SHAPES
+        assert (query["height_m"], query["girth"]) in BODY_SHAPES
         assert query["azimuth_deg"] % 60.0 == pytest.approx(30.0)  # halfway between cameras
         assert query["answers"]["default"]["ranked_labels"][0] == query["label"]
         assert (tmp_path / "clips" / query["video"]).is_file()

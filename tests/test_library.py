@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.evaluation import action_spans
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import (
@@ -26,6 +27,7 @@ from eigmotion.mocap.library import (
 )
 from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.naming import canonical_joint_map
+from eigmotion.retrieval.build import BuildConfig
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"
@@ -426,33 +428,26 @@ def test_action_spans_show_the_action_and_the_rest_does_not(library, poses):
                 assert _travel(part) >= 0.5 * (outside[1] - outside[0]), lm.name  # >= 0.5 m/s
 
 
-@pytest.fixture(scope="module")
-def spans_script(benchmark_script):
-    """benchmarks/plot_action_spans.py, the measuring behind the manifest's spans."""
-    with benchmark_script("plot_action_spans") as module:
-        yield module
-
-
-def test_action_spans_are_the_measured_ones(library, spans_script):
+def test_action_spans_are_the_measured_ones(library):
     """Each turn's and jump's span and filler are what the measuring rules give (to the
     0.01 s the manifest writes); the mirror image measures the same."""
     for lm in library:
         if lm.label not in ("turn", "jump"):
             continue
-        signals = spans_script.body_signals(lm)
-        measured = spans_script.measured_span(lm, signals)
+        signals = action_spans.body_signals(lm)
+        measured = action_spans.measured_span(lm, signals)
         np.testing.assert_allclose(lm.action, measured, atol=0.0051, err_msg=lm.name)
-        assert lm.filler == spans_script.measured_filler(signals, measured), lm.name
+        assert lm.filler == action_spans.measured_filler(signals, measured), lm.name
 
 
-def test_action_spans_plot(library, spans_script, tmp_path):
+def test_action_spans_plot(library, tmp_path):
     by_name = {lm.name: lm for lm in library}
     items = [by_name["turn_walking_180"], by_name["walk_02_01"]]
-    windows_s, labels = spans_script.build_windows(items[0], spans_script.BuildConfig())
+    windows_s, labels = action_spans.build_windows(items[0], BuildConfig())
     assert labels == ["walk", "turn", "turn", "turn", "walk", "walk"]
     assert windows_s[0, 0] == 0.0 and windows_s[-1, 1] == pytest.approx(items[0].motion.duration_s)
     out = tmp_path / "spans.png"
-    spans_script.plot(items, spans_script.BuildConfig(), out)
+    action_spans.plot(items, BuildConfig(), out)
     assert out.stat().st_size > 10_000
 
 

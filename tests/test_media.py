@@ -131,9 +131,16 @@ def test_video_round_trip(tmp_path, suffix, max_mean_error):
     assert fps == pytest.approx(25.0, rel=1e-3)
 
 
-def test_mp4_codec_is_known_and_stays_the_same():
-    assert mp4_fourcc() in ("avc1", "mp4v")
-    assert mp4_fourcc() == mp4_fourcc()
+@pytest.mark.parametrize("suffix", [".mp4", ".mov"])
+def test_mp4_and_mov_files_hold_the_codec_mp4_fourcc_names(tmp_path, suffix):
+    """The probed codec is the one :func:`write_video` writes: the file's sample entry
+    names it, and not the other one."""
+    codec = mp4_fourcc()
+    assert codec in ("avc1", "mp4v")
+    assert mp4_fourcc.cache_info().currsize == 1  # probed once per process
+    data = write_video(_smooth_clip(3), tmp_path / f"clip{suffix}", fps=25.0).read_bytes()
+    other = "mp4v" if codec == "avc1" else "avc1"
+    assert codec.encode() in data and other.encode() not in data
 
 
 @pytest.mark.parametrize("suffix", [".avi", ".gif", ".mp4"])
@@ -228,15 +235,27 @@ def test_empty_or_corrupt_video(tmp_path, suffix, content):
         read_frames(path)
 
 
-def test_truncated_video_keeps_what_decodes_or_fails_cleanly(tmp_path):
-    path = write_video(_smooth_clip(10), tmp_path / "cut.avi")
+def test_a_cut_avi_keeps_the_frames_before_the_cut(tmp_path):
+    """An ``.avi`` cut at three quarters (its index at the end lost) still reads: the
+    first frames, in order, and none made up."""
+    clip = _smooth_clip(10)
+    path = write_video(clip, tmp_path / "cut.avi")
+    data = path.read_bytes()
+    path.write_bytes(data[: 3 * len(data) // 4])
+    frames, _ = read_frames(path)
+    assert 1 <= len(frames) < len(clip) and frames.shape[1:] == (48, 64, 3)
+    for f in range(len(frames)):
+        errors = [np.abs(frames[f].astype(int) - c.astype(int)).mean() for c in clip]
+        assert int(np.argmin(errors)) == f and errors[f] < 4.0
+
+
+def test_an_mp4_cut_in_half_is_refused_by_name(tmp_path):
+    """Half an ``.mp4`` lacks the index written at its end: a VideoError naming it."""
+    path = write_video(_smooth_clip(10), tmp_path / "cut.mp4")
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
-    try:
-        frames, _ = read_frames(path)
-    except VideoError:
-        return
-    assert 1 <= len(frames) <= 10 and frames.shape[1:] == (48, 64, 3)
+    with pytest.raises(VideoError, match="cut.mp4: cannot be opened"):
+        read_frames(path)
 
 
 def test_corrupt_gif(tmp_path):

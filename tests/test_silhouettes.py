@@ -11,6 +11,7 @@ from scipy.spatial import ConvexHull
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import intrinsics, look_at, virtual_rig
+from eigmotion.imaging.render import default_renderer, depth_sample_offset_px, render_masks_gl
 from eigmotion.imaging.silhouettes import iter_rig_masks, render_masks, render_rig_masks
 from eigmotion.mocap.canonical import canonical_skeleton
 from eigmotion.mocap.kinematics import forward_kinematics
@@ -233,14 +234,12 @@ def test_bad_near_plane_raises():
 
 @pytest.fixture(scope="module")
 def gl_render():
-    """:func:`eigmotion.imaging.render.render_masks_gl`, skipped where OpenGL cannot start."""
-    render = pytest.importorskip("eigmotion.imaging.render")
-    try:
-        render.default_renderer()
-        render.depth_sample_offset_px()
-    except (ImportError, RuntimeError) as exc:  # no EGL / OSMesa here
-        pytest.skip(f"no OpenGL: {exc}")
-    return render.render_masks_gl
+    """:func:`eigmotion.imaging.render.render_masks_gl`, its renderer started.  OpenGL
+    (EGL, installed by ``.ci/system-deps``) is required: a machine without it fails
+    here."""
+    default_renderer()
+    depth_sample_offset_px()
+    return render_masks_gl
 
 
 def _iou(a, b):

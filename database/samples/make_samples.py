@@ -28,7 +28,7 @@ HERE = Path(__file__).resolve().parent
 
 #: name → (library motion, azimuth°, elevation°, body height m, girth, seed, seconds)
 #: (``None``: the whole motion).  ``walk_3s`` is the 3 s, 320×240 clip the query-time
-#: benchmark (benchmarks/bench_query.py) is measured on.
+#: benchmark (benchmarks/speed/bench_query.py) is measured on.
 SAMPLES = {
     "kick": ("kick_135_04", 45.0, 10.0, 1.62, 1.2, 1, None),
     "walk": ("walk_16_22", 105.0, 10.0, 1.80, 0.9, 2, None),

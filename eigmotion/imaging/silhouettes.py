@@ -20,7 +20,7 @@ metres away, so this only matters for a camera placed inside the mesh.
 
 The rasteriser is a small numba kernel, single-threaded, compiled on first use (about
 2 s, then cached on disk next to this module); numba is imported lazily so that
-importing this module stays cheap.  ``benchmarks/bench_render.py`` measures it
+importing this module stays cheap.  ``benchmarks/speed/bench_render.py`` measures it
 against pyrender.
 """
 

@@ -15,7 +15,7 @@ no silhouette term) on the same clip in the same run.  One thread
 
 Run from the repository root with the venv active::
 
-    python benchmarks/bench_motion_image_speed.py [--frames 90] [--mask-size 128]
+    python benchmarks/speed/bench_motion_image_speed.py [--frames 90] [--mask-size 128]
         [--fps 120 30] [--seconds 2] [--rounds 4]
 """
 
@@ -29,16 +29,11 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 
 import cv2  # noqa: E402
-from _motion_image_common import (  # noqa: E402
-    PLAIN_CONFIG,
-    low_poly_avatar,
-    ratio,
-    ring_camera,
-    walk_vertices,
-)
 
+from eigmotion.evaluation.measures import PLAIN_CONFIG, ratio  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image, sample_indices  # noqa: E402
+from eigmotion.synth.walk_scenes import low_poly_avatar, ring_camera, walk_vertices  # noqa: E402
 
 #: (row name, MotionImageConfig arguments); the last row is the baseline.
 CONFIGS = (

@@ -33,7 +33,7 @@ first three distinct labels) and each one's ratio to the motion image's, from th
 run.  The database images are rendered once, each (motion, body, view) giving both its
 motion images and its silhouette sequence::
 
-    python benchmarks/bench_sequence_matching.py [--rig virtual_cameras/ring6.toml]
+    python benchmarks/studies/bench_sequence_matching.py [--rig virtual_cameras/ring6.toml]
         [--clips-dir DIR] [--weight 2.0] [--clips-per-motion 2] [--seed 0]
 """
 
@@ -51,20 +51,19 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from functools import lru_cache  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_accuracy import (  # noqa: E402
-    ClipMaker,
-    random_specs,
-    subject_folds,
-    variation_folds,
-)
-from bench_accuracy_factors import (  # noqa: E402
-    holdout_parser,
-    parse_holdout_args,
-    run_with_clips,
-)
 
 from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
+from eigmotion.evaluation.label_ranking import per_motion_min, ranked_labels_of  # noqa: E402
+from eigmotion.evaluation.query_clips import (  # noqa: E402
+    ClipMaker,
+    holdout_parser,
+    parse_holdout_args,
+    random_specs,
+    run_with_clips,
+    subject_folds,
+    variation_folds,
+)
 from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
@@ -143,26 +142,6 @@ def render_library(library, rig: CameraRig, config: BuildConfig, workers: int | 
                 sequence_motion.append(m)
     return (np.concatenate(vectors), np.asarray(vector_motion), sequences,
             np.asarray(sequence_motion))  # fmt: skip
-
-
-def per_motion_min(distances: np.ndarray, motion_of: np.ndarray, n_motions: int) -> np.ndarray:
-    """(n_motions,) float64: each motion's smallest distance (inf for motions absent)."""
-    out = np.full(n_motions, np.inf)
-    np.minimum.at(out, motion_of, distances)
-    return out
-
-
-def ranked_labels_of(distances: np.ndarray, labels: np.ndarray, n: int = 3) -> list[str]:
-    """The first ``n`` distinct labels of the motions, nearest first."""
-    out: list[str] = []
-    for i in np.argsort(distances, kind="stable"):
-        if not np.isfinite(distances[i]):
-            break
-        if labels[i] not in out:
-            out.append(str(labels[i]))
-        if len(out) == n:
-            break
-    return out
 
 
 def run(args: argparse.Namespace) -> None:

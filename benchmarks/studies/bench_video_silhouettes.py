@@ -17,7 +17,7 @@ per frame, and the mean IoU as a ratio of MOG2's on the same frames.
 
 Run from the repository root with the venv active::
 
-    python benchmarks/bench_video_silhouettes.py [--seeds 3] [--no-mp4]
+    python benchmarks/studies/bench_video_silhouettes.py [--seeds 3] [--no-mp4]
         [--views side90 side90-320 side270 front]
 
 With the defaults it takes about 1.5 min on two cores; ``--seeds 1`` a third of it.
@@ -31,11 +31,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import WALK_VIEWS, composed_walks, iou, ratio, walk_views
 
+from eigmotion.evaluation.measures import iou, ratio
 from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.video import extract_silhouettes
+from eigmotion.synth.walk_scenes import WALK_VIEWS, composed_walks, walk_views
 
 #: (row name, background given?, SilhouetteConfig.background); the last is the baseline.
 METHODS = (("given", True, "median"), ("median", False, "median"), ("mog2", False, "mog2"))

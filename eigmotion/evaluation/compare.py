@@ -1,39 +1,27 @@
 """Two runs of ``bench_accuracy.py`` compared clip by clip: did the change help?
 
-Each run's ``--json-out`` holds every query with its answer.  The clips both runs
-asked (the same video asked of the database of the same name) are paired, and for each
-measure — top-1 and top-k of the in-library clips, their false rejections, the
-rejection of out-of-library ones — this prints both counts, the clips the second run
-gained and lost, and the exact McNemar test's p-value of that split
-(:func:`eigmotion.evaluation.statistics.paired_comparison`): the chance of a split at
-least as uneven from a change that made no difference.  Then the clips whose top-1 answer
-changed, by name.  On the holdout suite's 220 in-library clips a single run's top-1 is
-known to about ±4 points; two runs on the same clips tell far finer differences apart,
-but only those the p-value backs::
-
-    python benchmarks/bench_accuracy.py holdout --clips-dir DIR --json-out before.json
-    (change something)
-    python benchmarks/bench_accuracy.py holdout --clips-dir DIR --json-out after.json
-    python benchmarks/compare_runs.py before.json after.json [--suite holdout]
-
-A run made before each answer recorded whether its label is in the library takes it
-from the suite's scores (a label any of them counts out of the library is out).
+The clips both runs asked (the same video asked of the database of the same name) are
+paired, and for each measure — top-1 and top-k of the in-library clips, their false
+rejections, the rejection of out-of-library ones — :func:`compare_runs` gives both
+counts, the clips the second run gained and lost, and the exact McNemar test's p-value
+of that split (:func:`eigmotion.evaluation.statistics.paired_comparison`); then the clips
+whose top-1 answer changed, by name.  ``benchmarks/accuracy/compare_runs.py`` is the
+command line.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.scoring import QueryOutcome
 from eigmotion.evaluation.statistics import markdown_table, paired_comparison
 
 #: The rank of the top-k measure when a run does not say.
 DEFAULT_K = 3
+
 
 #: One clip asked of one database: (the clip's video file name, the database's name).
 Key = tuple[str, str]
@@ -152,32 +140,34 @@ def compare_suite(name: str, before: dict, after: dict, paths: Sequence[Path]) -
     return lines
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("before", type=Path, help="the first run's --json-out")
-    parser.add_argument("after", type=Path, help="the second run's --json-out")
-    parser.add_argument("--suite", action="append", help="compare only this suite (repeatable)")
-    args = parser.parse_args(argv)
-    runs = [load_run(args.before), load_run(args.after)]
+def compare_runs(before: Path, after: Path, suites: Sequence[str] | None = None) -> list[str]:
+    """The Markdown lines comparing two ``bench_accuracy.py --json-out`` files, suite
+    by suite (a blank line between two suites).
+
+    Parameters
+    ----------
+    before, after : Path
+        The first and the second run.
+    suites : sequence of str, optional
+        The suites to compare; default: every suite both runs hold.
+
+    Raises
+    ------
+    InvalidParameterError
+        A file that is missing or not a run, or a suite not in both runs.
+    """
+    runs = [load_run(before), load_run(after)]
     common = [s for s in runs[0]["suites"] if s in runs[1]["suites"]]
-    wanted = args.suite or common
+    wanted = suites or common
     missing = [s for s in wanted if s not in common]
     if missing or not wanted:
         raise InvalidParameterError(
             f"suite(s) {', '.join(missing) or '(none)'} not in both runs; both hold: "
             f"{', '.join(common) or 'none in common'}"
         )
+    lines: list[str] = []
     for i, name in enumerate(wanted):
         if i:
-            print()
-        suites = [run["suites"][name] for run in runs]
-        print("\n".join(compare_suite(name, *suites, (args.before, args.after))))
-    return 0
-
-
-if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except EigmotionError as exc:
-        print(f"compare_runs: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+            lines.append("")
+        lines += compare_suite(name, *(run["suites"][name] for run in runs), (before, after))
+    return lines

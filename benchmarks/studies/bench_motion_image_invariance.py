@@ -20,7 +20,8 @@ person-frame distance (above 1: the person frame is the more invariant).
 The same cases are asserted in ``tests/test_motion_image.py``.  Run from the
 repository root with the venv active (a few seconds)::
 
-    python benchmarks/bench_motion_image_invariance.py [--scale 0.6] [--body-px 80] [--no-avatar]
+    python benchmarks/studies/bench_motion_image_invariance.py [--scale 0.6] [--body-px 80]
+        [--no-avatar]
 """
 
 from __future__ import annotations
@@ -29,17 +30,16 @@ import argparse
 
 import cv2
 import numpy as np
-from _motion_image_common import (
-    WALK_FRAMES_30FPS,
-    cosine_distance,
-    low_poly_avatar,
-    offset_camera,
-    ratio,
-    walk_vertices,
-)
 
+from eigmotion.evaluation.measures import cosine_distance, ratio
 from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image
 from eigmotion.synth.scene import stick_figure_masks
+from eigmotion.synth.walk_scenes import (
+    WALK_FRAMES_30FPS,
+    low_poly_avatar,
+    offset_camera,
+    walk_vertices,
+)
 
 
 def shift_and_scale(masks: np.ndarray, scale: float, offset_rc, shape_hw) -> np.ndarray:

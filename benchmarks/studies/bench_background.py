@@ -25,7 +25,7 @@ median's.
 
 Run from the repository root with the venv active::
 
-    python benchmarks/bench_background.py [--seeds 1] [--azimuths 30 100]
+    python benchmarks/studies/bench_background.py [--seeds 1] [--azimuths 30 100]
         [--motions wave_14_24,walk_02_01,...] [--clips-dir DIR]
 
 With the defaults (12 motions, 2 views, 1 seed) it takes about 4 minutes on two
@@ -43,8 +43,8 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _motion_image_common import iou, ratio  # noqa: E402
 
+from eigmotion.evaluation.measures import iou, ratio  # noqa: E402
 from eigmotion.imaging.media import sample_indices  # noqa: E402
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX  # noqa: E402
 from eigmotion.retrieval.motion_image import MotionImageConfig  # noqa: E402

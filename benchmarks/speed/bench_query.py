@@ -11,7 +11,7 @@ Start-up is excluded: the database is opened and the kernels compiled before tim
 Then the stages of our query: reading alone, silhouettes alone, retrieval from
 masks, one search (tree vs brute force).
 
-    python benchmarks/bench_query.py [--db database/eigmotion.fs] [--repeat 7]
+    python benchmarks/speed/bench_query.py [--db database/eigmotion.fs] [--repeat 7]
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from eigmotion.segmentation.video import (  # noqa: E402
     read_background,
 )
 
-SAMPLES = Path(__file__).resolve().parents[1] / "database" / "samples"
+SAMPLES = Path(__file__).resolve().parents[2] / "database" / "samples"
 
 
 def _median_ms(repeat: int, fn, *args) -> tuple[float, object]:

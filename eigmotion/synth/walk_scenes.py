@@ -1,24 +1,19 @@
-"""Set-up shared by the motion-image and video benchmarks (not a benchmark itself).
+"""The avatar walk the motion-image and video benchmarks film, and its composed scenes.
 
-The avatar walk (CMU 02_01 on the low-poly default avatar), the cameras that film it,
-the composed test scenes of it, the patent's plain motion image used as the
-baseline, and small numeric helpers.  Imported by ``bench_motion_image_*.py`` and
-``bench_video_*.py`` in this folder.
+The walk is CMU 02_01 on the default avatar decimated to the database's face count;
+:func:`ring_camera` and :func:`offset_camera` film it, :func:`composed_walks` puts it
+over textured backgrounds (:func:`eigmotion.synth.scene.compose_scene`).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator, Sequence
-from pathlib import Path
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar  # noqa: E402
-from eigmotion.body.retarget import animate_avatar  # noqa: E402
-from eigmotion.imaging.cameras import (  # noqa: E402
+from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar, load_default_avatar
+from eigmotion.body.retarget import animate_avatar
+from eigmotion.imaging.cameras import (
     Camera,
     fit_distance,
     intrinsics,
@@ -26,17 +21,15 @@ from eigmotion.imaging.cameras import (  # noqa: E402
     ring_rig,
     view_direction,
 )
-from eigmotion.mocap.amc import read_amc  # noqa: E402
-from eigmotion.mocap.motion import Motion  # noqa: E402
+from eigmotion.imaging.render import render_shaded
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.amc import read_amc
+from eigmotion.mocap.motion import Motion
+from eigmotion.resources import library_manifest
+from eigmotion.synth.scene import compose_scene
 
-REPO = Path(__file__).resolve().parents[1]
-CMU = REPO / "database" / "motions" / "cmu"
-
-#: The patent's plain after-image: image frame, equal weights, no filter, 64×64, no
-#: mean-silhouette term.  The baseline every configuration is compared with.
-PLAIN_CONFIG = dict(
-    frame="image", weighting="uniform", filter="none", size=64, silhouette_weight=0.0
-)
+#: The CMU motions of the bundled library (``database/motions/cmu``).
+CMU = library_manifest().parent / "cmu"
 
 #: Frames of the 1.5 s walk used by the video benchmarks, at 30 fps.
 WALK_FRAMES_30FPS = 46
@@ -112,10 +105,6 @@ def composed_walks(
 
     Yields ``(view, seed, true_masks, frames, background)``.
     """
-    from eigmotion.imaging.render import render_shaded
-    from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.synth.scene import compose_scene
-
     body = low_poly_avatar()
     vertices = walk_vertices(body, 30.0, WALK_FRAMES_30FPS)
     for view in views:
@@ -126,24 +115,3 @@ def composed_walks(
         for seed in seeds:
             frames, background = compose_scene(rgb, truth, np.random.default_rng(seed))
             yield view, seed, truth, frames, background
-
-
-def cosine_distance(a: np.ndarray, b: np.ndarray) -> float:
-    """1 − cos of the angle between two vectors."""
-    return float(1.0 - np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
-
-
-def iou(masks: np.ndarray, truth: np.ndarray) -> float:
-    """Intersection over union per frame, averaged over the clip."""
-    union = np.maximum((masks | truth).sum(axis=(1, 2)), 1)
-    return float(((masks & truth).sum(axis=(1, 2)) / union).mean())
-
-
-def ratio(ours: float, baseline: float) -> float:
-    """``ours / baseline`` (nan when the baseline is 0)."""
-    return float(ours) / float(baseline) if baseline else float("nan")
-
-
-def int_list(text: str) -> list[int]:
-    """``"0,1,2"`` → ``[0, 1, 2]`` (an argparse type)."""
-    return [int(part) for part in text.split(",") if part.strip()]

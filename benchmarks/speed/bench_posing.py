@@ -14,7 +14,7 @@ the per-joint baseline, and the largest vertex difference from ``Avatar.skin``:
 * ``per-vertex``: a Python loop over vertices and their influences (timed on a few
   frames only).
 
-    python benchmarks/bench_posing.py [--clip 16_15] [--frames 480] [--faces 4000]
+    python benchmarks/speed/bench_posing.py [--clip 16_15] [--frames 480] [--faces 4000]
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _timing import best_time  # noqa: E402
 
 from eigmotion.body.avatar import load_default_avatar, skinning_transforms  # noqa: E402
 from eigmotion.body.retarget import retarget  # noqa: E402
+from eigmotion.evaluation.timing import best_time  # noqa: E402
 from eigmotion.mocap.amc import read_amc  # noqa: E402
 
-CMU = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
+CMU = Path(__file__).resolve().parents[2] / "database" / "motions" / "cmu"
 
 
 def blend_gemm(avatar, rotations, positions, chunk: int = 64) -> np.ndarray:

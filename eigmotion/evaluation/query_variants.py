@@ -1,128 +1,50 @@
-"""The query's decision stage on the holdout clips, in seconds instead of half an hour.
+"""Variants of the query's decision stage, asked of the holdout clips already cut out.
 
-``bench_accuracy.py holdout`` builds a database per fold (about 3.5 min each, 11
-folds) before it asks anything.  Settings of what a query does *after* its motion
-image is made — how the candidates are ranked again by their silhouette sequences,
-how the clip's answer is chosen — do not change a database, so they can be compared
-without building one.  This script answers the same held-out clips (same folds,
-motions, views, bodies, garments and seeds: ``--seed``, repeatable, 220 clips per seed
-all compared together) with one database of the whole library, the fold's motions
-taken out of the search: an exact brute-force index over the entries of the motions
-the fold keeps stands in for the tree.  Everything else is the query as ``eigmotion
-query`` runs it (``MotionDatabase.query_masks`` on the silhouettes cut from the
-``.mp4`` with its empty-scene image).
-
-It is an approximation of the holdout benchmark, not a substitute: the motion
-eigenspace and the pose eigenspace were fitted with the held-out motions among the
-others, and the acceptance threshold of a clip asked with its label in the search is
-the whole database's.  On the seed-0 clips it gave 130/176 top-1 and 166/176 top-3
-where the holdout benchmark gave 131 and 165 (the engine before pace counted), and 141
-and 166 where it gave 140 and 164 (with pace).  Use it to choose settings, and the holdout
-benchmark to report them.
-
-Each ``--variant`` sets query-time constants of :mod:`eigmotion.retrieval.sequences` or
-:mod:`eigmotion.retrieval.database` (``NAME=VALUE,NAME=VALUE``) for one run; the shipped
-settings run first and are the baseline every variant is compared with, clip by clip:
-the clips a variant gained and lost, and the exact McNemar test's p-value of that split
-(below 0.05: unlikely to be chance)::
-
-    python benchmarks/bench_rerank.py [--seed 0 [--seed 1 ...]] [--clips-dir DIR] [--db PATH]
-        [--variant PACE_WEIGHT=0] [--variant SEQUENCE_WEIGHT=3,PACE_FLOOR=0.6 ...]
-        [--no-background [--compare-cuts]] [--silhouettes NAME=VALUE ...] [--unknown]
-        [--segments]
-
-``--no-background`` cuts the clips as a query without an image of the empty scene
-does (the background estimated from each clip), to compare silhouette front ends by
-what they do to recognition.
-
-``--compare-cuts`` (with ``--no-background``) also cuts each clip with its empty-scene
-image and prints, per label, how the estimated silhouettes agree with those
-(:func:`mask_agreement`): where the estimate loses recognition, and what it misses.
-
-``--silhouettes NAME=VALUE`` (repeatable) cuts the clips with a field of
-:class:`~eigmotion.segmentation.config.SilhouetteConfig` changed from what a query uses (the working
-size ``work_max_side_px``, the thresholds, the shadow test ...), to compare silhouette
-settings by what they do to recognition; VALUE is JSON (``shadow_ratio=[0.35,0.85]``)
-or text (``background=median``).
-
-``--segments`` also scores the clips' ``segments`` for every run: each clip alone (one
-part: its label), and each clip followed by another of a different label (two parts;
-the partner drawn with a fixed seed, both folds out of the search).  Per run: the
-share of frames whose segment has their part's label, the share given another
-specific action (:func:`~eigmotion.evaluation.segments.segment_agreement`), the segmental F1
-at 50 % overlap, and segments per clip.  ``--variant SEGMENT_SWITCH_COST=0`` gives each
-window its nearest entry's label (the clip's answer where every window has the same).
-About 20 s per run.
-
-``--unknown`` also measures the rejection of unknown motions on all the clips instead
-of the holdout suite's few: each label is left out of the search in turn (every
-motion of that label, and the clip's fold), the "unknown" threshold and the quantiles
-behind ``p_known`` calibrated again on the entries left
-(:func:`~eigmotion.retrieval.database.leave_one_motion_out_distances`, as a build of that
-database would), and every clip of that label asked.  Beside it, the false rejection
-of the clips asked with their label in the search (at the whole database's
-threshold), how well the best match's distance alone separates the two
-(:func:`~eigmotion.evaluation.scoring.separation`), and what each share of ``eigmotion query
---false-rejection`` would turn away of both
-(:func:`~eigmotion.evaluation.scoring.operating_points`).  About 30 s more.
-
-Clips are rendered into ``--clips-dir`` (every seed's into the same folder: their
-names differ) when missing (about 4 min for 184 clips) and reused; making their
-specifications (the avatar posed to frame each clip) and cutting their silhouettes
-takes about 2 min per seed, each run about 7 s.
+A variant sets query-time constants of :mod:`eigmotion.retrieval.sequences` and
+:mod:`eigmotion.retrieval.database` (:data:`QUERY_CONSTANTS`) for the length of a
+``with`` block (:class:`Variant`); each :class:`HeldOutClip` is then asked of a
+database with its fold's motions out of the search (:class:`EntryTable`,
+:func:`answer_all`), with its label out (:func:`unknown_all`), or cut into segments
+(:func:`segment_all`), and the runs are printed side by side, each against the first
+(shipped) one.  ``benchmarks/accuracy/bench_rerank.py`` is the command line.
 """
 
 from __future__ import annotations
 
-import os
+import json
+import math
+import random
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
 
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+import numpy as np
 
-import argparse  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import random  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from collections import Counter  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-from bench_accuracy import (  # noqa: E402
-    TOP_K,
-    ClipMaker,
-    random_specs,
-    subject_folds,
-    variation_folds,
-)
-
-import eigmotion.retrieval.database as database_module  # noqa: E402
-import eigmotion.retrieval.sequences as sequences_module  # noqa: E402
-from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
-from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
-from eigmotion.evaluation.scoring import (  # noqa: E402
+import eigmotion.retrieval.database as database_module
+import eigmotion.retrieval.sequences as sequences_module
+from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.query_clips import TOP_K
+from eigmotion.evaluation.scoring import (
     QueryOutcome,
     format_operating_points,
+    format_rate,
+    markdown_table,
     operating_points,
     rejection_rates,
     separation,
 )
-from eigmotion.evaluation.segments import SegmentAgreement, segment_agreement  # noqa: E402
-from eigmotion.evaluation.statistics import format_rate, markdown_table, paired_comparison  # noqa: E402
-from eigmotion.mocap.library import FILLER_LABELS, load_library  # noqa: E402
-from eigmotion.retrieval.database import (  # noqa: E402
-    DEFAULT_DB_PATH,
+from eigmotion.evaluation.segments import SegmentAgreement, segment_agreement
+from eigmotion.evaluation.statistics import paired_comparison
+from eigmotion.mocap.library import FILLER_LABELS
+from eigmotion.retrieval.database import (
     QUERY_SILHOUETTE_SIDE_PX,
     THRESHOLD_QUANTILE,
     MotionDatabase,
     calibration_quantiles,
     leave_one_motion_out_distances,
 )
-from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
-from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
-from eigmotion.segmentation.video import load_clip_masks  # noqa: E402
+from eigmotion.retrieval.search import BruteForceIndex
+from eigmotion.segmentation.config import SilhouetteConfig
 
 #: The constants a variant may set: those read while a query is answered, never
 #: those a database was built with.
@@ -136,6 +58,8 @@ QUERY_CONSTANTS = {
         "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
     ),
 }  # fmt: skip
+
+
 MODULES = {"sequences": sequences_module, "database": database_module}
 
 
@@ -193,27 +117,11 @@ def parse_silhouette_setting(text: str) -> tuple[str, object]:
         return name, value
 
 
-def silhouette_setting_argument(text: str) -> tuple[str, object]:
-    """:func:`parse_silhouette_setting` for argparse."""
-    try:
-        return parse_silhouette_setting(text)
-    except InvalidParameterError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def cut_config(settings: list[tuple[str, object]]) -> SilhouetteConfig:
     """The query's silhouette configuration with ``settings`` (from ``--silhouettes``)
     in place of its fields (InvalidParameterError naming a field or value that is wrong)."""
     fields = {"work_max_side_px": QUERY_SILHOUETTE_SIDE_PX, **dict(settings)}
     return SilhouetteConfig.from_dict(fields)
-
-
-def variant_argument(text: str) -> dict[str, float]:
-    """:func:`parse_variant` for argparse, which then prints what is wrong."""
-    try:
-        return parse_variant(text)
-    except InvalidParameterError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class Variant:
@@ -239,43 +147,6 @@ class Variant:
         self._saved.clear()
 
 
-def held_out_clips(args) -> list[HeldOutClip]:
-    """Every in-library clip of the holdout suite of each of ``args.seeds`` (rendered
-    when missing), cut out."""
-    return [clip for seed in args.seeds for clip in _held_out_clips(args, seed)]
-
-
-def _held_out_clips(args, seed: int) -> list[HeldOutClip]:
-    from tqdm import tqdm
-
-    library = load_library(include_distractors=True)
-    basic = [m for m in library if m.role == "basic"]
-    items = {m.name: m for m in basic}
-    bench_args = argparse.Namespace(seed=seed, clips_per_motion=2, quick=False, subjects=None)
-    folds = subject_folds(basic, bench_args) + variation_folds(basic, bench_args)
-    outfits = ((), *((name,) for name in BENCHMARK_GARMENTS))
-    maker = ClipMaker(args.clips_dir)
-    config = cut_config(args.silhouettes)
-    clips = []
-    for _, held in folds:
-        held_names = tuple(sorted(m.name for m in held))
-        known = {m.label for m in basic if m.name not in held_names}
-        # the fold's out-of-library clips (a label it holds out whole) are not scored
-        specs = [s for m in held for s in random_specs(m, bench_args, maker, outfits)]
-        specs = [s for s in specs if s.label in known]
-        for spec in tqdm(specs, desc="clips", unit="clip", leave=False):
-            clip = maker.make(spec, items[spec.motion])
-            background = clip.background if args.background else None
-            cut = load_clip_masks(clip.video, background, config, args.sample_fps)
-            given = None
-            if args.compare_cuts:
-                given = load_clip_masks(clip.video, clip.background, config, args.sample_fps).masks
-            clips.append(
-                HeldOutClip(clip.video.stem, spec.label, held_names, cut.masks, cut.fps, given)
-            )
-    return clips
-
-
 def motion_names(db: MotionDatabase) -> dict[int, str]:
     """Motion id → the stored motion's name."""
     return {
@@ -295,7 +166,7 @@ def answer_all(db_path: Path, clips: list[HeldOutClip]) -> list[QueryOutcome]:
             entries.search_only(db, ~np.isin(entries.motion, held))
             for i, clip in enumerate(clips):
                 if clip.held_out == held:
-                    answers[i] = _outcome(db, clip, in_library=True)
+                    answers[i] = query_outcome(db, clip, in_library=True)
     return [answers[i] for i in range(len(clips))]
 
 
@@ -327,7 +198,7 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
                 db.calibration_quantiles = np.asarray(quantiles)
                 for i, clip in enumerate(clips):
                     if clip.label == label and clip.held_out == held:
-                        answers[i] = _outcome(db, clip, in_library=False)
+                        answers[i] = query_outcome(db, clip, in_library=False)
     return [answers[i] for i in range(len(clips))], thresholds
 
 
@@ -366,7 +237,7 @@ class EntryTable:
         db.index = BruteForceIndex.from_arrays(self.arrays.points[kept], self.arrays.ids[kept])
 
 
-def _outcome(db: MotionDatabase, clip: HeldOutClip, in_library: bool) -> QueryOutcome:
+def query_outcome(db: MotionDatabase, clip: HeldOutClip, in_library: bool) -> QueryOutcome:
     result = db.query_masks(clip.masks, clip.fps)
     return QueryOutcome(
         clip.label,
@@ -389,98 +260,11 @@ def scores(clips: list[HeldOutClip], answers: list[QueryOutcome]) -> dict:
     return {"n": n, "top1": top1, "topk": topk}
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--db", type=Path, default=DEFAULT_DB_PATH)
-    parser.add_argument(
-        "--seed",
-        dest="seeds",
-        type=int,
-        action="append",
-        help="the holdout clips of this seed (repeatable: the clips of every seed together; "
-        "default 0)",
-    )
-    parser.add_argument("--clips-dir", type=Path, default=Path("/tmp/eigmotion-holdout-clips"))
-    parser.add_argument("--variant", action="append", default=[], type=variant_argument)
-    parser.add_argument(
-        "--no-background",
-        dest="background",
-        action="store_false",
-        help="cut the clips without their empty-scene images (estimated from each clip)",
-    )
-    parser.add_argument(
-        "--compare-cuts",
-        action="store_true",
-        help="with --no-background: also cut each clip with its empty-scene image and print "
-        "how the estimated silhouettes agree with those, per label",
-    )
-    parser.add_argument(
-        "--silhouettes",
-        action="append",
-        default=[],
-        type=silhouette_setting_argument,
-        metavar="NAME=VALUE",
-        help="cut the clips with this SilhouetteConfig field changed (repeatable), e.g. "
-        "low_factor=2.5 or work_max_side_px=320",
-    )
-    parser.add_argument(
-        "--unknown",
-        action="store_true",
-        help="also ask every clip with its label left out of the search: rejection",
-    )
-    parser.add_argument(
-        "--segments",
-        action="store_true",
-        help="also score the segments of each clip alone and of two clips one after the other",
-    )
-    args = parser.parse_args(argv)
-    args.seeds = sorted(set(args.seeds or [0]))
-    if args.compare_cuts and args.background:
-        raise InvalidParameterError("--compare-cuts compares cuts made with --no-background")
-    with MotionDatabase.open(args.db) as db:
-        args.sample_fps = db.config.motion_image.sample_fps
-        stored = set(motion_names(db).values())
-    basic = {m.name for m in load_library(include_distractors=True) if m.role == "basic"}
-    if stored != basic:
-        raise InvalidParameterError(
-            f"{args.db}: holds {len(stored)} motions, not the library's {len(basic)} basic "
-            "motions; rebuild it with `eigmotion build`"
-        )
-    cut_config(args.silhouettes)  # a wrong field or value stops the run before any cut
-    t0 = time.perf_counter()
-    clips = held_out_clips(args)
-    seconds = time.perf_counter() - t0
-    how = "with their backgrounds" if args.background else "without their backgrounds"
-    if args.silhouettes:
-        how += " (" + ", ".join(f"{name}={value}" for name, value in args.silhouettes) + ")"
-    seeds = ", ".join(map(str, args.seeds))
-    print(f"{len(clips)} holdout clips (seed {seeds}), cut out {how} in {seconds:.0f} s")
-    runs = [("shipped", {})]
-    runs += [(",".join(f"{k}={v:g}" for k, v in values.items()), values) for values in args.variant]
-    outcomes, segmented = {}, {}
-    pairs = composite_pairs(clips) if args.segments else []
-    for name, values in runs:
-        t0 = time.perf_counter()
-        with Variant(values):
-            outcomes[name] = answer_all(args.db, clips)
-            if args.segments:
-                segmented[name] = segment_all(args.db, clips, pairs)
-        print(f"{name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    print_runs(clips, outcomes)
-    if args.segments:
-        print_segments(segmented)
-    if args.compare_cuts:
-        print_mask_agreement(clips)
-    if args.unknown:
-        print_unknown(outcomes["shipped"], *unknown_all(args.db, clips))
-    return 0
-
-
-def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]) -> None:
+def runs_report(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]) -> str:
     """Each run's top-1 and top-k beside the first (shipped) run's on the same clips.
 
     Beside each count, the ratio to the shipped one and the clips it gained and lost,
-    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.statistics.
+    with the exact McNemar test's p-value (:func:`~eigmotion.evaluation.scoring.
     paired_comparison`): a variant that gains 7 clips and loses 3 has p = 0.34, no
     evidence of a better setting.  Then top-1 per label.
 
@@ -489,7 +273,13 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     clips : list of HeldOutClip
     outcomes : dict
         Run name → its answers, one per clip in ``clips``' order; the shipped run first.
+
+    Returns
+    -------
+    str
+        The tables, as printed.
     """
+    lines: list[str] = []
     names = list(outcomes)
     shipped = outcomes[names[0]]
     results = {name: scores(clips, answers) for name, answers in outcomes.items()}
@@ -508,9 +298,9 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
     header = ["setting"]
     for k in (1, TOP_K):
         header += [f"top-{k}", "÷ shipped", "clips gained, lost", "p (McNemar)"]
-    print("\n".join(markdown_table(header, rows)))
+    lines.append("\n".join(markdown_table(header, rows)))
     first = results[names[0]]
-    print(
+    lines.append(
         f"\nshipped: top-1 {format_rate(sum(first['top1'].values()), len(clips))}, "
         f"top-{TOP_K} {format_rate(sum(first['topk'].values()), len(clips))}"
     )
@@ -519,8 +309,9 @@ def print_runs(clips: list[HeldOutClip], outcomes: dict[str, list[QueryOutcome]]
         [name, *(f"{s['top1'][label]}/{s['n'][label]}" for label in labels)]
         for name, s in results.items()
     ]
-    print()
-    print("\n".join(markdown_table(["top-1 per label", *labels], per_label)))
+    lines.append("")
+    lines.append("\n".join(markdown_table(["top-1 per label", *labels], per_label)))
+    return "\n".join(lines)
 
 
 def composite_pairs(clips: list[HeldOutClip], seed: int = 0) -> list[tuple[int, int]]:
@@ -564,10 +355,11 @@ def segment_all(
     return found
 
 
-def print_segments(segmented: dict[str, dict[str, list[SegmentAgreement]]]) -> None:
+def segments_report(segmented: dict[str, dict[str, list[SegmentAgreement]]]) -> str:
     """The ``--segments`` table: per run and kind of clip, the frames given their
     part's label and another specific action's, the segmental F1 and the segments per
     clip, each beside the first (shipped) run's as a ratio."""
+    lines: list[str] = []
 
     def figures(found: list[SegmentAgreement]) -> list[float]:
         frames = sum(a.frames for a in found)
@@ -588,8 +380,9 @@ def print_segments(segmented: dict[str, dict[str, list[SegmentAgreement]]]) -> N
             cells = [f"{v:.3f} ({v / f:.2f})" if f else f"{v:.3f}" for v, f in beside]
             rows.append([name, f"{kind} ({len(clips_of_kind)})", *cells])
     header = ["setting", "clips", "frames right", "frames wrong", "F1@50", "segments per clip"]
-    print("\nSegments (÷ shipped in brackets):\n")
-    print("\n".join(markdown_table(header, rows)))
+    lines.append("\nSegments (÷ shipped in brackets):\n")
+    lines.append("\n".join(markdown_table(header, rows)))
+    return "\n".join(lines)
 
 
 @dataclass(frozen=True)
@@ -635,10 +428,11 @@ def mask_agreement(estimated: np.ndarray, given: np.ndarray) -> MaskAgreement:
     )
 
 
-def print_mask_agreement(clips: list[HeldOutClip]) -> None:
+def mask_agreement_report(clips: list[HeldOutClip]) -> str:
     """The ``--compare-cuts`` table: per label, the mean over its clips of
     :func:`mask_agreement`'s fractions, and the share of the still body missed
     (pooled over the clips)."""
+    lines: list[str] = []
     found = [(clip.label, mask_agreement(clip.masks, clip.given_masks)) for clip in clips]
     rows = []
     for label in [*sorted({label for label, _ in found}), "all"]:
@@ -650,12 +444,14 @@ def print_mask_agreement(clips: list[HeldOutClip]) -> None:
              f"{sum(a.still_missed for a in part) / still:.2f}" if still else "—"]
         )  # fmt: skip
     header = ["label", "clips", "IoU", "missed", "added", "still body missed"]
-    print("\nThe silhouettes cut without the empty-scene image against those cut with it:\n")
-    print("\n".join(markdown_table(header, rows)))
+    lines.append("\nThe silhouettes cut without the empty-scene image against those cut with it:\n")
+    lines.append("\n".join(markdown_table(header, rows)))
+    return "\n".join(lines)
 
 
-def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresholds: dict):
+def unknown_report(known: list[QueryOutcome], unknown: list[QueryOutcome], thresholds: dict) -> str:
     """The ``--unknown`` tables: rejection per label left out, then overall."""
+    lines: list[str] = []
     rows = []
     for label, threshold in thresholds.items():
         asked = [o for o in unknown if o.true_label == label]
@@ -665,12 +461,12 @@ def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresh
             [label, f"{threshold:.3f}", f"{rejected}/{len(asked)}",
              ", ".join(f"{name} {count}" for name, count in answered)]
         )  # fmt: skip
-    print()
+    lines.append("")
     header = ["label left out", "threshold", "rejected", "accepted as (most often)"]
-    print("\n".join(markdown_table(header, rows)))
+    lines.append("\n".join(markdown_table(header, rows)))
     rates = rejection_rates(known + unknown)
     alone = separation(known + unknown)
-    print(
+    lines.append(
         f"\nunknown motions rejected {format_rate(rates.rejected, rates.n_out_of_library)}; "
         f"known motions falsely rejected {format_rate(rates.false_rejected, rates.n_in_library)} "
         f"(at the whole database's threshold)\n"
@@ -679,16 +475,9 @@ def print_unknown(known: list[QueryOutcome], unknown: list[QueryOutcome], thresh
         f"{alone.n_out_of_library} unknown ones"
     )
     if all(o.p_known is not None for o in known + unknown):
-        print(
+        lines.append(
             "\nAt other shares of `eigmotion query --false-rejection` (each clip judged by "
             "its p_known against the calibration of the database it was asked of):\n"
         )
-        print(format_operating_points(operating_points(known + unknown)))
-
-
-if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except EigmotionError as exc:
-        print(f"bench_rerank: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+        lines.append(format_operating_points(operating_points(known + unknown)))
+    return "\n".join(lines)

@@ -22,7 +22,7 @@ The renders are cached per motion in ``--cache`` (default
 ``/tmp/eigmotion-bench-motion-image-configs``), so a second run only computes motion
 images.  Run from the repository root with the venv active::
 
-    python benchmarks/bench_motion_image_configs.py [--motions all|N|NAME,...]
+    python benchmarks/studies/bench_motion_image_configs.py [--motions all|N|NAME,...]
         [--configs 1,2,...] [--cache DIR]
 
 The whole library takes about 6 min on two cores (most of it rendering, once);
@@ -37,11 +37,11 @@ import zlib
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import PLAIN_CONFIG, int_list, offset_camera, ratio
 
 from eigmotion.body.avatar import load_default_avatar
 from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import VideoError
+from eigmotion.evaluation.measures import PLAIN_CONFIG, ratio
 from eigmotion.imaging.cameras import ring_rig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
@@ -49,6 +49,7 @@ from eigmotion.retrieval.build import window_bounds
 from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image
 from eigmotion.segmentation.video import extract_silhouettes
 from eigmotion.synth.scene import compose_scene
+from eigmotion.synth.walk_scenes import offset_camera
 
 FPS = 30.0
 WINDOW_S, STEP_S, QUERY_OFFSET_S = 1.5, 0.5, 0.25
@@ -70,6 +71,11 @@ CONFIGS = (
     ("image   recency  sobel 32 sil0.5", dict(frame="image")),
     ("person  recency  sobel 32 sil0.5 step 2", dict(step=2)),
 )
+
+
+def int_list(text: str) -> list[int]:
+    """``"0,1,2"`` → ``[0, 1, 2]`` (an argparse type)."""
+    return [int(part) for part in text.split(",") if part.strip()]
 
 
 def select_motions(text: str) -> list:

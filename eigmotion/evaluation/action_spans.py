@@ -1,35 +1,25 @@
-"""The library's action spans: body signals over time, the span shaded, the windows.
+"""The library's action spans as the body measures them, and their plot.
 
-For every library motion with an ``action`` span in the manifest (or the motions
-named), plots over time the signals the spans are read from — horizontal root speed
-(m/s), hip height, the lower ankle's height (both feet off the floor when it rises),
-the higher hand's height (m), and on a second axis the hips' heading rate (°/s) —
-shades the span, and draws under it the build's sliding windows coloured by the label
-each gets (:func:`eigmotion.retrieval.build.window_labels`: the action's, the filler's, or left
-out).  Prints one line per motion: the manifest's span and filler, the span its
-label's rule measures (:func:`measured_span`; turns and jumps), what the person does
-before and after it and the filler that makes (:func:`measured_filler`), and the
-windows per label.
-
-    python benchmarks/plot_action_spans.py [NAME ...] [--out docs/library/action_spans.png]
-
-See docs/library.md (action spans) for how each span was read off these signals.
+The manifest's ``action`` spans of turns and jumps, and the filler before and after
+them, are read off body signals over time (:func:`body_signals`) by one rule per label
+(:func:`measured_span`, :func:`measured_filler`); :func:`plot` draws the signals, the
+span shaded and the build's windows coloured by the label each gets.
+``benchmarks/studies/plot_action_spans.py`` prints and plots them; docs/library.md
+(action spans) says how each span was read off these signals.
 """
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from eigmotion.mocap.kinematics import forward_kinematics
-from eigmotion.mocap.library import FILLER_LABELS, LibraryMotion, load_library
+from eigmotion.mocap.library import FILLER_LABELS, LibraryMotion
 from eigmotion.mocap.naming import canonical_joint_map
 from eigmotion.retrieval.build import BuildConfig, window_bounds, window_labels
 
-REPO = Path(__file__).resolve().parents[1]
 #: Signals are averaged over this long (a walking stride's pelvis sway, frame noise).
 SMOOTH_S = 0.25
 #: A turn is where the hips turn faster than this, deg/s (the stretch around the fastest
@@ -179,7 +169,7 @@ def plot(items: list[LibraryMotion], config: BuildConfig, out: Path) -> None:
                 LEFT_OUT_RGB if label is None else ACTION_RGB if label == item.label else FILLER_RGB
             )
             ax.plot([a, b], [-0.12 - 0.07 * i] * 2, color=colour, lw=3, solid_capstyle="butt")
-        span = "whole motion" if item.action is None else f"action {_span(item.action)} s"
+        span = "whole motion" if item.action is None else f"action {span_text(item.action)} s"
         filler = f", filler {item.filler}" if item.filler else ""
         ax.set_title(f"{item.name} ({item.label}): {span}{filler}", fontsize=9)
         ax.set_xlim(0.0, item.motion.duration_s)
@@ -199,45 +189,6 @@ def plot(items: list[LibraryMotion], config: BuildConfig, out: Path) -> None:
     plt.close(fig)
 
 
-def _span(span: tuple[float, float] | None) -> str:
+def span_text(span: tuple[float, float] | None) -> str:
+    """``"a.aa-b.bb"`` seconds, or ``"-"`` for no span."""
     return "-" if span is None else f"{span[0]:.2f}-{span[1]:.2f}"
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("names", nargs="*", help="library motions (default: those with a span)")
-    parser.add_argument("--out", type=Path, default=REPO / "docs/library/action_spans.png")
-    args = parser.parse_args()
-    library = load_library(include_distractors=True)
-    if args.names:
-        by_name = {item.name: item for item in library}
-        unknown = [n for n in args.names if n not in by_name]
-        if unknown:
-            raise SystemExit(f"not in the library: {', '.join(unknown)}")
-        items = [by_name[n] for n in args.names]
-    else:
-        items = [i for i in library if i.action is not None and i.mirror_of is None]
-    config = BuildConfig()
-    print(
-        f"{'motion':26s} {'label':9s} {'action (s)':11s} {'filler':6s} {'measured (s)':12s} "
-        f"{'before/after (filler)':22s} windows"
-    )
-    for item in items:
-        _, labels = build_windows(item, config)
-        counts = {str(label): labels.count(label) for label in dict.fromkeys(labels)}
-        signals = body_signals(item)
-        measured = measured_span(item, signals)
-        around = "-"
-        if measured is not None:
-            around = "/".join(outside_action(signals, measured))
-            around += f" ({measured_filler(signals, measured) or '-'})"
-        print(
-            f"{item.name:26s} {item.label:9s} {_span(item.action):11s} {item.filler or '-':6s} "
-            f"{_span(measured):12s} {around:22s} {counts}"
-        )
-    plot(items, config, args.out)
-    print(f"wrote {args.out}")
-
-
-if __name__ == "__main__":
-    main()

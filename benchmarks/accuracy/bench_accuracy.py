@@ -42,12 +42,12 @@ with every query, as JSON; ``compare_runs.py`` compares two such files clip by c
 
 Run from the repository root::
 
-    python benchmarks/bench_accuracy.py seen
-    python benchmarks/bench_accuracy.py loso --rig virtual_cameras/ring6.toml
-    python benchmarks/bench_accuracy.py holdout --rig virtual_cameras/ring6.toml
-    python benchmarks/bench_accuracy.py unknown --json-out unknown.json
-    python benchmarks/bench_accuracy.py all --clips-dir /tmp/clips    # reuse clips
-    python benchmarks/bench_accuracy.py seen --quick                  # smoke run
+    python benchmarks/accuracy/bench_accuracy.py seen
+    python benchmarks/accuracy/bench_accuracy.py loso --rig virtual_cameras/ring6.toml
+    python benchmarks/accuracy/bench_accuracy.py holdout --rig virtual_cameras/ring6.toml
+    python benchmarks/accuracy/bench_accuracy.py unknown --json-out unknown.json
+    python benchmarks/accuracy/bench_accuracy.py all --clips-dir /tmp/clips    # reuse clips
+    python benchmarks/accuracy/bench_accuracy.py seen --quick                  # smoke run
 
 Clips are rendered into ``--clips-dir`` (a temporary folder by default) under names
 that hold every parameter, and reused when already there.  On a shared 2-core machine
@@ -68,45 +68,46 @@ import json  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
-import zlib  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 from dataclasses import asdict, dataclass, replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from eigmotion.body.garments import dress  # noqa: E402
-from eigmotion.body.retarget import animate_avatar  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
+from eigmotion.evaluation.query_clips import (  # noqa: E402
+    BODY_SHAPES,
+    CLIP_FPS,
+    DEFAULT_RIG,
+    HEIGHT_PX,
+    LOSO_ELEVATION_DEG,
+    TOP_K,
+    WIDTH_PX,
+    ClipFiles,
+    ClipMaker,
+    ClipSpec,
+    halfway_views,
+    random_specs,
+    seen_specs,
+    subject_folds,
+    variation_folds,
+)
 from eigmotion.evaluation.scoring import (  # noqa: E402
     QueryOutcome,
     format_operating_points,
     format_score,
+    markdown_table,
     operating_points,
     score,
 )
-from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
-from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
+from eigmotion.imaging.cameras import load_rig  # noqa: E402
 from eigmotion.mocap.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
+from eigmotion.resources import rigs_dir  # noqa: E402
 from eigmotion.retrieval.build import BuildConfig  # noqa: E402
 from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
-from eigmotion.synth.clips import clip_camera  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
-DEFAULT_RIG = REPO / "virtual_cameras" / "default.toml"
-QUICK_RIG = REPO / "virtual_cameras" / "ring6.toml"
+QUICK_RIG = rigs_dir() / "ring6.toml"
 
-#: Body shapes of the query clips, (height_m, girth): none is the database's own.
-BODY_SHAPES: tuple[tuple[float, float], ...] = ((1.62, 1.2), (1.85, 0.9))
-WIDTH_PX, HEIGHT_PX = 320, 240
-CLIP_FPS = 30.0
-#: Frame margin of the ``seen`` and ``unknown`` clips (the motion fills the frame).
-SEEN_MARGIN = 0.08
-#: Elevation when the rig has a single row of cameras, degrees.
-SINGLE_ROW_ELEVATION_DEG = 10.0
-LOSO_ELEVATION_DEG = (-5.0, 30.0)
-LOSO_PERSON_PX = (50.0, 200.0)
-TOP_K = 3
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
 #: Label given to a query the engine could not answer (e.g. no person found).
 NO_ANSWER = "(no answer)"
@@ -114,207 +115,6 @@ SUITES = ("seen", "loso", "holdout", "unknown")
 
 
 # -- clips ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ClipSpec:
-    """One query clip to render.
-
-    Attributes
-    ----------
-    motion, label : str
-        Library motion and its label.
-    height_m, girth : float
-        Body shape.
-    azimuth_deg, elevation_deg : float
-        Camera direction.
-    margin : float
-        Fraction of the frame kept free around the whole motion.
-    seed : int
-        Seed of the scene (background, shadow, clothing, noise).
-    outfit : tuple of str
-        Garments the body wears (:data:`eigmotion.body.garments.GARMENTS`).
-    """
-
-    motion: str
-    label: str
-    height_m: float
-    girth: float
-    azimuth_deg: float
-    elevation_deg: float
-    margin: float
-    seed: int
-    outfit: tuple[str, ...] = ()
-
-    @property
-    def stem(self) -> str:
-        dressed = "".join(f"_{name}" for name in self.outfit)
-        return (
-            f"{self.motion}__h{self.height_m:.2f}_g{self.girth:.2f}{dressed}"
-            f"__az{self.azimuth_deg:05.1f}_el{self.elevation_deg:+05.1f}"
-            f"__m{self.margin:.3f}__s{self.seed}"
-        )
-
-
-@dataclass(frozen=True)
-class ClipFiles:
-    """A rendered clip on disk."""
-
-    video: Path
-    background: Path
-    person_px: float
-    render_s: float
-
-
-def clip_seed(seed: int, *parts: object) -> int:
-    """A stable 31-bit seed from the run's seed and the clip's identity."""
-    return zlib.crc32("/".join(map(str, (seed, *parts))).encode()) & 0x7FFFFFFF
-
-
-def halfway_views(rig: CameraRig) -> tuple[np.ndarray, np.ndarray]:
-    """Directions halfway between a rig's cameras.
-
-    Returns
-    -------
-    azimuths_deg : (A,) float64
-        Midpoints between neighbouring camera azimuths, around the circle.
-    elevations_deg : (E,) float64
-        Midpoints between neighbouring camera rows, or the single row's elevation +
-        :data:`SINGLE_ROW_ELEVATION_DEG`.
-    """
-    az = np.unique(np.round([c.azimuth_deg % 360.0 for c in rig.cameras], 6))
-    el = np.unique(np.round([c.elevation_deg for c in rig.cameras], 6))
-    nxt = np.append(az[1:], az[0] + 360.0)
-    azimuths = ((az + nxt) / 2.0) % 360.0
-    if len(el) > 1:
-        elevations = (el[:-1] + el[1:]) / 2.0
-    else:
-        elevations = el + SINGLE_ROW_ELEVATION_DEG
-    return azimuths, elevations
-
-
-def seen_specs(item: LibraryMotion, rig: CameraRig, n_clips: int, seed: int) -> list[ClipSpec]:
-    """``n_clips`` clips of ``item`` from views halfway between ``rig``'s cameras.
-
-    Clip ``j`` uses body shape ``j mod 2`` and a view drawn without repetition (while
-    there are views left) from :func:`halfway_views`; clip 0 is the same whatever
-    ``n_clips`` is, so suites share it.
-    """
-    azimuths, elevations = halfway_views(rig)
-    rng = np.random.default_rng(clip_seed(seed, "views", item.name))
-    order = rng.permutation(len(azimuths))
-    specs = []
-    for j in range(n_clips):
-        height_m, girth = BODY_SHAPES[j % len(BODY_SHAPES)]
-        specs.append(
-            ClipSpec(
-                item.name,
-                item.label,
-                height_m,
-                girth,
-                float(azimuths[order[j % len(order)]]),
-                float(elevations[j % len(elevations)]),
-                SEEN_MARGIN,
-                clip_seed(seed, "scene", item.name, j),
-            )
-        )
-    return specs
-
-
-class ClipMaker:
-    """Renders query clips into a folder (or finds them there), one body per shape.
-
-    Parameters
-    ----------
-    clips_dir : Path
-        Where ``<stem>.mp4``, ``<stem>_background.png`` and ``<stem>.json`` go.
-    """
-
-    def __init__(self, clips_dir: Path):
-        self.clips_dir = Path(clips_dir)
-        self.clips_dir.mkdir(parents=True, exist_ok=True)
-        self._bodies: dict = {}
-
-    def body(self, height_m: float, girth: float, outfit: tuple[str, ...] = ()):
-        from eigmotion.body.avatar import load_default_avatar
-
-        key = (height_m, girth, outfit)
-        if key not in self._bodies:
-            shaped = load_default_avatar().with_shape(height_m=height_m, girth=girth)
-            self._bodies[key] = dress(shaped, outfit)
-        return self._bodies[key]
-
-    def margin_for_person_px(
-        self,
-        item: LibraryMotion,
-        shape: tuple[float, float],
-        azimuth_deg: float,
-        elevation_deg: float,
-        person_px: float,
-        outfit: tuple[str, ...] = (),
-    ) -> float:
-        """The frame margin that makes the person about ``person_px`` tall.
-
-        The camera fitted with margin :data:`SEEN_MARGIN` gives the largest view; the
-        image scales with the fraction of the frame the motion may fill,
-        ``1 - 2 margin``.  Clipped to ``[SEEN_MARGIN, 0.45]``: a motion that travels far
-        cannot show its person bigger.
-        """
-        _, vertices = animate_avatar(self.body(*shape, outfit), item.motion.resample(CLIP_FPS))
-        camera = clip_camera(vertices, azimuth_deg, elevation_deg, WIDTH_PX, HEIGHT_PX, SEEN_MARGIN)
-        pixels, _ = camera.project(vertices)
-        full_px = float(np.median(np.ptp(pixels[..., 1], axis=1)))
-        fill = (1.0 - 2.0 * SEEN_MARGIN) * person_px / max(full_px, 1e-9)
-        return float(np.clip(0.5 * (1.0 - fill), SEEN_MARGIN, 0.45))
-
-    def make(self, spec: ClipSpec, item: LibraryMotion) -> ClipFiles:
-        from eigmotion.imaging.figures import save_image
-        from eigmotion.imaging.media import write_video
-        from eigmotion.synth.clips import render_clip
-
-        video = self.clips_dir / f"{spec.stem}.mp4"
-        background = self.clips_dir / f"{spec.stem}_background.png"
-        info = self.clips_dir / f"{spec.stem}.json"
-        if video.is_file() and background.is_file() and info.is_file():
-            return ClipFiles(video, background, json.loads(info.read_text())["person_px"], 0.0)
-        t0 = time.perf_counter()
-        clip = render_clip(
-            item.motion,
-            self.body(spec.height_m, spec.girth),
-            spec.azimuth_deg,
-            spec.elevation_deg,
-            np.random.default_rng(spec.seed),
-            width=WIDTH_PX,
-            height=HEIGHT_PX,
-            fps=CLIP_FPS,
-            margin=spec.margin,
-            garments=spec.outfit,
-        )
-        write_video(clip.frames, video, clip.fps)
-        save_image(clip.background, background)
-        person_px = person_height_px(clip.true_masks)
-        info.write_text(json.dumps({"person_px": person_px, "n_frames": len(clip.frames)}))
-        return ClipFiles(video, background, person_px, time.perf_counter() - t0)
-
-
-def person_height_px(masks: np.ndarray) -> float:
-    """Median over frames of the silhouette's bounding-box height.
-
-    Parameters
-    ----------
-    masks : (F, H, W) bool
-
-    Returns
-    -------
-    float
-        Pixels; 0 when no frame shows the person.
-    """
-    heights = []
-    for mask in masks:
-        rows = np.flatnonzero(mask.any(axis=1))
-        if len(rows):
-            heights.append(rows[-1] - rows[0] + 1)
-    return float(np.median(heights)) if heights else 0.0
 
 
 # -- databases and queries --------------------------------------------------------------
@@ -544,29 +344,6 @@ def suite_seen(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) 
     return {"built": built, "scores": {"default": scored}, "queries": records}
 
 
-def random_specs(
-    item: LibraryMotion, args, maker: ClipMaker, outfits: Sequence[tuple[str, ...]] = ((),)
-) -> list[ClipSpec]:
-    """``--clips-per-motion`` clips from random views, the person 50–200 px tall.
-
-    Clip ``j`` has body shape ``j mod 2`` and outfit ``(j + o) mod len(outfits)``, where
-    the offset ``o`` is drawn per motion, so that every outfit shows up across motions.
-    """
-    rng = np.random.default_rng(clip_seed(args.seed, "random-views", item.name))
-    offset = int(rng.integers(len(outfits))) if len(outfits) > 1 else 0
-    specs = []
-    for j in range(args.clips_per_motion):
-        shape = BODY_SHAPES[j % len(BODY_SHAPES)]
-        outfit = tuple(outfits[(j + offset) % len(outfits)])
-        az = float(np.round(rng.uniform(0.0, 360.0), 1))
-        el = float(np.round(rng.uniform(*LOSO_ELEVATION_DEG), 1))
-        px = float(rng.uniform(*LOSO_PERSON_PX))
-        margin = round(maker.margin_for_person_px(item, shape, az, el, px, outfit), 3)
-        seed = clip_seed(args.seed, "random-scene", item.name, j)
-        specs.append(ClipSpec(item.name, item.label, *shape, az, el, margin, seed, outfit))
-    return specs
-
-
 def suite_loso(args, basic: list[LibraryMotion], distractors, maker: ClipMaker) -> dict:
     """Each CMU performer's motions against a database built without them."""
     folds = subject_folds(basic, args)
@@ -586,39 +363,6 @@ def suite_holdout(args, basic: list[LibraryMotion], distractors, maker: ClipMake
     folds = subject_folds(basic, args) + variation_folds(basic, args)
     outfits = ((), *((name,) for name in BENCHMARK_GARMENTS))
     return run_folds("holdout", folds, basic, maker, args, outfits)
-
-
-def subject_folds(basic: Sequence[LibraryMotion], args) -> list[tuple[str, list]]:
-    """``(fold name, held-out motions)``: one fold per CMU performer (``--subjects``)."""
-    subjects = sorted({m.performer for m in basic if m.performer.startswith("cmu_")})
-    if args.subjects:
-        unknown = sorted(set(args.subjects) - set(subjects))
-        if unknown:
-            raise InvalidParameterError(
-                f"--subjects: {unknown} not among the library's CMU performers {subjects}"
-            )
-        subjects = list(args.subjects)
-    elif args.quick:
-        subjects = sorted(subjects, key=lambda s: sum(m.performer == s for m in basic))[:2]
-    return [(s, [m for m in basic if m.performer == s]) for s in subjects]
-
-
-def variation_folds(basic: Sequence[LibraryMotion], args) -> list[tuple[str, list]]:
-    """``(fold name, held-out motions)``: fold ``k`` holds out the ``k``-th authored
-    motion of every label (library order) and its mirror image."""
-    by_label: dict[str, list[str]] = {}
-    for m in basic:
-        if m.performer == "authored" and m.mirror_of is None:
-            by_label.setdefault(m.label, []).append(m.name)
-    n_folds = max((len(names) for names in by_label.values()), default=0)
-    if args.quick:
-        n_folds = min(n_folds, 1)
-    folds = []
-    for k in range(n_folds):
-        held_names = {names[k] for names in by_label.values() if k < len(names)}
-        held = [m for m in basic if m.name in held_names or m.mirror_of in held_names]
-        folds.append((f"authored_{k}", held))
-    return folds
 
 
 def run_folds(
@@ -882,7 +626,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "unknown": suite_unknown,
     }
     out = {
-        "command": ["python", "benchmarks/bench_accuracy.py", *(argv or sys.argv[1:])],
+        "command": ["python", "benchmarks/accuracy/bench_accuracy.py", *(argv or sys.argv[1:])],
         "settings": {
             "db": str(args.db),
             "plain_bodies": args.plain_bodies,

@@ -1,4 +1,4 @@
-"""Timing helpers shared by the benchmark scripts."""
+"""Wall-clock timing of a piece of work, as the speed benchmarks report it."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ With ``--figure PATH`` it also writes the contact sheet of ``docs/avatar.md``: t
 plain body and each garment in three frames of the walk (widest stride, legs
 passing, next stride) and three of the kick (chamber, highest, recoil), shaded.
 
-    python benchmarks/bench_garments.py [--figure docs/images/garments.png]
+    python benchmarks/speed/bench_garments.py [--figure docs/images/garments.png]
 """
 
 from __future__ import annotations
@@ -28,12 +28,17 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 import argparse  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _timing import best_time  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 from eigmotion.body.avatar import Avatar, load_default_avatar  # noqa: E402
-from eigmotion.body.garments import GARMENTS, DressedAvatar, dress, garment_mesh  # noqa: E402
+from eigmotion.body.garments import (  # noqa: E402
+    GARMENTS,
+    DressedAvatar,
+    dress,  # noqa: E402
+    garment_mesh,
+)
 from eigmotion.body.retarget import animate_avatar  # noqa: E402
+from eigmotion.evaluation.timing import best_time  # noqa: E402
 from eigmotion.imaging.cameras import virtual_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import find_motion  # noqa: E402

@@ -14,7 +14,7 @@ skeleton, a random root shift); the camera is one view of the default rig, fitte
 all frames.  Skinning speed is printed too: the build pays it once per frame, the
 rendering once per frame and view.
 
-    python benchmarks/bench_render.py [--frames 300] [--faces 4000] [--view 30 10]
+    python benchmarks/speed/bench_render.py [--frames 300] [--faces 4000] [--view 30 10]
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def cmu_pose_transforms(clip: str, n_frames: int, avatar):
     from eigmotion.body.retarget import retarget
     from eigmotion.mocap.amc import read_amc
 
-    cmu = Path(__file__).resolve().parents[1] / "database" / "motions" / "cmu"
+    cmu = Path(__file__).resolve().parents[2] / "database" / "motions" / "cmu"
     motion = read_amc(cmu / "amc" / f"{clip}.amc", cmu / "asf" / f"{clip.split('_')[0]}.asf")
     animation = retarget(motion.trim(0, min(n_frames, motion.n_frames)), avatar)
     return animation.joint_rotations, animation.joint_positions

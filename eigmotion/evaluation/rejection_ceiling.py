@@ -1,51 +1,28 @@
 """How well "unknown" could be told at best: the database's own renderings as queries.
 
-A query of a library action done by someone new should lie nearer the database than a
-query of an action the library does not hold, or no threshold can reject the one and
-accept the other.  This asks the question where it is easiest: every whole-motion
-entry of the database (its own bodies, one of its own cameras, perfect silhouettes)
-is asked twice, by its eigenspace point against the stored entries —
-
-- as a **new performance** of a known action: its own performance (the motion and its
-  mirror image) left out, so its nearest entry is another performance, most often of
-  its own label;
-- as an **unknown action**: every entry of its label left out.
-
-Each time only the entries rendered on the *other* bodies are searched, as the
-threshold's calibration does (every body for a database of one; ``--own-body``
-searches every body, the easier case of a query on one of the database's own
-bodies).  Printed: per label, the median nearest distance both ways and how well it
-separates them (AUC); overall, the AUC and the unknown actions rejected where 5 % of
-the new performances are turned away — by one threshold over all, and by a threshold
-per answer label (the answer's label's own 95th percentile).  The goal beside it:
->= 90 % rejected at <= 5 % false rejection.
-
-Usage::
-
-    python benchmarks/bench_rejection_ceiling.py [--db database/eigmotion.fs] [--own-body]
-
-About 8 s on the default database (49,236 entries).
+Every whole-motion entry of a database is asked twice by its eigenspace point, as a
+new performance of a known action (its own performance left out) and as an unknown
+action (its whole label left out) (:func:`ask_both_ways`);
+:func:`rejection_ceiling_report` tables how well the two are told apart.
+``benchmarks/studies/bench_rejection_ceiling.py`` is the command line and says more.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
-from pathlib import Path
+import os
 
 import numpy as np
 from sklearn.metrics import roc_auc_score
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from bench_rerank import EntryTable  # noqa: E402
-
-from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
-from eigmotion.evaluation.statistics import format_rate, markdown_table  # noqa: E402
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase  # noqa: E402
+from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.query_variants import EntryTable
+from eigmotion.evaluation.statistics import format_rate, markdown_table
+from eigmotion.retrieval.database import MotionDatabase
 
 #: Share of new performances turned away at the operating point compared.
 FALSE_REJECTION = 0.05
+
+
 #: The goal the operating point is held against: share of unknown actions rejected.
 GOAL_REJECTED = 0.90
 
@@ -95,26 +72,43 @@ def ask_both_ways(table: EntryTable, whole: np.ndarray, body: np.ndarray, own_bo
     return tuple(np.concatenate(out[k]) for k in out)
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--db", type=Path, default=DEFAULT_DB_PATH)
-    parser.add_argument(
-        "--own-body", action="store_true", help="search every body, the query's own too"
-    )
-    args = parser.parse_args(argv)
-    with MotionDatabase.open(args.db) as db:
+def rejection_ceiling_report(db_path: str | os.PathLike, own_body: bool = False) -> str:
+    """The tables of :func:`ask_both_ways` on the database at ``db_path``: per label, the
+    median nearest distance both ways and their AUC; overall, the unknown actions
+    rejected where :data:`FALSE_REJECTION` of the new performances are turned away, by
+    one threshold and by a threshold per answer label.
+
+    Parameters
+    ----------
+    db_path : str or PathLike
+    own_body : bool
+        Search every body, the query's own too (else only the other bodies, as the
+        threshold's calibration does).
+
+    Returns
+    -------
+    str
+        The report, as printed.
+
+    Raises
+    ------
+    InvalidParameterError
+        The database holds one label only.
+    """
+    lines: list[str] = []
+    with MotionDatabase.open(db_path) as db:
         table = EntryTable(db)
         whole, body = table.calibration(db)
     if body is None:
         body = np.zeros(len(table.points), np.int64)
     if len(np.unique(table.label)) < 2:
-        raise InvalidParameterError(f"{args.db}: one label only, nothing to leave out")
+        raise InvalidParameterError(f"{db_path}: one label only, nothing to leave out")
     label, known, unknown, known_answer, unknown_answer = ask_both_ways(
-        table, whole, body, args.own_body
+        table, whole, body, own_body
     )
-    searched = "every body" if args.own_body else "the other bodies"
-    print(
-        f"{len(label)} whole-motion entries of {args.db}, each asked against {searched}: "
+    searched = "every body" if own_body else "the other bodies"
+    lines.append(
+        f"{len(label)} whole-motion entries of {db_path}, each asked against {searched}: "
         f"as a new performance (its own left out) and as an unknown action (its label "
         f"left out)\n"
     )
@@ -129,9 +123,9 @@ def main(argv=None) -> int:
         )  # fmt: skip
     header = ["label", "entries", "new performance: median", "unknown: median", "AUC",
               "unknown rejected at one threshold"]  # fmt: skip
-    print("\n".join(markdown_table(header, rows)))
+    lines.append("\n".join(markdown_table(header, rows)))
     right = float(np.mean(known_answer == label))
-    print(f"\nnew performances answered with their own label: {right:.1%}")
+    lines.append(f"\nnew performances answered with their own label: {right:.1%}")
     per_label = {a: np.quantile(known[known_answer == a], 1.0 - FALSE_REJECTION)
                  for a in np.unique(known_answer)}  # fmt: skip
     known_over = known / np.array([per_label[a] for a in known_answer])
@@ -143,18 +137,10 @@ def main(argv=None) -> int:
     ):
         cut = np.quantile(a, 1.0 - FALSE_REJECTION)
         rejected = int((b > cut).sum())
-        print(
+        lines.append(
             f"{rule}: AUC {auc(a, b):.3f}; at {FALSE_REJECTION:.0%} of new performances "
             f"turned away ({int((a > cut).sum())}/{len(a)}), unknown actions rejected "
             f"{format_rate(rejected, len(b))} ({goal}: {rejected / len(b) / GOAL_REJECTED:.2f} "
             f"of it)"
         )
-    return 0
-
-
-if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except EigmotionError as exc:
-        print(f"bench_rejection_ceiling: error: {exc}", file=sys.stderr)
-        sys.exit(2)
+    return "\n".join(lines)

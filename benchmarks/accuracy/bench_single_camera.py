@@ -30,10 +30,10 @@ alignment would score.
 
 Run from the repository root::
 
-    python benchmarks/bench_single_camera.py              # the default database
-    python benchmarks/bench_single_camera.py --quick      # 4 clips
-    python benchmarks/bench_single_camera.py --db other.fs --masks true
-    python benchmarks/bench_single_camera.py --config speed_weight=0   # an ablation
+    python benchmarks/accuracy/bench_single_camera.py              # the default database
+    python benchmarks/accuracy/bench_single_camera.py --quick      # 4 clips
+    python benchmarks/accuracy/bench_single_camera.py --db other.fs --masks true
+    python benchmarks/accuracy/bench_single_camera.py --config speed_weight=0   # an ablation
 
 ``--config NAME=VALUE`` (repeatable) changes one field of
 :class:`eigmotion.pose.continuous_pose.ContinuousPoseConfig` (numbers; tuples as
@@ -62,6 +62,7 @@ import numpy as np  # noqa: E402
 
 from eigmotion.body.avatar import load_default_avatar  # noqa: E402
 from eigmotion.body.retarget import retarget  # noqa: E402
+from eigmotion.evaluation.query_clips import halfway_views  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.mocap.kinematics import forward_kinematics  # noqa: E402
 from eigmotion.mocap.library import load_library  # noqa: E402
@@ -70,12 +71,11 @@ from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose
 from eigmotion.pose.replay import replay  # noqa: E402
 from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RING6 = REPO / "virtual_cameras" / "ring6.toml"
 WIDTH_PX, HEIGHT_PX = 320, 240
 CLIP_FPS = 30.0
 MARGIN = 0.08
-SINGLE_ROW_ELEVATION_DEG = 10.0
 BODY_SHAPES = ((1.62, 1.2), (1.85, 0.9))
 WARPS = ((0.8, 1.2), (1.2, 0.8))
 #: One clip per motion, in this order (``--quick``: the first four).
@@ -108,16 +108,6 @@ class Row:
     linear_yaw_mm: float
     floor_mm: float
     seconds: float
-
-
-def halfway_views(rig: CameraRig) -> tuple[np.ndarray, np.ndarray]:
-    """Azimuths halfway between neighbouring rig azimuths; elevations halfway between
-    rows (or the single row + 10°), degrees."""
-    az = np.unique(np.round([c.azimuth_deg % 360.0 for c in rig.cameras], 6))
-    el = np.unique(np.round([c.elevation_deg for c in rig.cameras], 6))
-    azimuths = ((az + np.append(az[1:], az[0] + 360.0)) / 2.0) % 360.0
-    elevations = (el[:-1] + el[1:]) / 2.0 if len(el) > 1 else el + SINGLE_ROW_ELEVATION_DEG
-    return azimuths, elevations
 
 
 def root_relative(positions: np.ndarray, azimuth_deg: float) -> np.ndarray:

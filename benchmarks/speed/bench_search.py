@@ -2,10 +2,10 @@
 
 Run from the repository root::
 
-    python benchmarks/bench_search.py                 # 10^3 … 10^6 entries, k = 32
-    python benchmarks/bench_search.py --sizes 1000 100000 --dims 24
-    python benchmarks/bench_search.py --store 100000  # database build / open times
-    python benchmarks/bench_search.py --eigenspace 1000 16384 50   # vs sklearn PCA
+    python benchmarks/speed/bench_search.py                 # 10^3 … 10^6 entries, k = 32
+    python benchmarks/speed/bench_search.py --sizes 1000 100000 --dims 24
+    python benchmarks/speed/bench_search.py --store 100000  # database build / open times
+    python benchmarks/speed/bench_search.py --eigenspace 1000 16384 50   # vs sklearn PCA
 
 For each database size it builds every index over the same points and answers the same
 queries, and prints one Markdown table: build time, search time per query (all queries

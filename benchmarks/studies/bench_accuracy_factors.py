@@ -24,7 +24,7 @@ The database images are rendered once (``render_views``) and every fold database
 built from them (``build_database(..., views=...)``), so a run costs one render of the
 library, the clips, and about 5–30 s per fold database::
 
-    python benchmarks/bench_accuracy_factors.py [--rig virtual_cameras/ring6.toml]
+    python benchmarks/studies/bench_accuracy_factors.py [--rig virtual_cameras/ring6.toml]
         [--clips-dir DIR] [--clips-per-motion 2] [--seed 0] [--workers N]
 """
 
@@ -43,21 +43,26 @@ from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_accuracy import (  # noqa: E402
+
+from eigmotion.body.garments import (
+    BENCHMARK_GARMENTS,  # noqa: E402
+    dress,  # noqa: E402
+)
+from eigmotion.body.retarget import animate_avatar  # noqa: E402
+from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
+from eigmotion.evaluation.query_clips import (  # noqa: E402
     CLIP_FPS,
-    DEFAULT_RIG,
     HEIGHT_PX,
     WIDTH_PX,
     ClipMaker,
     ClipSpec,
+    holdout_parser,
+    parse_holdout_args,
     random_specs,
+    run_with_clips,
     subject_folds,
     variation_folds,
 )
-
-from eigmotion.body.garments import BENCHMARK_GARMENTS, dress  # noqa: E402
-from eigmotion.body.retarget import animate_avatar  # noqa: E402
-from eigmotion.errors import EigmotionError, VideoError  # noqa: E402
 from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
@@ -230,40 +235,6 @@ def run(args: argparse.Namespace) -> None:
               "top-3"]  # fmt: skip
     print("\n".join(markdown_table(header, rows)))
     print(f"\nwall time {time.perf_counter() - t0:.0f} s")
-
-
-def holdout_parser(description: str) -> argparse.ArgumentParser:
-    """The options of a script that answers the ``holdout`` clips offline: ``--rig``,
-    ``--clips-dir``, ``--clips-per-motion``, ``--seed``, ``--workers``."""
-    p = argparse.ArgumentParser(description=description)
-    p.add_argument("--rig", type=Path, default=DEFAULT_RIG, help="rig of the databases")
-    p.add_argument("--clips-dir", type=Path, help="render the clips here and reuse them")
-    p.add_argument("--clips-per-motion", type=int, default=2)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--workers", type=int, default=None, help="rendering processes")
-    return p
-
-
-def parse_holdout_args(
-    p: argparse.ArgumentParser, argv: Sequence[str] | None = None
-) -> argparse.Namespace:
-    """Parse ``argv`` with a :func:`holdout_parser`, check it, and set what the fold
-    helpers of ``bench_accuracy`` read."""
-    args = p.parse_args(argv)
-    if args.clips_per_motion < 1:
-        p.error(f"--clips-per-motion must be >= 1, got {args.clips_per_motion}")
-    args.quick, args.subjects = False, None
-    return args
-
-
-def run_with_clips(run: Callable[[argparse.Namespace], None], args: argparse.Namespace) -> None:
-    """``run(args)``, with the clips in a temporary folder when no ``--clips-dir`` is given."""
-    if args.clips_dir is not None:
-        run(args)
-        return
-    with tempfile.TemporaryDirectory(prefix="eigmotion-clips-") as clips:
-        args.clips_dir = Path(clips)
-        run(args)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -15,7 +15,8 @@ true motion image the file takes the silhouettes than cutting them out already d
 
 Run from the repository root with the venv active::
 
-    python benchmarks/bench_video_roundtrip.py [--seeds 3] [--views side90 side270 side90-320]
+    python benchmarks/studies/bench_video_roundtrip.py [--seeds 3]
+        [--views side90 side270 side90-320]
         [--formats .mp4 .avi]
 
 With the defaults it takes under a minute on two cores.
@@ -28,11 +29,12 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _motion_image_common import WALK_VIEWS, composed_walks, cosine_distance, ratio, walk_views
 
+from eigmotion.evaluation.measures import cosine_distance, ratio
 from eigmotion.imaging.media import write_video
 from eigmotion.retrieval.motion_image import motion_image
 from eigmotion.segmentation.video import extract_silhouettes, load_clip_masks
+from eigmotion.synth.walk_scenes import WALK_VIEWS, composed_walks, walk_views
 
 
 def main(argv=None) -> None:

@@ -19,9 +19,9 @@ instead of taken from the renderer.
 
 Run from the repository root::
 
-    python benchmarks/bench_tracker.py            # clean silhouettes
-    python benchmarks/bench_tracker.py --video    # through background subtraction
-    python benchmarks/bench_tracker.py --body-scale 1 --no-recovery   # the paper's tracker
+    python benchmarks/accuracy/bench_tracker.py            # clean silhouettes
+    python benchmarks/accuracy/bench_tracker.py --video    # through background subtraction
+    python benchmarks/accuracy/bench_tracker.py --body-scale 1 --no-recovery   # the paper's tracker
 """
 
 from __future__ import annotations
