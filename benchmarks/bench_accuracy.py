@@ -87,7 +87,9 @@ from eigmotion.evaluation.scoring import (  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.mocap.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
 from eigmotion.retrieval.build import BuildConfig  # noqa: E402
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database  # noqa: E402
+from eigmotion.retrieval.building import build_database  # noqa: E402
+from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 from eigmotion.synth.clips import clip_camera  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]

@@ -42,7 +42,8 @@ from bench_rerank import EntryTable  # noqa: E402
 
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
 from eigmotion.evaluation.scoring import format_rate, markdown_table  # noqa: E402
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase  # noqa: E402
+from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 
 #: Share of new performances turned away at the operating point compared.
 FALSE_REJECTION = 0.05

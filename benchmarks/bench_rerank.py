@@ -58,7 +58,7 @@ About 20 s per run.
 of the holdout suite's few: each label is left out of the search in turn (every
 motion of that label, and the clip's fold), the "unknown" threshold and the quantiles
 behind ``p_known`` calibrated again on the entries left
-(:func:`~eigmotion.retrieval.database.leave_one_motion_out_distances`, as a build of that
+(:func:`~eigmotion.retrieval.calibration.leave_one_motion_out_distances`, as a build of that
 database would), and every clip of that label asked.  Beside it, the false rejection
 of the clips asked with their label in the search (at the whole database's
 threshold), how well the best match's distance alone separates the two
@@ -99,6 +99,7 @@ from bench_accuracy import (  # noqa: E402
 )
 
 import eigmotion.retrieval.database as database_module  # noqa: E402
+import eigmotion.retrieval.query_windows as query_windows_module  # noqa: E402
 import eigmotion.retrieval.sequences as sequences_module  # noqa: E402
 from eigmotion.body.garments import BENCHMARK_GARMENTS  # noqa: E402
 from eigmotion.errors import EigmotionError, InvalidParameterError  # noqa: E402
@@ -115,15 +116,14 @@ from eigmotion.evaluation.scoring import (  # noqa: E402
     separation,
 )
 from eigmotion.mocap.library import FILLER_LABELS, load_library  # noqa: E402
-from eigmotion.retrieval.database import (  # noqa: E402
-    DEFAULT_DB_PATH,
-    QUERY_SILHOUETTE_SIDE_PX,
+from eigmotion.retrieval.brute_force import BruteForceIndex  # noqa: E402
+from eigmotion.retrieval.calibration import (  # noqa: E402
     THRESHOLD_QUANTILE,
-    MotionDatabase,
     calibration_quantiles,
     leave_one_motion_out_distances,
 )
-from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX, MotionDatabase  # noqa: E402
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 from eigmotion.segmentation.video import SilhouetteConfig, load_clip_masks  # noqa: E402
 
 #: The constants a variant may set: those read while a query is answered, never
@@ -133,12 +133,16 @@ QUERY_CONSTANTS = {
         "PACE_WEIGHT", "PACE_FLOOR", "PACE_SMOOTHING_PASSES", "SEQUENCE_WEIGHT",
         "VIEW_REACH_DEG", "CANDIDATE_MOTIONS", "WARP_BAND",
     ),
-    "database": (
-        "CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS", "WINDOW_CANDIDATES", "SPECIFIC_MARGIN",
-        "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
+    "database": ("CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS"),
+    "query_windows": (
+        "WINDOW_CANDIDATES", "SPECIFIC_MARGIN", "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
     ),
 }  # fmt: skip
-MODULES = {"sequences": sequences_module, "database": database_module}
+MODULES = {
+    "sequences": sequences_module,
+    "database": database_module,
+    "query_windows": query_windows_module,
+}
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ from eigmotion.pose.continuous_pose import (
 )
 from eigmotion.pose.replay import replay
 from eigmotion.retrieval.build import BuildConfig, hull_points
-from eigmotion.retrieval.database import MotionDatabase, build_database
+from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.synth.clips import time_warped
 
 REPO = Path(__file__).resolve().parents[1]

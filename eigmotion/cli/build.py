@@ -61,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     from eigmotion.imaging.cameras import load_rig
     from eigmotion.mocap.library import load_library
     from eigmotion.retrieval.build import BuildConfig
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, build_database
+    from eigmotion.retrieval.building import build_database
+    from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
     if args.workers is not None and args.workers < 1:
         raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")

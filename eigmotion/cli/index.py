@@ -32,7 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from eigmotion.errors import InvalidParameterError
     from eigmotion.mocap.library import LibraryMotion, find_motion
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase, build_database
+    from eigmotion.retrieval.building import build_database
+    from eigmotion.retrieval.database import MotionDatabase
+    from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
     label = args.label.strip()
     if not label:

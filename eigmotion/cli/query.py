@@ -73,7 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from eigmotion.errors import InvalidParameterError
-    from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase
+    from eigmotion.retrieval.database import MotionDatabase
+    from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
     if args.top < 1:
         raise InvalidParameterError(f"--top must be >= 1, got {args.top}")

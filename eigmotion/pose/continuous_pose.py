@@ -64,7 +64,8 @@ from eigmotion.mocap.motion import Motion
 if TYPE_CHECKING:
     from eigmotion.body.avatar import Avatar
     from eigmotion.pose.replay import Replay
-    from eigmotion.retrieval.database import MotionDatabase, QueryResult
+    from eigmotion.retrieval.database import MotionDatabase
+    from eigmotion.retrieval.results import QueryResult
     from eigmotion.tracking import PostureBodies
 
 
