@@ -12,7 +12,7 @@ import pytest
 from eigmotion.imaging.cameras import load_rig
 from eigmotion.mocap.library import load_library
 from eigmotion.retrieval.build import BuildConfig
-from eigmotion.retrieval.database import build_database
+from eigmotion.retrieval.building import build_database
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 

@@ -29,22 +29,19 @@ from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
+from eigmotion.retrieval.brute_force import BruteForceIndex
 from eigmotion.retrieval.build import BuildConfig, window_bounds
-from eigmotion.retrieval.database import (
+from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.calibration import (
     CALIBRATION_LEVELS,
-    Match,
-    MotionDatabase,
-    Segment,
-    _stored_quantiles,
-    brute_force_check,
-    build_database,
     calibration_quantiles,
-    candidate_motions,
     leave_one_motion_out_distances,
     leave_one_motion_out_threshold,
-    window_label_path,
+    stored_quantiles,
 )
-from eigmotion.retrieval.search import BruteForceIndex
+from eigmotion.retrieval.database import MotionDatabase, brute_force_check, candidate_motions
+from eigmotion.retrieval.query_windows import clip_segments, search_windows, window_label_path
+from eigmotion.retrieval.results import Match, Segment
 from eigmotion.retrieval.sequences import POSE_COMPONENTS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -182,11 +179,11 @@ def test_p_known_and_the_false_rejection_agree(db_path, library, other_body):
 
 def test_damaged_calibration_quantiles_are_refused():
     good = np.linspace(0.1, 0.5, 201).tolist()
-    assert _stored_quantiles("db.fs", {}) is None
-    np.testing.assert_array_equal(_stored_quantiles("db.fs", {"calibration_quantiles": good}), good)
+    assert stored_quantiles("db.fs", {}) is None
+    np.testing.assert_array_equal(stored_quantiles("db.fs", {"calibration_quantiles": good}), good)
     for bad in (good[:-1], good[::-1], [*good[:-1], float("nan")], ["a"] * 201):
         with pytest.raises(DatabaseError, match="db.fs: the stored calibration quantiles"):
-            _stored_quantiles("db.fs", {"calibration_quantiles": bad})
+            stored_quantiles("db.fs", {"calibration_quantiles": bad})
 
 
 def test_a_build_calibrates_each_entry_against_the_other_bodies(tmp_path):
@@ -446,11 +443,11 @@ def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, librar
         for masks, n_labels in ((waving, 1), (np.concatenate([walking, waving, walking]), 2)):
             images = ClipMotionImages(masks, cfg.motion_image, clip_fps=30.0)
             windows = window_bounds(len(masks), 30.0, cfg.window_s, cfg.window_step_s)
-            kept, windowed = db._search_windows(images, windows[1:])
+            kept, windowed = search_windows(images, windows[1:], db.eigenspace, db.index)
             answer = dataclasses.replace(
                 db.query_masks(masks, 30.0).best, label="elsewhere", distance=0.5
             )
-            segments = db._segments(kept, windowed, len(masks), answer)
+            segments = clip_segments(kept, windowed, len(masks), answer, db._label_of, db.threshold)
             assert len({s.label for s in segments}) == n_labels
             if n_labels == 1:
                 assert segments == [Segment(kept[0][0], kept[-1][1], "elsewhere", 0.5)]

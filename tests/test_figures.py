@@ -217,7 +217,7 @@ def test_caption_errors(frames, captions, match):
 
 def test_each_frame_of_a_replay_is_captioned_with_its_segment():
     from eigmotion.pose.replay import segment_captions
-    from eigmotion.retrieval.database import Segment
+    from eigmotion.retrieval.results import Segment
 
     segments = [Segment(0, 3, "walk", 0.2), Segment(3, 5, "wave", 0.1)]
     captions = segment_captions(segments, 6, "wave")

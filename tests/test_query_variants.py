@@ -14,6 +14,7 @@ import pytest
 
 import eigmotion.evaluation.query_variants as variants
 import eigmotion.retrieval.database as database_module
+import eigmotion.retrieval.query_windows as query_windows_module
 import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.scoring import QueryOutcome
@@ -46,7 +47,7 @@ def test_a_variant_sets_constants_where_they_are_read_and_puts_them_back():
     assert database_module.CANDIDATE_MOTIONS == sequences_module.CANDIDATE_MOTIONS == motions
     with pytest.raises(RuntimeError), variants.Variant({"SPECIFIC_MARGIN": 0.1}):
         raise RuntimeError("a failed run")
-    assert database_module.SPECIFIC_MARGIN != 0.1
+    assert query_windows_module.SPECIFIC_MARGIN != 0.1
 
 
 def test_silhouette_settings_change_the_query_cut_and_are_checked():

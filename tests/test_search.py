@@ -7,9 +7,10 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.retrieval.brute_force import BruteForceIndex, brute_force
 from eigmotion.retrieval.keys import Quantizer
-from eigmotion.retrieval.search import BruteForceIndex, SearchResult, TreeIndex, brute_force
-from eigmotion.retrieval.search import _pair_sq_distances as pair_sq_distances
+from eigmotion.retrieval.neighbours import NearestEntries, pair_sq_distances
+from eigmotion.retrieval.search import TreeIndex
 
 
 def motion_like(n: int, n_dims: int, n_groups: int, rng) -> np.ndarray:
@@ -53,7 +54,7 @@ def naive(points, ids, queries, top_k):
     return np.array(out_ids), np.array(out_d)
 
 
-def assert_same(result: SearchResult, reference: SearchResult):
+def assert_same(result: NearestEntries, reference: NearestEntries):
     np.testing.assert_array_equal(result.ids, reference.ids)
     np.testing.assert_array_equal(result.distances, reference.distances)
 

@@ -5,13 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import eigmotion.retrieval.store as store_module
+import eigmotion.retrieval.schema as schema_module
+import eigmotion.retrieval.storage as storage_module
 from eigmotion.errors import DatabaseError, InvalidParameterError
+from eigmotion.retrieval.brute_force import brute_force
 from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.keys import Quantizer, prefix_range
-from eigmotion.retrieval.search import TreeIndex, brute_force
+from eigmotion.retrieval.schema import SCHEMA_VERSION
+from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import pose_coordinates
-from eigmotion.retrieval.store import SCHEMA_VERSION, Store, parse_uri
+from eigmotion.retrieval.storage import parse_uri
+from eigmotion.retrieval.store import Store
 
 BVH_TEXT = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n}\nMOTION\nFrames: 0\nFrame Time: 0.1\n"
 
@@ -129,7 +133,7 @@ def test_memory_round_trip(fitted):
 
 
 def test_index_appends_across_column_chunks(tmp_path, fitted, monkeypatch):
-    monkeypatch.setattr(store_module, "CHUNK_ENTRIES", 7)
+    monkeypatch.setattr(schema_module, "CHUNK_ENTRIES", 7)
     space, quantizer, points, pose = fitted
     path = tmp_path / "db.fs"
     with Store.create(path) as store, store.transaction():
@@ -352,7 +356,7 @@ def test_zeo_clients_see_each_others_commits(tmp_path, fitted):
 def test_zeo_without_server(monkeypatch):
     import socket
 
-    monkeypatch.setattr(store_module, "ZEO_WAIT_S", 0.5)
+    monkeypatch.setattr(storage_module, "ZEO_WAIT_S", 0.5)
     with socket.socket() as probe:  # a port nobody listens on
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]

@@ -109,7 +109,8 @@ from eigmotion.evaluation.query_variants import (  # noqa: E402
     unknown_report,
 )
 from eigmotion.mocap.library import load_library  # noqa: E402
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase  # noqa: E402
+from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 from eigmotion.segmentation.video import load_clip_masks  # noqa: E402
 
 

@@ -28,8 +28,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from eigmotion.imaging.media import read_frame_sample  # noqa: E402
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, QUERY_SILHOUETTE_SIDE_PX, MotionDatabase  # noqa: E402
-from eigmotion.retrieval.search import BruteForceIndex  # noqa: E402
+from eigmotion.retrieval.brute_force import BruteForceIndex  # noqa: E402
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX, MotionDatabase  # noqa: E402
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
 from eigmotion.segmentation.video import (  # noqa: E402
     extract_silhouettes,

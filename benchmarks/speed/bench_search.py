@@ -38,8 +38,10 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from eigmotion.retrieval.brute_force import BruteForceIndex  # noqa: E402
 from eigmotion.retrieval.keys import Quantizer  # noqa: E402
-from eigmotion.retrieval.search import BruteForceIndex, SearchResult, TreeIndex  # noqa: E402
+from eigmotion.retrieval.neighbours import NearestEntries  # noqa: E402
+from eigmotion.retrieval.search import TreeIndex  # noqa: E402
 
 CLUSTER = 500
 
@@ -121,7 +123,7 @@ class Tree(Method):
         self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
 
     def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
-        r: SearchResult = self.index.search(queries, max_distance=self.max_distance)
+        r: NearestEntries = self.index.search(queries, max_distance=self.max_distance)
         return r.ids[:, 0], r.examined
 
 

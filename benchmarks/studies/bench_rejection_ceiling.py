@@ -35,7 +35,7 @@ from pathlib import Path
 
 from eigmotion.errors import EigmotionError
 from eigmotion.evaluation.rejection_ceiling import rejection_ceiling_report
-from eigmotion.retrieval.database import DEFAULT_DB_PATH
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
 
 def main(argv=None) -> int:

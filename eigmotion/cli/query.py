@@ -30,8 +30,9 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.continuous_pose import continuous_pose
 from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
-from eigmotion.retrieval.database import DEFAULT_DB_PATH, MotionDatabase
+from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import eigmotion.retrieval.database as database_module
+import eigmotion.retrieval.query_windows as query_windows_module
 import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.query_clips import TOP_K
@@ -36,14 +37,13 @@ from eigmotion.evaluation.scoring import (
 from eigmotion.evaluation.segments import SegmentAgreement, segment_agreement
 from eigmotion.evaluation.statistics import paired_comparison
 from eigmotion.mocap.library import FILLER_LABELS
-from eigmotion.retrieval.database import (
-    QUERY_SILHOUETTE_SIDE_PX,
+from eigmotion.retrieval.brute_force import BruteForceIndex
+from eigmotion.retrieval.calibration import (
     THRESHOLD_QUANTILE,
-    MotionDatabase,
     calibration_quantiles,
     leave_one_motion_out_distances,
 )
-from eigmotion.retrieval.search import BruteForceIndex
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX, MotionDatabase
 from eigmotion.segmentation.config import SilhouetteConfig
 
 #: The constants a variant may set: those read while a query is answered, never
@@ -53,14 +53,18 @@ QUERY_CONSTANTS = {
         "PACE_WEIGHT", "PACE_FLOOR", "PACE_SMOOTHING_PASSES", "SEQUENCE_WEIGHT",
         "VIEW_REACH_DEG", "CANDIDATE_MOTIONS", "WARP_BAND",
     ),
-    "database": (
-        "CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS", "WINDOW_CANDIDATES", "SPECIFIC_MARGIN",
-        "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
+    "database": ("CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS"),
+    "query_windows": (
+        "WINDOW_CANDIDATES", "SPECIFIC_MARGIN", "MIN_SPECIFIC_WINDOWS", "SEGMENT_SWITCH_COST",
     ),
 }  # fmt: skip
 
 
-MODULES = {"sequences": sequences_module, "database": database_module}
+MODULES = {
+    "sequences": sequences_module,
+    "database": database_module,
+    "query_windows": query_windows_module,
+}
 
 
 @dataclass(frozen=True)

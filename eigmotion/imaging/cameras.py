@@ -415,3 +415,49 @@ def load_rig(path: str | Path) -> CameraRig:
         except (TypeError, ValueError) as exc:
             raise InvalidParameterError(f"{path}: camera {i}: {exc}") from None
     return CameraRig(tuple(cams), doc.get("name", path.stem), doc.get("meta", {}))
+
+
+def rig_to_plain(rig: CameraRig) -> dict:
+    """A rig as plain values, the form a motion database keeps it in (its build
+    configuration's ``rig``): each camera's ``K``, ``R`` and ``t`` as nested lists, its
+    image size, name and view direction (None for a real camera).  The rig's ``meta``
+    is not kept.  :func:`rig_from_plain` reads it back.
+
+    Unlike the TOML of :func:`save_rig` (``fx``, ``fy``, ``cx``, ``cy`` and no view
+    direction for a real camera), this form holds the whole ``K``: databases already
+    built store it, so it stays as it is.
+    """
+    return {
+        "name": rig.name,
+        "cameras": [
+            {
+                "name": c.name,
+                "K": c.K.tolist(),
+                "R": c.R.tolist(),
+                "t": c.t.tolist(),
+                "width": c.width,
+                "height": c.height,
+                "azimuth_deg": c.azimuth_deg,
+                "elevation_deg": c.elevation_deg,
+            }
+            for c in rig.cameras
+        ],
+    }
+
+
+def rig_from_plain(data: dict) -> CameraRig:
+    """The rig of :func:`rig_to_plain`'s plain values (with an empty ``meta``)."""
+    cams = tuple(
+        Camera(
+            np.asarray(c["K"]),
+            np.asarray(c["R"]),
+            np.asarray(c["t"]),
+            c["width"],
+            c["height"],
+            c["name"],
+            c["azimuth_deg"],
+            c["elevation_deg"],
+        )
+        for c in data["cameras"]
+    )
+    return CameraRig(cams, data["name"])

@@ -28,7 +28,7 @@ from eigmotion.mocap.motion import Motion
 from eigmotion.mocap.rotations import axis_rotation
 
 if TYPE_CHECKING:
-    from eigmotion.retrieval.database import Segment
+    from eigmotion.retrieval.results import Segment
 
 #: Height of each panel of a replay video, pixels.
 PANEL_HEIGHT_PX = 240
@@ -202,7 +202,7 @@ def segment_captions(segments: Sequence[Segment], n_frames: int, answer: str) ->
     Parameters
     ----------
     segments : sequence of Segment
-        A query's (:class:`~eigmotion.retrieval.database.QueryResult`), frames of the clip.
+        A query's (:class:`~eigmotion.retrieval.results.QueryResult`), frames of the clip.
     n_frames : int
     answer : str
         What the clip was answered (its label, or that it is unknown).

@@ -27,10 +27,13 @@ from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 
 import numpy as np
+from tqdm import tqdm
 
-from eigmotion.body.avatar import check_body_shape
+from eigmotion.body.avatar import check_body_shape, load_default_avatar
+from eigmotion.body.garments import dress, garment
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import CameraRig
+from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import LibraryMotion
 from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.retrieval.sequences import SEQUENCE_SIZE, sequence_frames
@@ -251,8 +254,6 @@ def window_labels(item: LibraryMotion, windows_s: np.ndarray) -> list[str | None
 
 def _outfits(garments) -> tuple[tuple[str, ...], ...]:
     """``BuildConfig.garments`` as a tuple of tuples of known garment names."""
-    from eigmotion.body.garments import garment
-
     if isinstance(garments, str) or not garments:
         raise InvalidParameterError(
             f"garments must hold at least one outfit (a tuple of garment names, () for "
@@ -274,9 +275,6 @@ def _outfits(garments) -> tuple[tuple[str, ...], ...]:
 
 @lru_cache(maxsize=32)
 def _body(shape: tuple[float | None, float], garments: tuple[str, ...], low_poly_faces: int):
-    from eigmotion.body.avatar import load_default_avatar
-    from eigmotion.body.garments import dress
-
     avatar = load_default_avatar()
     height, girth = shape
     if height is not None or girth != 1.0:
@@ -302,6 +300,7 @@ def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
     fitted : CameraRig
         The rig re-aimed so that the whole motion stays in every camera's frame.
     """
+    # Lazy: retargeting loads scipy.spatial (~0.14 s), which a query never needs.
     from eigmotion.body.retarget import animate_avatar
 
     _, vertices = animate_avatar(body, motion.resample(render_fps))
@@ -380,8 +379,6 @@ def _init_worker(library: Sequence[LibraryMotion], rig: CameraRig, config: Build
 
 
 def _render_task(task: tuple[int, int, int]) -> ViewImages:
-    from eigmotion.imaging.silhouettes import render_masks
-
     motion_index, shape_index, view_index = task
     library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
     vertices, faces, fitted = _posed(motion_index, shape_index)
@@ -477,8 +474,6 @@ def render_views(
     ViewImages
         In (motion, shape, view) order.
     """
-    from tqdm import tqdm
-
     tasks = [
         (m, s, v)
         for m in range(len(library))

@@ -42,356 +42,35 @@ that distance, so a query with nothing near is answered after a few steps.
 
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
 ``Σ_a (p_a − h_a)²`` summed in order in float32 by one function shared with
-:class:`BruteForceIndex`, and a bound is the same sum with each ``p_a`` replaced by the
-box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance holds in
+:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
+(:mod:`eigmotion.retrieval.neighbours`), and a bound is the same sum with each ``p_a``
+replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance holds in
 floating point, no entry that brute force would return is ever pruned, and the
 answers agree bit for bit.
 """
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass
-from functools import lru_cache
-from numbers import Integral, Real
+from numbers import Integral
 
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.retrieval.keys import Quantizer, key_prefix
+from eigmotion.retrieval.neighbours import (
+    NearestEntries,
+    RunningBest,
+    check_ids,
+    check_max_distance,
+    check_points,
+    check_queries,
+    check_top_k,
+    kernels,
+)
 
 #: Relative slack on pruning comparisons; bounds are exact lower bounds in floating
 #: point already, this only guards against a different summation order.
 _SLACK = 1.0 + 1e-9
-
-#: Unit roundoff of float32.
-_U32 = 2.0**-24
-
-
-@dataclass(frozen=True)
-class SearchResult:
-    """Nearest entries of a batch of queries.
-
-    Attributes
-    ----------
-    ids : (Q, top_k) int64
-        Entry ids, nearest first; equal distances in increasing id order;
-        ``NO_ENTRY`` (-1) in slots left empty by ``max_distance``.
-    distances : (Q, top_k) float64
-        Euclidean distances (not squared) in eigen-coordinate units; inf in empty
-        slots.
-    examined : (Q,) int64
-        Entries whose distance to the query was computed.
-    """
-
-    ids: np.ndarray
-    distances: np.ndarray
-    examined: np.ndarray
-
-
-# -- shared arithmetic -------------------------------------------------------------
-
-
-def _pair_sq_distances(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """Squared distances of row pairs, (m, k) and (m, k) or (k,) float32 → (m,) float32.
-
-    The single distance formula of this module: brute force and the tree both use it
-    (:func:`_row_sq_distance`, the coordinates' squared differences summed in order in
-    float32), so equal pairs give bit-identical distances.
-    """
-    points = np.ascontiguousarray(points, dtype=np.float32)
-    queries = np.ascontiguousarray(np.atleast_2d(queries), dtype=np.float32)
-    out = np.empty(points.shape[0], np.float32)
-    _kernels().pair_sq_distances(points, queries, out)
-    return out
-
-
-def _row_sq_distance(point, query):  # pragma: no cover - JIT
-    """``Σ_a (point_a − query_a)²`` of two (k,) float32 rows, summed in order in float32."""
-    total = np.float32(0.0)
-    for a in range(point.shape[0]):
-        d = point[a] - query[a]
-        total += d * d
-    return total
-
-
-def _row_box_bound(lo, hi, query):  # pragma: no cover - JIT
-    """The same sum with each ``point_a`` replaced by the box ``[lo, hi]``'s coordinate
-    nearest the query's: never more than :func:`_row_sq_distance` to a point inside."""
-    total = np.float32(0.0)
-    for a in range(query.shape[0]):
-        near = min(max(lo[a], query[a]), hi[a])
-        d = near - query[a]
-        total += d * d
-    return total
-
-
-def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
-    """``out`` (m,) float32: :func:`_row_sq_distance` of each row of ``points`` (m, k)
-    to the same row of ``queries`` (m, k), or to its one row (1, k)."""
-    one = queries.shape[0] == 1
-    for i in range(points.shape[0]):
-        out[i] = _row_sq_distance(points[i], queries[0] if one else queries[i])
-
-
-def _best_first(
-    points, ids, lo, hi, first, count, children, is_leaf, start, end, queries, starts_at,
-    slack, best_sq, best_ids, examined,
-):  # fmt: skip  # pragma: no cover - JIT
-    """Exact k nearest entries of each query, nearest lower bound first.
-
-    ``best_sq`` (Q, k) float64 and ``best_ids`` (Q, k) int64 hold each query's running
-    best, nearest first (empty slots: the cutoff and ``_SENTINEL``); ``examined`` (Q,)
-    int64 gets the entries measured.  Each query first measures the entries of its
-    node ``starts_at`` (the key lookup's), then pops nodes from a heap ordered by
-    lower bound, skipping what that node held, and stops when the nearest bound left
-    exceeds its k-th best.  An entry enters the best when its (squared distance, id)
-    is smaller than the k-th best's.
-    """
-    n_nodes = lo.shape[0]
-    top_k = best_sq.shape[1]
-    heap_bound = np.empty(n_nodes, np.float32)
-    heap_node = np.empty(n_nodes, np.int64)
-    for qi in range(queries.shape[0]):
-        query = queries[qi]
-        sq_row, id_row = best_sq[qi], best_ids[qi]
-        g = starts_at[qi]
-        g_start, g_end = start[g], end[g]
-        for e in range(g_start, g_end):
-            _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
-        measured = g_end - g_start
-        heap_bound[0], heap_node[0] = np.float32(0.0), 0  # the root
-        size = 1
-        while size > 0:
-            bound, node = heap_bound[0], heap_node[0]
-            size -= 1
-            if size > 0:  # the last item sifts down from the top
-                last_bound, last_node = heap_bound[size], heap_node[size]
-                i = 0
-                while True:
-                    child = 2 * i + 1
-                    if child >= size:
-                        break
-                    if child + 1 < size and heap_bound[child + 1] < heap_bound[child]:
-                        child += 1
-                    if heap_bound[child] >= last_bound:
-                        break
-                    heap_bound[i], heap_node[i] = heap_bound[child], heap_node[child]
-                    i = child
-                heap_bound[i], heap_node[i] = last_bound, last_node
-            if bound > sq_row[top_k - 1] * slack:
-                break  # every bound left is at least as far
-            if is_leaf[node]:
-                if start[node] >= g_start and end[node] <= g_end:
-                    continue  # measured first
-                for e in range(start[node], end[node]):
-                    _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
-                measured += end[node] - start[node]
-                continue
-            for c in range(first[node], first[node] + count[node]):
-                kid = children[c]
-                if start[kid] >= g_start and end[kid] <= g_end:
-                    continue
-                kid_bound = _row_box_bound(lo[kid], hi[kid], query)
-                if kid_bound > sq_row[top_k - 1] * slack:
-                    continue
-                i = size  # sift up
-                size += 1
-                while i > 0:
-                    parent = (i - 1) // 2
-                    if heap_bound[parent] <= kid_bound:
-                        break
-                    heap_bound[i], heap_node[i] = heap_bound[parent], heap_node[parent]
-                    i = parent
-                heap_bound[i], heap_node[i] = kid_bound, kid
-        examined[qi] = measured
-
-
-def _offer(sq, entry_id, sq_row, id_row):  # pragma: no cover - JIT
-    """Put (``sq``, ``entry_id``) into the sorted best (k,) rows if it is smaller than
-    the k-th best (by distance, then id), dropping the k-th."""
-    last = sq_row.shape[0] - 1
-    if sq > sq_row[last] or (sq == sq_row[last] and entry_id >= id_row[last]):
-        return
-    i = last
-    while i > 0 and (sq < sq_row[i - 1] or (sq == sq_row[i - 1] and entry_id < id_row[i - 1])):
-        sq_row[i], id_row[i] = sq_row[i - 1], id_row[i - 1]
-        i -= 1
-    sq_row[i], id_row[i] = sq, entry_id
-
-
-_COMPILING = threading.Lock()
-
-
-def _kernels():
-    """The compiled loops (numba is imported and they are compiled on first use, once,
-    whichever thread asks first)."""
-    with _COMPILING:
-        return _compiled_kernels()
-
-
-@lru_cache(maxsize=1)
-def _compiled_kernels():
-    """The row helpers are compiled first and put in place of their Python sources, so
-    the kernels calling them find compiled functions.  No fast-math: every sum is
-    taken in order, the same in brute force and in the tree."""
-    from types import SimpleNamespace
-
-    from numba import njit
-
-    global _row_sq_distance, _row_box_bound, _offer
-    jit = njit(cache=True, nogil=True)
-    _row_sq_distance = jit(_row_sq_distance)
-    _row_box_bound = jit(_row_box_bound)
-    _offer = jit(_offer)
-    return SimpleNamespace(
-        pair_sq_distances=jit(_pair_sq_distances_kernel), best_first=jit(_best_first)
-    )
-
-
-def _check_points(points, name: str = "points") -> np.ndarray:
-    p = np.asarray(points)
-    if p.ndim != 2 or p.shape[1] < 1:
-        raise InvalidParameterError(f"{name} must be 2-D (N, k), got shape {p.shape}")
-    if not np.issubdtype(p.dtype, np.floating):
-        raise InvalidParameterError(f"{name} must be floating point, got dtype {p.dtype}")
-    p = np.ascontiguousarray(p, dtype=np.float32)
-    if not np.all(np.isfinite(p)):
-        row = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
-        raise InvalidParameterError(f"{name} row {row} holds NaN or infinity (as float32)")
-    return p
-
-
-def _check_ids(ids, n: int) -> np.ndarray:
-    i = np.asarray(ids)
-    if i.shape != (n,) or (n and not np.issubdtype(i.dtype, np.integer)):
-        raise InvalidParameterError(f"ids must be ({n},) integers, got {i.dtype} {i.shape}")
-    i = i.astype(np.int64)
-    if n and (i.min() < 0 or i.max() == np.iinfo(np.int64).max):
-        raise InvalidParameterError("ids must lie in 0 … 2**63 − 2 (-1 marks an empty slot)")
-    if n > 1 and not np.all(i[1:] > i[:-1]):
-        ordered = np.sort(i)
-        same = np.flatnonzero(ordered[1:] == ordered[:-1])
-        if same.size:
-            raise InvalidParameterError(f"ids must be unique; {int(ordered[same[0]])} repeats")
-    return i
-
-
-def _check_queries(queries, n_dims: int) -> np.ndarray:
-    q = np.asarray(queries)
-    if q.ndim == 1:
-        q = q[None, :]
-    if q.ndim != 2 or q.shape[1] != n_dims:
-        raise InvalidParameterError(
-            f"queries must be ({n_dims},) or (Q, {n_dims}), got shape {np.shape(queries)}"
-        )
-    if not (np.issubdtype(q.dtype, np.floating) or np.issubdtype(q.dtype, np.integer)):
-        raise InvalidParameterError(f"queries must be real numbers, got dtype {q.dtype}")
-    q = np.ascontiguousarray(q, dtype=np.float32)
-    if not np.all(np.isfinite(q)):
-        row = int(np.flatnonzero(~np.all(np.isfinite(q), axis=1))[0])
-        raise InvalidParameterError(f"query {row} holds NaN or infinity (as float32)")
-    return q
-
-
-def _check_max_distance(max_distance) -> float:
-    """The squared cutoff of a ``max_distance`` parameter (>= 0, may be inf)."""
-    if isinstance(max_distance, bool) or not isinstance(max_distance, Real):
-        raise InvalidParameterError(f"max_distance must be a number, got {max_distance!r}")
-    if not float(max_distance) >= 0.0:
-        raise InvalidParameterError(f"max_distance must be >= 0, got {max_distance!r}")
-    return float(max_distance) ** 2
-
-
-def _check_top_k(top_k, n_entries: int) -> int:
-    if isinstance(top_k, bool) or not isinstance(top_k, Integral) or top_k < 1:
-        raise InvalidParameterError(f"top_k must be a positive integer, got {top_k!r}")
-    if top_k > n_entries:
-        raise InvalidParameterError(f"top_k={top_k} exceeds the {n_entries} entries")
-    return int(top_k)
-
-
-#: Id of an empty slot in a result (fewer than top_k entries within max_distance).
-NO_ENTRY = -1
-
-_SENTINEL = np.iinfo(np.int64).max
-
-
-class _TopK:
-    """Running k best (squared distance, id) per query, ties by smaller id.
-
-    Empty slots hold ``(max_sq, _SENTINEL)``, which sorts after any entry at the same
-    distance, so entries at exactly ``max_distance`` are kept.
-    """
-
-    def __init__(self, n_queries: int, top_k: int, max_sq: float = np.inf):
-        self.top_k = top_k
-        self.max_sq = max_sq
-        self.sq = np.full((n_queries, top_k), max_sq)
-        self.ids = np.full((n_queries, top_k), _SENTINEL, dtype=np.int64)
-        self.examined = np.zeros(n_queries, dtype=np.int64)
-
-    def bound(self) -> np.ndarray:
-        """(Q,) float64: the k-th best squared distance so far (max_sq until k found)."""
-        return self.sq[:, -1]
-
-    def add(self, q: np.ndarray, sq: np.ndarray, ids: np.ndarray) -> None:
-        """Merge candidates ``(q, sq, ids)``, each (m,), into the running best."""
-        if q.size == 0:
-            return
-        if self.sq.shape[0] == 1:  # one query: no grouping needed
-            self.examined[0] += q.size
-            better = sq <= self.sq[0, -1]
-            if not better.any():
-                return
-            all_sq = np.concatenate([self.sq[0], sq[better]])
-            all_ids = np.concatenate([self.ids[0], ids[better]])
-            order = np.lexsort((all_ids, all_sq))[: self.top_k]
-            self.sq[0] = all_sq[order]
-            self.ids[0] = all_ids[order]
-            return
-        self.examined += np.bincount(q, minlength=self.examined.size)
-        bound = self.sq[:, -1]
-        if self.top_k == 1:  # only each query's nearest new candidates matter
-            bound = bound.copy()
-            np.minimum.at(bound, q, sq)
-        better = sq <= bound[q]  # only these can enter the k best
-        if not better.any():
-            return
-        q, sq, ids = q[better], sq[better], ids[better]
-        rows = np.unique(q)
-        old_sq, old_ids = self.sq[rows], self.ids[rows]
-        have = old_ids != _SENTINEL
-        old_q = np.broadcast_to(rows[:, None], old_sq.shape)[have]
-        all_q = np.concatenate([old_q, q])
-        all_sq = np.concatenate([old_sq[have], sq])
-        all_ids = np.concatenate([old_ids[have], ids])
-        order = np.lexsort((all_ids, all_sq, all_q))
-        all_q, all_sq, all_ids = all_q[order], all_sq[order], all_ids[order]
-        rank = _rank_in_groups(all_q)
-        keep = rank < self.top_k
-        self.sq[rows] = self.max_sq
-        self.ids[rows] = _SENTINEL
-        self.sq[all_q[keep], rank[keep]] = all_sq[keep]
-        self.ids[all_q[keep], rank[keep]] = all_ids[keep]
-
-    def result(self) -> SearchResult:
-        empty = self.ids == _SENTINEL
-        ids = np.where(empty, NO_ENTRY, self.ids)
-        distances = np.where(empty, np.inf, np.sqrt(self.sq))
-        return SearchResult(ids, distances, self.examined.copy())
-
-
-def _rank_in_groups(groups: np.ndarray) -> np.ndarray:
-    """Position of each element within its run of equal values, for a sorted (m,) array."""
-    n = groups.size
-    if n == 0 or groups[0] == groups[-1]:
-        return np.arange(n)
-    first = np.empty(n, dtype=bool)
-    first[0] = True
-    np.not_equal(groups[1:], groups[:-1], out=first[1:])
-    index = np.arange(n)
-    return index - np.maximum.accumulate(np.where(first, index, 0))
 
 
 def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -401,151 +80,6 @@ def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(counts) - counts
     return np.repeat(starts - offsets, counts) + np.arange(total)
-
-
-# -- brute force -------------------------------------------------------------------
-
-
-class BruteForceIndex:
-    """Exact nearest neighbours by scanning every entry (the reference).
-
-    A float32 matrix product per block scores every entry, ``‖p‖² − 2 p·h`` (one
-    product of ``[p, ‖p‖²]`` and ``[−2h, 1]``); only the blocks whose best score lies
-    within a rigorous rounding-error margin of each query's k-th best are scored again
-    to pick candidates, and the candidates are re-measured with the exact formula
-    shared with :class:`TreeIndex`.
-
-    Use :meth:`from_arrays` to build one.
-
-    Attributes
-    ----------
-    points : (N, k) float32
-    ids : (N,) int64
-    """
-
-    #: Queries per screening block; entries per block at least ``entry_block``, at
-    #: most ``max_entry_block``, and about ``block_scores`` scores per block.
-    query_block = 512
-    entry_block = 8192
-    max_entry_block = 65536
-    block_scores = 1 << 22
-
-    def __init__(self, points: np.ndarray, ids: np.ndarray):
-        self.points = points
-        self.ids = ids
-        sq_norms = np.einsum("ij,ij->i", points, points, dtype=np.float64)
-        self._augmented = np.hstack([points, sq_norms[:, None].astype(np.float32)])
-        self._max_norm = float(np.sqrt(sq_norms.max())) if len(points) else 0.0
-
-    @classmethod
-    def from_arrays(cls, points, ids) -> BruteForceIndex:
-        """An index over ``points`` (N, k) float and their unique ``ids`` (N,) int."""
-        p = _check_points(points)
-        return cls(p, _check_ids(ids, p.shape[0]))
-
-    @property
-    def n_entries(self) -> int:
-        return self.points.shape[0]
-
-    def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
-        """The ``top_k`` nearest entries of each query, by scanning all of them.
-
-        Parameters
-        ----------
-        queries : (k,) or (Q, k) array of float
-            Rounded to float32, like the points.
-        top_k : int
-            At most the number of entries.
-        max_distance : float
-            Entries farther than this are not returned.
-
-        Returns
-        -------
-        SearchResult
-            ``examined`` is ``N`` for every query.
-        """
-        q = _check_queries(queries, self.points.shape[1])
-        top_k = _check_top_k(top_k, self.n_entries)
-        max_sq = _check_max_distance(max_distance)
-        best = _TopK(q.shape[0], top_k, max_sq)
-        for lo in range(0, q.shape[0], self.query_block):
-            block = q[lo : lo + self.query_block]
-            cand_q, cand_i = self._screen(block, top_k, max_sq)
-            sq = _pair_sq_distances(
-                np.take(self.points, cand_i, axis=0), np.take(block, cand_q, axis=0)
-            )
-            best.add(cand_q + lo, sq, self.ids[cand_i])
-        best.examined[:] = self.n_entries
-        return best.result()
-
-    def _screen(
-        self, queries: np.ndarray, top_k: int, max_sq: float
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (query row, entry index) that may be among each query's k best."""
-        n_q, n_dims = queries.shape
-        augmented = np.empty((n_q, n_dims + 1), dtype=np.float32)
-        augmented[:, :n_dims] = queries * np.float32(-2.0)  # exact scaling
-        augmented[:, n_dims] = 1.0
-        q_sq = np.einsum("ij,ij->i", queries, queries, dtype=np.float64)
-        q_norm = np.sqrt(q_sq)
-        # A float32 product of k + 1 terms errs by at most (k + 1) u (‖p‖ + ‖h‖)²
-        # whatever the summation order, the exact formula by (k + 2) u (‖p‖ + ‖h‖)²;
-        # a true k-best entry therefore always scores within 2 margins of the k-th
-        # smallest score.
-        margin = 4.0 * (n_dims + 8) * _U32 * (self._max_norm + q_norm) ** 2
-        width = int(np.clip(self.block_scores // n_q, self.entry_block, self.max_entry_block))
-        starts = np.arange(0, self.n_entries, width)
-        block_best = np.empty((n_q, starts.size), dtype=np.float32)
-        kth = np.full((n_q, top_k), np.inf, dtype=np.float32)
-        for b, lo in enumerate(starts):
-            scores = augmented @ self._augmented[lo : lo + width].T
-            if top_k == 1:
-                block_best[:, b] = scores.min(axis=1)
-                np.minimum(kth[:, 0], block_best[:, b], out=kth[:, 0])
-            else:
-                part = min(top_k, scores.shape[1])
-                smallest = np.partition(scores, part - 1, axis=1)[:, :part]
-                block_best[:, b] = smallest.min(axis=1)
-                kth = np.partition(np.hstack([kth, smallest]), top_k - 1, axis=1)[:, :top_k]
-        # Scores are squared distances less ‖h‖², so the cutoff moves by ‖h‖² too.
-        threshold = np.minimum(kth.max(axis=1), max_sq - q_sq) + 2.0 * margin
-        threshold = threshold.astype(np.float32)
-        # Second pass: score again only the blocks that may hold a k-best entry.
-        rows, blocks = np.nonzero(block_best <= threshold[:, None])
-        found_q, found_i = [], []
-        for b in np.unique(blocks):
-            lo = starts[b]
-            these = rows[blocks == b]
-            scores = augmented[these] @ self._augmented[lo : lo + width].T
-            flat = np.flatnonzero(scores <= threshold[these, None])
-            r, c = np.divmod(flat, scores.shape[1])
-            found_q.append(these[r])
-            found_i.append(c + lo)
-        if not found_q:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        return np.concatenate(found_q), np.concatenate(found_i)
-
-
-def brute_force(points, ids, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
-    """Exact nearest neighbours by scanning every entry.
-
-    Parameters
-    ----------
-    points : (N, k) array of float
-        Entry points (used as float32).
-    ids : (N,) array of int
-        Unique entry ids.
-    queries : (k,) or (Q, k) array of float
-    top_k : int
-    max_distance : float
-        Entries farther than this are not returned.
-
-    Returns
-    -------
-    SearchResult
-        The reference :meth:`TreeIndex.search` must equal.
-    """
-    return BruteForceIndex.from_arrays(points, ids).search(queries, top_k, max_distance)
 
 
 # -- the tree ----------------------------------------------------------------------
@@ -621,9 +155,9 @@ class TreeIndex:
             raise InvalidParameterError(f"quantizer must be a Quantizer, got {type(quantizer)}")
         if isinstance(leaf_size, bool) or not isinstance(leaf_size, Integral) or leaf_size < 1:
             raise InvalidParameterError(f"leaf_size must be a positive integer, got {leaf_size!r}")
-        p = _check_points(points)
+        p = check_points(points)
         n = p.shape[0]
-        i = _check_ids(ids, n)
+        i = check_ids(ids, n)
         k = np.asarray(keys)
         if k.shape != (n,) or (n and not np.issubdtype(k.dtype, np.integer)):
             raise InvalidParameterError(f"keys must be ({n},) integers, got {k.dtype} {k.shape}")
@@ -864,7 +398,7 @@ class TreeIndex:
     #: Queries searched together (bounds the size of the working arrays).
     query_block = 512
 
-    def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> SearchResult:
+    def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
 
         Parameters
@@ -881,20 +415,21 @@ class TreeIndex:
 
         Returns
         -------
-        SearchResult
-            ``ids`` and ``distances`` (Q, top_k) equal to :func:`brute_force`'s;
-            ``examined`` counts the entries whose distance was computed.
+        NearestEntries
+            ``ids`` and ``distances`` (Q, top_k) equal to
+            :func:`~eigmotion.retrieval.brute_force.brute_force`'s; ``examined`` counts the entries
+            whose distance was computed.
         """
-        q = _check_queries(queries, self.n_dims)
-        top_k = _check_top_k(top_k, self.n_entries)
-        max_sq = _check_max_distance(max_distance)
+        q = check_queries(queries, self.n_dims)
+        top_k = check_top_k(top_k, self.n_entries)
+        max_sq = check_max_distance(max_distance)
         parts = [
             self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
             for lo in range(0, q.shape[0], self.query_block)
         ]
         if len(parts) == 1:
             return parts[0]
-        return SearchResult(
+        return NearestEntries(
             np.concatenate([p.ids for p in parts]),
             np.concatenate([p.distances for p in parts]),
             np.concatenate([p.examined for p in parts]),
@@ -952,9 +487,9 @@ class TreeIndex:
             ]
         return current
 
-    def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> SearchResult:
-        best = _TopK(queries.shape[0], top_k, max_sq)
-        _kernels().best_first(
+    def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
+        best = RunningBest(queries.shape[0], top_k, max_sq)
+        kernels().best_first(
             self.points, self.ids, self._lo, self._hi, self._child_first, self._child_count,
             self._child_list, self._is_leaf, self._start, self._end, queries,
             self._greedy(queries, top_k), _SLACK, best.sq, best.ids, best.examined,

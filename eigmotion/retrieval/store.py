@@ -1,48 +1,9 @@
 """The motion database on disk: ZODB + BTrees, behind one class.
 
-This is the only module that touches ZODB.  A database is opened by URI:
-
-``path`` or ``file:///abs/path.fs``
-    A ZODB ``FileStorage`` file (the default).
-``memory://``
-    A ``MappingStorage`` in this process, for tests; it lives as long as the
-    :class:`Store` that created it.
-``zeo://host:port``
-    A ZEO server's storage (``ZEO.ClientStorage``), shared by many processes.
-
-Layout of the root (plain data only: numbers, strings, bytes, tuples, dicts and the
-ZODB/BTrees containers; never a class of this package, so renaming a module never
-breaks a stored database)::
-
-    schema_version  int                       SCHEMA_VERSION
-    config          PersistentMapping         the build configuration (plain values)
-    eigenspace      PersistentMapping         Eigenspace.to_state() (arrays as bytes)
-    quantizer       PersistentMapping         Quantizer.to_state()
-    keys            LOBTree  key → LLTreeSet  the B-tree: entry ids under each key
-    entries         LOBTree  id  → dict       one record per motion image
-    motions         LOBTree  id  → PersistentMapping  label, source, BVH text, metadata
-    columns         LOBTree  chunk → PersistentMapping  ids, keys, points, motions
-                                              of 65,536 entries each, as bytes
-    pose_space      PersistentMapping         the pose eigenspace of the sequences'
-                                              frames, Eigenspace.to_state()
-    sequences       LOBTree  motion id → PersistentMapping  the silhouette sequences
-                                              of the motion's renderings, as bytes
-    counters        PersistentMapping         next_entry, next_motion
-
-An entry record is ``{"motion": int, "label": str, "view_azimuth_deg": float,
-"view_elevation_deg": float, "start_frame": int, "end_frame": int, "key": int,
-"point": bytes (k float32, little-endian)}``, with ``"body": int`` (which of the
-build's bodies the motion image was rendered on) where it was stored; databases built
-before 2026-11-27 lack it.  Entry ids count up from 0, so the columns are in id order;
-they repeat the records' ids, keys and points in packed form so that opening a database
-of a million entries reads a few dozen objects instead of unpickling a million
-records.  A motion's sequences record is ``{"azimuth": bytes (R float64),
-"elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
-(sum of lengths × (p + 1) float16)}``: one row per rendering (body × view) of the
-whole motion, each frame its p coordinates in the pose eigenspace and its weighted rise
-(:func:`eigmotion.retrieval.sequences.pose_coordinates`); it is read
-only when a query compares the motion.  :meth:`Store.check` verifies that the B-tree, the
-records and the columns agree.
+This is the only module that reads and writes a database's objects (ZODB itself is
+opened in :mod:`eigmotion.retrieval.storage`, by URI: a path or ``file://``,
+``memory://``, ``zeo://host:port``).  The layout of the root, plain data only, is
+described in :mod:`eigmotion.retrieval.schema`.
 
 Writes happen inside :meth:`Store.transaction` (one ``transaction.TransactionManager``
 per store): a whole build or a whole index is one transaction, committed at the end
@@ -53,148 +14,33 @@ nothing half-written.
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import unquote, urlparse
 
 import numpy as np
+import transaction
+from BTrees.LLBTree import LLTreeSet
+from BTrees.LOBTree import LOBTree
+from persistent.mapping import PersistentMapping
 
 from eigmotion.errors import DatabaseError, InvalidParameterError
 from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.keys import Quantizer
-
-#: Version of the root layout; a database of another version is refused.  Version 2
-#: added the silhouette sequences; version 3 weighs their lower body
-#: (:data:`eigmotion.retrieval.sequences.LOWER_BODY_WEIGHT`); version 4 adds the rise of the top
-#: of the body to each of their frames.
-SCHEMA_VERSION = 4
-
-#: Entries per packed column chunk.
-CHUNK_ENTRIES = 65536
-
-#: Seconds a ``zeo://`` open waits for the server.
-ZEO_WAIT_S = 10.0
-
-_FILE_SUFFIXES = ("", ".index", ".lock", ".tmp", ".old")
-_PLAIN_SCALARS = (bool, int, float, str, bytes, type(None))
-
-
-@dataclass(frozen=True)
-class MotionSequences:
-    """The silhouette sequences of one motion's renderings.
-
-    Attributes
-    ----------
-    azimuth_deg, elevation_deg : (R,) float64
-        The virtual camera of each rendering, degrees.
-    lengths : (R,) int64
-        Frames of each sequence, each >= 1.
-    frames : (sum of lengths, p + 1) float32
-        The sequences' frames, one after the other: the p pose-eigenspace coordinates
-        and the weighted rise (:func:`eigmotion.retrieval.sequences.pose_coordinates`).
-    """
-
-    azimuth_deg: np.ndarray
-    elevation_deg: np.ndarray
-    lengths: np.ndarray
-    frames: np.ndarray
-
-
-@dataclass(frozen=True)
-class StoreArrays:
-    """Everything a query needs, held in memory.
-
-    Attributes
-    ----------
-    ids : (N,) int64
-        Entry ids, ascending.
-    keys : (N,) int64
-        Each entry's B-tree key.
-    points : (N, k) float32
-        Each entry's eigen-coordinates.
-    motions : (N,) int64
-        Each entry's motion id.
-    """
-
-    ids: np.ndarray
-    keys: np.ndarray
-    points: np.ndarray
-    motions: np.ndarray
-
-
-def _plain(value, where: str):
-    """A deep copy of ``value`` made of built-in types only, or InvalidParameterError."""
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, _PLAIN_SCALARS):
-        if isinstance(value, float) and not math.isfinite(value):
-            raise InvalidParameterError(f"{where}: {value} is not a finite number")
-        return value
-    if isinstance(value, list | tuple):
-        return tuple(_plain(v, f"{where}[{i}]") for i, v in enumerate(value))
-    if isinstance(value, dict):
-        out = {}
-        for k, v in value.items():
-            if not isinstance(k, str):
-                raise InvalidParameterError(f"{where}: key {k!r} is not a string")
-            out[k] = _plain(v, f"{where}.{k}")
-        return out
-    raise InvalidParameterError(
-        f"{where}: {type(value).__name__} cannot be stored; use numbers, strings, bytes, "
-        "lists and dicts"
-    )
-
-
-def _frame_columns(root) -> int:
-    """Columns of a stored sequence frame: the pose eigenspace's axes and the rise
-    (:func:`eigmotion.retrieval.sequences.pose_coordinates`)."""
-    return int(root["pose_space"]["components"]["shape"][0]) + 1
-
-
-def _thaw(value):
-    """Copy stored plain data (and ZODB mappings) back into plain dicts and lists."""
-    if hasattr(value, "items"):
-        return {k: _thaw(v) for k, v in value.items()}
-    if isinstance(value, tuple):
-        return [_thaw(v) for v in value]
-    return value
-
-
-def parse_uri(uri: str | os.PathLike) -> tuple[str, str]:
-    """Split a database URI into ``(scheme, target)``.
-
-    Returns
-    -------
-    ("file", path) or ("memory", "") or ("zeo", "host:port")
-
-    Raises
-    ------
-    DatabaseError
-        An unknown scheme or a ``zeo://`` address without a port.
-    """
-    text = os.fspath(uri)
-    if "://" not in text:
-        return "file", text
-    parsed = urlparse(text)
-    scheme = parsed.scheme.lower()
-    if scheme == "file":
-        path = unquote(parsed.path)
-        if parsed.netloc and parsed.netloc != "localhost":
-            path = parsed.netloc + path
-        return "file", path
-    if scheme == "memory":
-        return "memory", ""
-    if scheme == "zeo":
-        if not parsed.hostname or parsed.port is None:
-            raise DatabaseError(f"{text}: a ZEO address needs host and port (zeo://host:port)")
-        return "zeo", f"{parsed.hostname}:{parsed.port}"
-    raise DatabaseError(
-        f"{text}: unknown database scheme {scheme!r}; use a path, file://, "
-        "memory:// or zeo://host:port"
-    )
+from eigmotion.retrieval.schema import (
+    SCHEMA_VERSION,
+    MotionSequences,
+    StoreArrays,
+    append_to_columns,
+    checked_sequences,
+    entry_columns,
+    frame_columns,
+    plain_copy,
+    thawed,
+    unpack_columns,
+    unpack_sequences,
+)
+from eigmotion.retrieval.storage import open_zodb, parse_uri, remove_file_storage
 
 
 class Store:
@@ -212,8 +58,6 @@ class Store:
     """
 
     def __init__(self, uri: str, db, read_only: bool):
-        import transaction
-
         self.uri = uri
         self.read_only = read_only
         self._db = db
@@ -252,10 +96,8 @@ class Store:
             if path.exists():
                 if not overwrite:
                     raise DatabaseError(f"{path}: a database exists; pass overwrite=True")
-                for suffix in _FILE_SUFFIXES:
-                    with contextlib.suppress(FileNotFoundError):
-                        Path(f"{path}{suffix}").unlink()
-        store = cls(text, cls._open_db(scheme, target, text, read_only=False), False)
+                remove_file_storage(path)
+        store = cls(text, open_zodb(scheme, target, text, read_only=False), False)
         store._overwrite = overwrite
         if "schema_version" in store._root() and not overwrite:
             store.close()
@@ -288,7 +130,7 @@ class Store:
             )
         if scheme == "file" and not Path(target).is_file():
             raise DatabaseError(f"{target}: no such database file")
-        store = cls(text, cls._open_db(scheme, target, text, read_only), read_only)
+        store = cls(text, open_zodb(scheme, target, text, read_only), read_only)
         try:
             store._check_schema()
             store._load_arrays()
@@ -296,41 +138,6 @@ class Store:
             store.close()
             raise
         return store
-
-    @staticmethod
-    def _open_db(scheme: str, target: str, uri: str, read_only: bool):
-        import ZODB
-
-        try:
-            if scheme == "memory":
-                from ZODB.MappingStorage import MappingStorage
-
-                storage = MappingStorage()
-            elif scheme == "file":
-                from ZODB.FileStorage import FileStorage
-
-                storage = FileStorage(target, read_only=read_only)
-            else:
-                from ZEO.ClientStorage import ClientStorage
-                from ZEO.Exceptions import ClientDisconnected
-
-                host, port = target.rsplit(":", 1)
-                try:
-                    storage = ClientStorage(
-                        (host, int(port)),
-                        read_only=read_only,
-                        wait_timeout=ZEO_WAIT_S,
-                        # a new transaction asks the server, so refresh() sees every
-                        # commit made before it was called
-                        server_sync=True,
-                    )
-                except ClientDisconnected as exc:
-                    raise DatabaseError(f"{uri}: no ZEO server answered ({exc})") from exc
-        except DatabaseError:
-            raise
-        except Exception as exc:  # lock held elsewhere, corrupt file, permissions
-            raise DatabaseError(f"{uri}: cannot open database: {exc}") from exc
-        return ZODB.DB(storage, large_record_size=1 << 31)
 
     def close(self) -> None:
         """Abort any open transaction and close the connection and the database."""
@@ -455,16 +262,13 @@ class Store:
         pose_space : Eigenspace
             Fitted on the frames of the silhouette sequences.
         """
-        from BTrees.LOBTree import LOBTree
-        from persistent.mapping import PersistentMapping
-
         self._require_writing("initialise()")
         root = self._root()
         if "schema_version" in root and not self._overwrite:
             raise DatabaseError(f"{self.uri}: already initialised")
         if not isinstance(config, dict):
             raise InvalidParameterError(f"config must be a dict, got {type(config).__name__}")
-        config = _plain(config, "config")
+        config = plain_copy(config, "config")
         space_state = eigenspace.to_state()
         quant_state = quantizer.to_state()
         pose_state = pose_space.to_state()
@@ -506,8 +310,6 @@ class Store:
         int
             The motion id (0, 1, 2, … in order of addition).
         """
-        from persistent.mapping import PersistentMapping
-
         self._require_writing("add_motion()")
         root = self._require_initialised()
         for name, value in (("label", label), ("source", source), ("bvh", bvh)):
@@ -519,7 +321,7 @@ class Store:
             "label": label,
             "source": source,
             "bvh": bvh,
-            "metadata": _plain(metadata or {}, "metadata"),
+            "metadata": plain_copy(metadata or {}, "metadata"),
         }
         counters = root["counters"]
         motion_id = int(counters["next_motion"])
@@ -566,49 +368,15 @@ class Store:
         (N,) int64
             The new entry ids, consecutive.
         """
-        from BTrees.LLBTree import LLTreeSet
-        from persistent.mapping import PersistentMapping
-
         self._require_writing("add_entries()")
         root = self._require_initialised()
         k = int(root["eigenspace"]["components"]["shape"][0])
-        pts = np.asarray(points)
-        if pts.ndim != 2 or pts.shape[1] != k or not np.issubdtype(pts.dtype, np.number):
-            raise InvalidParameterError(
-                f"points must be (N, {k}) numbers, got {pts.dtype} {pts.shape}"
-            )
-        pts = np.ascontiguousarray(pts, dtype=np.float32)
+        checked = entry_columns(
+            k, points, motion_ids, keys, view_azimuth_deg, view_elevation_deg, start_frame,
+            end_frame, bodies,
+        )  # fmt: skip
+        pts, motions, keys, body = checked.points, checked.motions, checked.keys, checked.body
         n = pts.shape[0]
-        if not np.all(np.isfinite(pts)):
-            raise InvalidParameterError("points hold NaN or infinity (as float32)")
-
-        def column(values, name, integer):
-            a = np.asarray(values)
-            if a.shape != (n,):
-                raise InvalidParameterError(f"{name} must have shape ({n},), got {a.shape}")
-            if integer:
-                if n and not np.issubdtype(a.dtype, np.integer):
-                    raise InvalidParameterError(f"{name} must be integers, got {a.dtype}")
-                return a.astype(np.int64)
-            a = a.astype(np.float64)
-            if not np.all(np.isfinite(a)):
-                raise InvalidParameterError(f"{name} holds NaN or infinity")
-            return a
-
-        motions = column(motion_ids, "motion_ids", True)
-        keys = column(keys, "keys", True)
-        azimuth = column(view_azimuth_deg, "view_azimuth_deg", False)
-        elevation = column(view_elevation_deg, "view_elevation_deg", False)
-        start = column(start_frame, "start_frame", True)
-        end = column(end_frame, "end_frame", True)
-        body = None if bodies is None else column(bodies, "bodies", True)
-        if body is not None and np.any(body < 0):
-            raise InvalidParameterError(f"bodies must be >= 0, got {int(body.min())}")
-        if np.any(start < 0) or np.any(end < start):
-            row = int(np.flatnonzero((start < 0) | (end < start))[0])
-            raise InvalidParameterError(
-                f"entry {row}: time window {start[row]}..{end[row]} is not 0 <= start <= end"
-            )
         known = root["motions"]
         for m in np.unique(motions).tolist():
             if m not in known:
@@ -636,10 +404,10 @@ class Store:
                 int(ids[i]): {
                     "motion": int(motions[i]),
                     "label": labels[i],
-                    "view_azimuth_deg": float(azimuth[i]),
-                    "view_elevation_deg": float(elevation[i]),
-                    "start_frame": int(start[i]),
-                    "end_frame": int(end[i]),
+                    "view_azimuth_deg": float(checked.azimuth[i]),
+                    "view_elevation_deg": float(checked.elevation[i]),
+                    "start_frame": int(checked.start[i]),
+                    "end_frame": int(checked.end[i]),
                     "key": int(keys[i]),
                     "point": point_bytes[i].tobytes(),
                     **({} if body is None else {"body": int(body[i])}),
@@ -656,22 +424,7 @@ class Store:
                 bucket = tree[key] = LLTreeSet()
             bucket.update(group.tolist())
 
-        columns = root["columns"]
-        done = 0
-        while done < n:
-            chunk_no = int((first + done) // CHUNK_ENTRIES)
-            room = (chunk_no + 1) * CHUNK_ENTRIES - (first + done)
-            part = slice(done, done + min(room, n - done))
-            chunk = columns.get(chunk_no)
-            if chunk is None:
-                chunk = columns[chunk_no] = PersistentMapping(
-                    {"ids": b"", "keys": b"", "points": b"", "motions": b""}
-                )
-            chunk["ids"] += ids[part].astype("<i8").tobytes()
-            chunk["keys"] += keys[part].astype("<i8").tobytes()
-            chunk["points"] += point_bytes[part].tobytes()
-            chunk["motions"] += motions[part].astype("<i8").tobytes()
-            done = part.stop
+        append_to_columns(root["columns"], first, ids, keys, point_bytes, motions)
         counters["next_entry"] = first + n
         return ids
 
@@ -692,33 +445,13 @@ class Store:
             (:func:`eigmotion.retrieval.sequences.pose_coordinates`), ``F_r >= 1``; kept as
             float16.
         """
-        from persistent.mapping import PersistentMapping
-
         self._require_writing("add_sequences()")
         root = self._require_initialised()
         if int(motion_id) not in root["motions"]:
             raise InvalidParameterError(f"motion id {motion_id} was never added (add_motion first)")
-        p = _frame_columns(root)
-        sequences = [np.asarray(seq) for seq in sequences]
-        azimuth = np.asarray(view_azimuth_deg, dtype=np.float64)
-        elevation = np.asarray(view_elevation_deg, dtype=np.float64)
-        r = len(sequences)
-        if azimuth.shape != (r,) or elevation.shape != (r,):
-            raise InvalidParameterError(
-                f"view_azimuth_deg and view_elevation_deg must have shape ({r},), got "
-                f"{azimuth.shape} and {elevation.shape}"
-            )
-        for i, seq in enumerate(sequences):
-            if seq.ndim != 2 or seq.shape[0] < 1 or seq.shape[1] != p:
-                raise InvalidParameterError(
-                    f"sequence {i} must be (F >= 1, {p}) pose coordinates and rise, got {seq.shape}"
-                )
-            if not np.all(np.isfinite(seq)):
-                raise InvalidParameterError(f"sequence {i} holds NaN or infinity")
-            if np.any(np.abs(seq) > np.finfo(np.float16).max):
-                raise InvalidParameterError(f"sequence {i} holds values beyond float16")
-        if not (np.all(np.isfinite(azimuth)) and np.all(np.isfinite(elevation))):
-            raise InvalidParameterError("view directions hold NaN or infinity")
+        azimuth, elevation, sequences = checked_sequences(
+            frame_columns(root), view_azimuth_deg, view_elevation_deg, sequences
+        )
         record = root["sequences"].get(int(motion_id))
         if record is None:
             record = root["sequences"][int(motion_id)] = PersistentMapping(
@@ -738,7 +471,7 @@ class Store:
     @property
     def config(self) -> dict:
         """The build configuration (a plain copy)."""
-        return _thaw(self._require_initialised()["config"])
+        return thawed(self._require_initialised()["config"])
 
     def eigenspace(self) -> Eigenspace:
         """The stored eigenspace, fitted."""
@@ -765,22 +498,13 @@ class Store:
         """The silhouette sequences of one motion's renderings (none for a motion
         stored without them)."""
         root = self._require_initialised()
-        p = _frame_columns(root)
+        p = frame_columns(root)
         record = root["sequences"].get(int(motion_id))
         if record is None:
             if int(motion_id) not in root["motions"]:
                 raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
             record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
-        lengths = np.frombuffer(record["lengths"], dtype="<i8").astype(np.int64)
-        frames = np.frombuffer(record["frames"], dtype="<f2").astype(np.float32)
-        if frames.size != int(lengths.sum()) * p:
-            raise DatabaseError(f"{self.uri}: the sequences of motion {motion_id} are damaged")
-        return MotionSequences(
-            np.frombuffer(record["azimuth"], dtype="<f8").astype(np.float64),
-            np.frombuffer(record["elevation"], dtype="<f8").astype(np.float64),
-            lengths,
-            frames.reshape(-1, p),
-        )
+        return unpack_sequences(record, p, self.uri, motion_id)
 
     @property
     def n_entries(self) -> int:
@@ -799,7 +523,7 @@ class Store:
         record = self._require_initialised()["motions"].get(int(motion_id))
         if record is None:
             raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-        return _thaw(record)
+        return thawed(record)
 
     def entry(self, entry_id: int) -> dict:
         """An entry's record (a copy); ``point`` is decoded to a (k,) float32 array."""
@@ -844,22 +568,7 @@ class Store:
         return self._arrays
 
     def _load_arrays(self) -> None:
-        root = self._require_initialised()
-        k = int(root["eigenspace"]["components"]["shape"][0])
-        parts = {"ids": [], "keys": [], "points": [], "motions": []}
-        for chunk in root["columns"].values():
-            for name in parts:
-                parts[name].append(chunk[name])
-        ids = np.frombuffer(b"".join(parts["ids"]), dtype="<i8").astype(np.int64)
-        keys = np.frombuffer(b"".join(parts["keys"]), dtype="<i8").astype(np.int64)
-        motions = np.frombuffer(b"".join(parts["motions"]), dtype="<i8").astype(np.int64)
-        points = np.frombuffer(b"".join(parts["points"]), dtype="<f4").astype(np.float32)
-        n = int(root["counters"]["next_entry"])
-        if not (ids.size == keys.size == motions.size == n and points.size == n * k):
-            raise DatabaseError(
-                f"{self.uri}: packed columns hold {ids.size} entries, the counter says {n}"
-            )
-        self._arrays = StoreArrays(ids, keys, points.reshape(n, k), motions)
+        self._arrays = unpack_columns(self._require_initialised(), self.uri)
 
     def check(self) -> None:
         """Verify the database: B-tree invariants, and keys, records and columns agree.

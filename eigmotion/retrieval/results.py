@@ -1,0 +1,206 @@
+"""What the motion database answers: a query's matches and segments, and what a build
+or an index did; each answer with its JSON form (``eigmotion query --json``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Match:
+    """One database entry returned for a query.
+
+    Attributes
+    ----------
+    label : str
+    motion : str
+        The basic motion's name.
+    motion_id : int
+    entry_id : int
+    distance : float
+        Euclidean distance in the eigenspace.
+    azimuth_deg, elevation_deg : float
+        The matching virtual camera.
+    window : (int, int)
+        ``[start, stop)`` frames of the basic motion.
+    sequence_distance : float or None
+        Time-warped distance between the clip's silhouette sequence and the motion's
+        nearest rendering, times what their difference of pace costs (pose-eigenspace
+        units, :mod:`eigmotion.retrieval.sequences`); None when the motion was not compared
+        that way.
+    """
+
+    label: str
+    motion: str
+    motion_id: int
+    entry_id: int
+    distance: float
+    azimuth_deg: float
+    elevation_deg: float
+    window: tuple[int, int]
+    sequence_distance: float | None = None
+
+    def to_json(self) -> dict:
+        out = {
+            "label": self.label,
+            "motion": self.motion,
+            "distance": round(self.distance, 6),
+            "view": {"azimuth_deg": self.azimuth_deg, "elevation_deg": self.elevation_deg},
+        }
+        if self.sequence_distance is not None:
+            out["sequence_distance"] = round(self.sequence_distance, 6)
+        return out
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of the query clip with one label.
+
+    ``start_frame``/``end_frame`` are ``[start, end)`` frames of the clip."""
+
+    start_frame: int
+    end_frame: int
+    label: str
+    distance: float
+
+    def to_json(self) -> dict:
+        return {
+            "start_frame": self.start_frame,
+            "end_frame": self.end_frame,
+            "label": self.label,
+            "distance": round(self.distance, 6),
+        }
+
+
+@dataclass(frozen=True)
+class QueryResult:
+    """The answer to one clip (see
+    :meth:`~eigmotion.retrieval.database.MotionDatabase.query_masks`).
+
+    Attributes
+    ----------
+    best : Match
+        The clip's answer: the whole clip's nearest motion by motion image and
+        silhouette sequence together (:func:`~eigmotion.retrieval.sequences.fused_scores`) —
+        its nearest entry — unless that is filler
+        (:data:`~eigmotion.mocap.library.FILLER_LABELS`: walking into a turn) and a
+        window of the clip shows a specific action — then that window's nearest entry.
+    accepted : bool
+        The whole clip's nearest entry (or the window that answers) lies within the
+        threshold — as near as the database's own motions come to one another's
+        performances, which is what the threshold is calibrated on; otherwise the
+        motion is unknown.  The answer itself may be a motion whose nearest entry is
+        farther: it was ranked first by both distances together.
+    threshold : float
+        The "unknown" threshold ``accepted`` was judged against, eigenspace units: the
+        database's own, or the one for the false rejection the query asked for
+        (:meth:`~eigmotion.retrieval.database.MotionDatabase.threshold_at`).
+    p_known : float or None
+        In [0, 1]: the share of new performances of the library's own motions that lie
+        at least as far from the database as this clip (the distance ``accepted`` is
+        judged by, against the quantiles the build stored,
+        :func:`~eigmotion.retrieval.calibration.leave_one_motion_out_distances`).  Near
+        1, as near as most known motions come; near 0, farther than nearly all.
+        ``accepted`` at a false rejection r is ``p_known >= r``.  None for a database
+        built without them.
+    top : list of Match
+        Distinct motions in that order, ``best`` first.
+    labels : list of Match
+        Every label the query ranked, once, in that order: the first motion of each in
+        the ranking that ``top`` begins (``best`` first).  Its first three are the
+        top-3 that ``docs/accuracy.md`` measures.
+    segments : list of Segment
+    examined : int
+        Entries whose distance was computed by the whole-clip search.
+    examined_windows : int
+        The same, summed over the searches of the sliding windows (segments).
+    db_entries : int
+    timing_ms : dict of str to float
+        Wall time of the query's steps, ms: ``motion_images`` (the whole clip's),
+        ``search`` (the whole clip's; the windows' motion images and searches run
+        beside it and the next step), ``sequences`` (the candidates ranked), ``total``.
+    motion_image : (D,) float32
+        The clip's motion image.
+    """
+
+    best: Match
+    accepted: bool
+    threshold: float
+    p_known: float | None
+    top: list[Match]
+    labels: list[Match]
+    segments: list[Segment]
+    examined: int
+    examined_windows: int
+    db_entries: int
+    timing_ms: dict[str, float]
+    motion_image: np.ndarray
+
+    def to_json(self) -> dict:
+        out = self.best.to_json()
+        out["accepted"] = bool(self.accepted)
+        out["threshold"] = round(self.threshold, 6)
+        out["p_known"] = None if self.p_known is None else round(self.p_known, 4)
+        out["top"] = [m.to_json() for m in self.top]
+        out["labels"] = [m.to_json() for m in self.labels]
+        out["segments"] = [s.to_json() for s in self.segments]
+        out["examined"] = int(self.examined)
+        out["examined_windows"] = int(self.examined_windows)
+        out["db_entries"] = int(self.db_entries)
+        out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
+        return out
+
+
+@dataclass(frozen=True)
+class BuildReport:
+    """What a build made.
+
+    Attributes
+    ----------
+    uri : str
+    n_motions, n_entries, n_components : int
+    explained_variance : float
+        Fraction of the motion images' variance the eigenspace keeps.
+    threshold : float
+        Distance above which a query is "unknown", eigen-coordinate units.
+    seconds : float
+        Wall time of the build.
+    """
+
+    uri: str
+    n_motions: int
+    n_entries: int
+    n_components: int
+    explained_variance: float
+    threshold: float
+    seconds: float
+
+
+@dataclass(frozen=True)
+class IndexReport:
+    """What indexing a motion did.
+
+    Attributes
+    ----------
+    name : str
+    motion_id : int
+    n_entries : int
+        Motion images inserted (views × windows × body shapes).
+    reconstruction_error : float
+        Median distance of its motion images from the eigenspace.
+    reference_error : float
+        The 95th percentile of that distance over the images the eigenspace was fitted
+        on.
+    badly_represented : bool
+        ``reconstruction_error > reference_error``: the eigenspace was not made for
+        this motion; rebuild with ``refit``.
+    """
+
+    name: str
+    motion_id: int
+    n_entries: int
+    reconstruction_error: float
+    reference_error: float
+    badly_represented: bool
