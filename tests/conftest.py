@@ -11,8 +11,8 @@ import pytest
 
 from eigmotion.imaging.cameras import load_rig
 from eigmotion.mocap.library import load_library
-from eigmotion.retrieval.build import BuildConfig
-from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.build import build_database
+from eigmotion.retrieval.library_views import BuildConfig
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 

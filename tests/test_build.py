@@ -10,7 +10,12 @@ import pytest
 
 from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.mocap.library import load_entry, read_manifest
-from eigmotion.retrieval.build import BuildConfig, render_views, window_bounds, window_labels
+from eigmotion.retrieval.library_views import (
+    BuildConfig,
+    render_views,
+    window_bounds,
+    window_labels,
+)
 
 CONFIG = BuildConfig(garments=((),))
 
@@ -94,7 +99,7 @@ def test_the_build_leaves_out_windows_outside_an_action_without_filler(views):
 def test_view_images_of_stored_masks_equal_the_render(turn, views):
     """view_images, given the silhouettes a render makes, gives what the render gave."""
     from eigmotion.imaging.silhouettes import render_masks
-    from eigmotion.retrieval.build import build_body, pose_for_views, view_images
+    from eigmotion.retrieval.library_views import build_body, pose_for_views, view_images
 
     rig = virtual_rig([0.0, 90.0], [0.0], 64, 64)
     (shape, outfit) = CONFIG.bodies[0]

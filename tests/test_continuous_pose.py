@@ -29,8 +29,8 @@ from eigmotion.mocap.rotations import axis_rotation
 from eigmotion.pose.continuous_pose import ContinuousPoseConfig, align_motion, continuous_pose
 from eigmotion.pose.playback import monotone_path, speed_costs
 from eigmotion.pose.replay import replay
-from eigmotion.retrieval.build import BuildConfig, hull_points
 from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.library_views import BuildConfig, hull_points
 from eigmotion.synth.clips import time_warped
 
 REPO = Path(__file__).resolve().parents[1]

@@ -30,8 +30,7 @@ from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
 from eigmotion.retrieval.brute_force import BruteForceIndex
-from eigmotion.retrieval.build import BuildConfig, window_bounds
-from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.build import build_database
 from eigmotion.retrieval.calibration import (
     CALIBRATION_LEVELS,
     calibration_quantiles,
@@ -40,6 +39,7 @@ from eigmotion.retrieval.calibration import (
     stored_quantiles,
 )
 from eigmotion.retrieval.database import MotionDatabase, brute_force_check, candidate_motions
+from eigmotion.retrieval.library_views import BuildConfig, window_bounds
 from eigmotion.retrieval.query_windows import clip_segments, search_windows, window_label_path
 from eigmotion.retrieval.results import Match, Segment
 from eigmotion.retrieval.sequences import POSE_COMPONENTS
@@ -845,7 +845,7 @@ def test_a_build_is_the_same_to_the_last_bit_on_one_process_or_two(tmp_path, lib
 def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library):
     """build_database(views=...) stores what a rendering build stores, from the images a
     render made once (how the benchmarks build many fold databases from one render)."""
-    from eigmotion.retrieval.build import render_views
+    from eigmotion.retrieval.library_views import render_views
 
     rig = virtual_rig([0.0, 120.0, 240.0], [0.0], 64, 64)
     config = replace(CONFIG, n_components=4, key_axes=2)

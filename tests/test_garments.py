@@ -26,7 +26,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import virtual_rig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import find_motion
-from eigmotion.retrieval.build import BuildConfig, build_body, hull_points, render_views
+from eigmotion.retrieval.library_views import BuildConfig, build_body, hull_points, render_views
 
 
 @pytest.fixture(scope="module")

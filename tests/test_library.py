@@ -27,7 +27,7 @@ from eigmotion.mocap.library import (
 )
 from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.naming import canonical_joint_map
-from eigmotion.retrieval.build import BuildConfig
+from eigmotion.retrieval.library_views import BuildConfig
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"

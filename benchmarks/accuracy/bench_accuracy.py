@@ -103,9 +103,9 @@ from eigmotion.evaluation.scoring import (  # noqa: E402
 from eigmotion.imaging.cameras import load_rig  # noqa: E402
 from eigmotion.mocap.library import DISTRACTOR_LABELS, LABELS, LibraryMotion, load_library  # noqa: E402
 from eigmotion.resources import rigs_dir  # noqa: E402
-from eigmotion.retrieval.build import BuildConfig  # noqa: E402
-from eigmotion.retrieval.building import build_database  # noqa: E402
+from eigmotion.retrieval.build import build_database  # noqa: E402
 from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
+from eigmotion.retrieval.library_views import BuildConfig  # noqa: E402
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 
 QUICK_RIG = rigs_dir() / "ring6.toml"

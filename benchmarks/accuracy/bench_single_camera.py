@@ -69,7 +69,7 @@ from eigmotion.mocap.library import load_library  # noqa: E402
 from eigmotion.mocap.rotations import axis_rotation  # noqa: E402
 from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose  # noqa: E402
 from eigmotion.pose.replay import replay  # noqa: E402
-from eigmotion.retrieval.building import build_database  # noqa: E402
+from eigmotion.retrieval.build import build_database  # noqa: E402
 from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 

@@ -42,7 +42,7 @@ from eigmotion.evaluation.timing import best_time  # noqa: E402
 from eigmotion.imaging.cameras import virtual_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import find_motion  # noqa: E402
-from eigmotion.retrieval.build import hull_points  # noqa: E402
+from eigmotion.retrieval.library_views import hull_points  # noqa: E402
 
 MOTIONS = ("walk_02_01", "kick_135_04")
 

@@ -67,9 +67,9 @@ from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402
-from eigmotion.retrieval.build import BuildConfig, ViewImages, render_views  # noqa: E402
-from eigmotion.retrieval.building import build_database  # noqa: E402
+from eigmotion.retrieval.build import build_database  # noqa: E402
 from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
+from eigmotion.retrieval.library_views import BuildConfig, ViewImages, render_views  # noqa: E402
 from eigmotion.synth.clips import clip_camera  # noqa: E402
 
 CONDITIONS = ("db body, db view", "db body, clip view", "clip body", "video")

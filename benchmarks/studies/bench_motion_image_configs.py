@@ -45,7 +45,7 @@ from eigmotion.evaluation.measures import PLAIN_CONFIG, ratio
 from eigmotion.imaging.cameras import ring_rig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
-from eigmotion.retrieval.build import window_bounds
+from eigmotion.retrieval.library_views import window_bounds
 from eigmotion.retrieval.motion_image import MotionImageConfig, motion_image
 from eigmotion.segmentation.video import extract_silhouettes
 from eigmotion.synth.scene import compose_scene

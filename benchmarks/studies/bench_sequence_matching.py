@@ -68,8 +68,8 @@ from eigmotion.evaluation.statistics import markdown_table  # noqa: E402
 from eigmotion.imaging.cameras import CameraRig, load_rig  # noqa: E402
 from eigmotion.imaging.silhouettes import render_masks  # noqa: E402
 from eigmotion.mocap.library import LibraryMotion, load_library  # noqa: E402
-from eigmotion.retrieval.build import BuildConfig, build_body, pose_for_views, view_images  # noqa: E402
 from eigmotion.retrieval.eigenspace import Eigenspace  # noqa: E402
+from eigmotion.retrieval.library_views import BuildConfig, build_body, pose_for_views, view_images  # noqa: E402
 from eigmotion.retrieval.motion_image import ClipMotionImages  # noqa: E402
 from eigmotion.retrieval.sequences import (  # noqa: E402
     SEQUENCE_WEIGHT,

@@ -5,8 +5,8 @@ named), plots over time the signals the spans are read from — horizontal root 
 (m/s), hip height, the lower ankle's height (both feet off the floor when it rises),
 the higher hand's height (m), and on a second axis the hips' heading rate (°/s) —
 shades the span, and draws under it the build's sliding windows coloured by the label
-each gets (:func:`eigmotion.retrieval.build.window_labels`: the action's, the filler's, or left
-out).  Prints one line per motion: the manifest's span and filler, the span its
+each gets (:func:`eigmotion.retrieval.library_views.window_labels`: the action's, the
+filler's, or left out).  Prints one line per motion: the manifest's span and filler, the span its
 label's rule measures (:func:`measured_span`; turns and jumps), what the person does
 before and after it and the filler that makes (:func:`measured_filler`), and the
 windows per label.
@@ -31,7 +31,7 @@ from eigmotion.evaluation.action_spans import (
     span_text,
 )
 from eigmotion.mocap.library import load_library
-from eigmotion.retrieval.build import BuildConfig
+from eigmotion.retrieval.library_views import BuildConfig
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -18,8 +18,8 @@ from eigmotion import resources
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import load_rig
 from eigmotion.mocap.library import load_library
-from eigmotion.retrieval.build import BuildConfig
-from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.build import build_database
+from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
 DEFAULT_RIG = resources.default_rig()

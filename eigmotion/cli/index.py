@@ -14,7 +14,7 @@ from pathlib import Path
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.library import LibraryMotion, find_motion
-from eigmotion.retrieval.building import build_database
+from eigmotion.retrieval.build import build_database
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 

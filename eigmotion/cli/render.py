@@ -27,7 +27,7 @@ from eigmotion.imaging.cameras import load_rig
 from eigmotion.imaging.figures import contact_sheet, save_image
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import find_motion, load_library
-from eigmotion.retrieval.build import BuildConfig, build_body, pose_for_views
+from eigmotion.retrieval.library_views import BuildConfig, build_body, pose_for_views
 from eigmotion.retrieval.motion_image import motion_image, motion_image_picture
 
 DEFAULT_RIG = resources.default_rig()

@@ -18,7 +18,7 @@ from scipy.ndimage import uniform_filter1d
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import FILLER_LABELS, LibraryMotion
 from eigmotion.mocap.naming import canonical_joint_map
-from eigmotion.retrieval.build import BuildConfig, window_bounds, window_labels
+from eigmotion.retrieval.library_views import BuildConfig, window_bounds, window_labels
 
 #: Signals are averaged over this long (a walking stride's pelvis sway, frame noise).
 SMOOTH_S = 0.25

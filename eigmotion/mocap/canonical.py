@@ -67,7 +67,7 @@ def makehuman_dir() -> Path:
 
 
 @lru_cache(maxsize=4)
-def load_rig(path: str | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def load_makehuman_rig(path: str | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Bone head and tail positions of a MakeHuman rig file in the world frame.
 
     Parameters
@@ -96,7 +96,7 @@ def canonical_skeleton(order: str = "ZXY") -> Skeleton:
     Its rest pose is the avatar's (arms down at about 45°); leaf joints carry an End
     Site at their bone's tail.  Channels: root 6, others 3, Euler ``order``.
     """
-    rig = load_rig()
+    rig = load_makehuman_rig()
     heads = np.stack([rig[n][0] for n in CANONICAL_JOINTS])
     offsets = heads.copy()
     offsets[1:] = heads[1:] - heads[CANONICAL_PARENTS[1:]]

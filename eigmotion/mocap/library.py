@@ -38,7 +38,7 @@ action.  ``filler`` names what the person does before and after it: ``"walk"`` o
 ``"run"`` (:data:`FILLER_LABELS`), as on the way into a walking turn or a running
 jump.  The build labels the sliding windows mostly outside the action with the filler,
 or leaves them out when there is no filler (standing before an action is not the
-action); see :func:`eigmotion.retrieval.build.window_labels`.  A mirror image keeps both.
+action); see :func:`eigmotion.retrieval.library_views.window_labels`.  A mirror image keeps both.
 """
 
 from __future__ import annotations

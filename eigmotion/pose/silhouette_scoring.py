@@ -19,7 +19,7 @@ from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import Camera, virtual_rig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.motion import Motion
-from eigmotion.retrieval.build import hull_points
+from eigmotion.retrieval.library_views import hull_points
 from eigmotion.tracking.body import PostureBodies, avatar_bodies
 from eigmotion.tracking.dictionary import PostureSequence, dictionary_from_sequences
 from eigmotion.tracking.similarity import score_masks, view_window

@@ -1,499 +1,220 @@
-"""Database build, the imaging half: library × rig → silhouettes → motion images.
+"""Building a motion database, and storing a motion's renderings in one.
 
-For every basic motion and every virtual camera of a rig, the motion drives the
-avatar (low-poly copy, see :meth:`eigmotion.body.avatar.Avatar.decimated`), the rig is
-re-aimed at the motion (:meth:`eigmotion.imaging.cameras.CameraRig.fitted`), the CPU
-rasteriser renders one silhouette per frame, and :class:`eigmotion.retrieval.motion_image.
-ClipMotionImages` turns the whole motion and each sliding window of it into one unit
-vector (each as :func:`~eigmotion.retrieval.motion_image.motion_image` of its masks).  The
-windows let part of a motion (a clip that starts mid-walk) still match.
-Each image carries a label (:func:`window_labels`): the motion's own, except for a
-sliding window that shows mostly what comes before or after the motion's action
-(``LibraryMotion.action``), labelled with the motion's ``filler`` (the walking around
-a walking turn) or, when it has none, left out (the standing before a jump).
-
-The work is split over processes by (motion, view); the vectors then go to
-:mod:`eigmotion.retrieval.database`, which fits the eigenspace and writes the store.
+Steps 4–6 of the retrieval engine put together: :func:`build_database` renders the
+library through the rig (:func:`~eigmotion.retrieval.library_views.render_views`), fits the
+eigenspace (:mod:`eigmotion.retrieval.eigenspace`) and the pose eigenspace of the
+silhouette sequences, cuts the keys (:mod:`eigmotion.retrieval.keys`), calibrates the
+"unknown" threshold (:mod:`eigmotion.retrieval.calibration`) and writes everything
+through :class:`~eigmotion.retrieval.store.Store` in one transaction.
+:meth:`MotionDatabase.index_motion <eigmotion.retrieval.database.MotionDatabase.index_motion>`
+stores a further motion with the same helpers (:class:`CollectedViews`,
+:func:`store_motion`, :func:`store_sequences`).
 """
 
 from __future__ import annotations
 
 import os
-import threading
 import time
-from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import asdict, dataclass, field, fields
-from functools import lru_cache
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
-from tqdm import tqdm
 
-from eigmotion.body.avatar import check_body_shape, load_default_avatar
-from eigmotion.body.garments import dress, garment
-from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.cameras import CameraRig
-from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.cameras import CameraRig, rig_to_plain
+from eigmotion.mocap.bvh import format_bvh
 from eigmotion.mocap.library import LibraryMotion
-from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
-from eigmotion.retrieval.sequences import SEQUENCE_SIZE, sequence_frames
-
-#: Body shapes of the default build: (height in metres or None for the avatar's own,
-#: girth factor).  Several shapes stand in for several people.
-DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
-#: Outfits of the default build: tuples of garment names (see
-#: :mod:`eigmotion.body.garments`); ``()`` is the plain body.  Database garments only: the
-#: benchmark's (:data:`eigmotion.body.garments.BENCHMARK_GARMENTS`) stay unseen.
-DEFAULT_GARMENTS: tuple[tuple[str, ...], ...] = (
-    (),
-    ("short_skirt",),
-    ("jacket", "wide_shorts"),
-    ("cropped_trousers",),
+from eigmotion.retrieval.calibration import (
+    calibration_quantiles,
+    leave_one_motion_out_distances,
+    threshold_from_distances,
 )
-#: A sliding window shows a motion's action (:attr:`LibraryMotion.action
-#: <eigmotion.mocap.library.LibraryMotion.action>`) when the action fills at least this share
-#: of the window, or of the action when that is shorter than a window: a window is
-#: labelled by what takes most of it, and with the default windows (a step of a third
-#: of a window) every action keeps a window of its own (the last window to start
-#: before the action holds two thirds of a window of it, or all of it).
-ACTION_SHARE = 0.5
+from eigmotion.retrieval.eigenspace import Eigenspace
+from eigmotion.retrieval.keys import Quantizer
+from eigmotion.retrieval.library_views import BuildConfig, ViewImages, render_views
+from eigmotion.retrieval.results import BuildReport
+from eigmotion.retrieval.sequences import fit_pose_space, pose_coordinates
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH, replacing
+from eigmotion.retrieval.store import Store
 
 
-@dataclass(frozen=True)
-class BuildConfig:
-    """How a database is built; stored with it so queries preprocess identically.
+@dataclass
+class CollectedViews:
+    """The motion images and silhouette sequences of renderings, gathered view by view
+    (:meth:`add`) and handed over as arrays (:meth:`arrays`)."""
 
-    Parameters
-    ----------
-    motion_image : MotionImageConfig
-        Step 3 of the method, shared by build and query.
-    render_fps : float
-        Frames per second the motions are resampled to before rendering, > 0.
-    window_s : float
-        Length of the sliding windows, seconds (> 0).  A motion shorter than this
-        gives only its whole-motion entry.
-    window_step_s : float
-        Stride between window starts, seconds (> 0).
-    n_components : int or None
-        Eigen-dimensions k; ``None`` picks k by ``explained_variance``.
-    explained_variance : float
-        Fraction of variance kept when ``n_components`` is ``None``, in (0, 1].
-    key_axes : int
-        K, the eigen-axes in a B-tree key.
-    key_sections : int
-        R, sections per axis.
-    key_method : {"quantile", "equal"}
-        Section boundaries (see :mod:`eigmotion.retrieval.keys`).
-    low_poly_faces : int
-        Triangles of the avatar copy used for silhouettes.
-    body_shapes : tuple of (float or None, float)
-        Body (height_m, girth) variations rendered for every motion and view.
-    garments : tuple of tuple of str
-        Outfits, each a tuple of garment names from
-        :data:`eigmotion.body.garments.GARMENTS` (``()``: none); every body shape is
-        rendered in every outfit (:attr:`bodies`).  Databases stored before garments
-        existed read back with the default, the plain body.
-    """
+    vectors: list = field(default_factory=list)
+    motion: list = field(default_factory=list)
+    body: list = field(default_factory=list)
+    azimuth: list = field(default_factory=list)
+    elevation: list = field(default_factory=list)
+    start: list = field(default_factory=list)
+    stop: list = field(default_factory=list)
+    labels: list = field(default_factory=list)
+    #: (motion index, azimuth, elevation, (F, SEQUENCE_SIZE**2 + 1) frames) per rendering
+    sequences: list = field(default_factory=list)
 
-    motion_image: MotionImageConfig = field(default_factory=MotionImageConfig)
-    render_fps: float = 30.0
-    window_s: float = 1.5
-    window_step_s: float = 0.5
-    n_components: int | None = 40
-    explained_variance: float = 0.95
-    key_axes: int = 4
-    key_sections: int = 8
-    key_method: str = "quantile"
-    low_poly_faces: int = 4000
-    body_shapes: tuple[tuple[float | None, float], ...] = DEFAULT_BODY_SHAPES
-    garments: tuple[tuple[str, ...], ...] = DEFAULT_GARMENTS
-
-    def __post_init__(self):
-        for name in ("render_fps", "window_s", "window_step_s"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
-        if self.n_components is not None and self.n_components < 1:
-            raise InvalidParameterError(
-                f"n_components must be >= 1 or None, got {self.n_components!r}"
+    def add(self, view: ViewImages, rig: CameraRig) -> None:
+        """Gather one rendering (``view``) seen by its camera of ``rig``."""
+        n = len(view.vectors)
+        cam = rig[view.view_index]
+        if len(view.sequence):
+            self.sequences.append(
+                (view.motion_index, cam.azimuth_deg, cam.elevation_deg, view.sequence)
             )
-        if not 0 < self.explained_variance <= 1:
-            raise InvalidParameterError(
-                f"explained_variance must be in (0, 1], got {self.explained_variance!r}"
-            )
-        if not self.body_shapes:
-            raise InvalidParameterError("body_shapes must hold at least one (height_m, girth)")
-        shapes = tuple((None if h is None else float(h), float(g)) for h, g in self.body_shapes)
-        for height, girth in shapes:
-            check_body_shape(height, girth)
-        object.__setattr__(self, "body_shapes", shapes)
-        object.__setattr__(self, "garments", _outfits(self.garments))
+        self.vectors.append(view.vectors)
+        self.motion += [view.motion_index] * n
+        self.body += [view.shape_index] * n
+        self.azimuth += [cam.azimuth_deg] * n
+        self.elevation += [cam.elevation_deg] * n
+        self.start += view.windows[:, 0].tolist()
+        self.stop += view.windows[:, 1].tolist()
+        self.labels += view.labels
 
-    @property
-    def bodies(self) -> tuple[tuple[tuple[float | None, float], tuple[str, ...]], ...]:
-        """Every (body shape, outfit) rendered, shape by shape."""
-        return tuple((shape, outfit) for shape in self.body_shapes for outfit in self.garments)
-
-    def to_dict(self) -> dict:
-        """Plain values only, for the store."""
-        out = asdict(self)
-        out["motion_image"] = self.motion_image.to_dict()
-        out["body_shapes"] = [[-1.0 if h is None else h, g] for h, g in self.body_shapes]
-        out["garments"] = [list(outfit) for outfit in self.garments]
-        if self.n_components is None:
-            out["n_components"] = 0
-        return out
-
-    @classmethod
-    def from_dict(cls, data: dict) -> BuildConfig:
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise InvalidParameterError(f"build config: unknown key(s) {unknown}")
-        data = dict(data)
-        if "motion_image" in data:
-            data["motion_image"] = MotionImageConfig.from_dict(dict(data["motion_image"]))
-        if "body_shapes" in data:
-            data["body_shapes"] = tuple((None if h < 0 else h, g) for h, g in data["body_shapes"])
-        data.setdefault("garments", ((),))  # stored before garments existed: the plain body
-        if data.get("n_components") == 0:
-            data["n_components"] = None
-        return cls(**data)
-
-
-@dataclass(frozen=True)
-class ViewImages:
-    """The motion images of one (motion, body shape, view).
-
-    Attributes
-    ----------
-    motion_index : int
-        Position of the motion in the list given to :func:`render_views`.
-    view_index : int
-        Camera index in the rig.
-    shape_index : int
-        Index into ``BuildConfig.bodies`` (body shape and outfit).
-    windows : (W, 2) int64
-        ``[start, stop)`` frames of each image in the motion's own frames; the first
-        row is the whole motion.
-    vectors : (W, D) float32
-        Unit motion-image vectors, one per window.
-    labels : tuple of W str
-        Each image's label (:func:`window_labels`); the whole motion's is the motion's.
-    sequence : (F, SEQUENCE_SIZE**2 + 1) float32
-        The whole motion's aligned silhouettes and the rise of the body
-        (:func:`~eigmotion.retrieval.sequences.sequence_frames`).
-    """
-
-    motion_index: int
-    view_index: int
-    shape_index: int
-    windows: np.ndarray
-    vectors: np.ndarray
-    labels: tuple[str, ...]
-    sequence: np.ndarray
-
-
-def window_bounds(n_frames: int, fps: float, window_s: float, step_s: float) -> np.ndarray:
-    """``[start, stop)`` frame windows: the whole clip, then sliding windows.
-
-    Parameters
-    ----------
-    n_frames : int
-    fps : float
-        Frame rate of the frames counted, frames per second.
-    window_s, step_s : float
-        Window length and stride, seconds.
-
-    Returns
-    -------
-    (W, 2) int64
-        First row ``[0, n_frames)``; then windows of ``round(window_s * fps)`` frames
-        every ``round(step_s * fps)`` frames, the last one ending at the clip's end.
-        Clips no longer than 1.25 windows give the whole-clip row only.
-    """
-    length = max(2, int(round(window_s * fps)))
-    step = max(1, int(round(step_s * fps)))
-    rows = [(0, n_frames)]
-    if n_frames > 1.25 * length:
-        starts = list(range(0, n_frames - length + 1, step))
-        if starts[-1] + length < n_frames:
-            starts.append(n_frames - length)
-        rows += [(s, s + length) for s in starts]
-    return np.asarray(rows, dtype=np.int64)
-
-
-def window_labels(item: LibraryMotion, windows_s: np.ndarray) -> list[str | None]:
-    """The label of each window of a library motion, by how much of its action it shows.
-
-    Parameters
-    ----------
-    item : LibraryMotion
-    windows_s : (W, 2) float
-        ``[start, stop)`` of each window, seconds of ``item.motion``.
-
-    Returns
-    -------
-    list of (str or None)
-        ``item.label`` for a window that shows the action — every window when
-        ``item.action`` is ``None``; otherwise the action must fill
-        :data:`ACTION_SHARE` of the window, or of the action when that is shorter (so
-        the whole motion always shows it).  Any other window gets ``item.filler``, or
-        ``None`` — left out of the database — when the motion has no filler.
-    """
-    windows_s = np.asarray(windows_s, dtype=np.float64).reshape(-1, 2)
-    if item.action is None:
-        return [item.label] * len(windows_s)
-    start, stop = item.action
-    overlap = np.minimum(windows_s[:, 1], stop) - np.maximum(windows_s[:, 0], start)
-    needed = ACTION_SHARE * np.minimum(windows_s[:, 1] - windows_s[:, 0], stop - start)
-    return [
-        item.label if o >= n - 1e-9 else item.filler for o, n in zip(overlap, needed, strict=True)
-    ]
-
-
-def _outfits(garments) -> tuple[tuple[str, ...], ...]:
-    """``BuildConfig.garments`` as a tuple of tuples of known garment names."""
-    if isinstance(garments, str) or not garments:
-        raise InvalidParameterError(
-            f"garments must hold at least one outfit (a tuple of garment names, () for "
-            f"none), got {garments!r}"
+    def arrays(self):
+        """``(vectors (N, D) float32, motion (N,) int64, body (N,) int64, azimuth (N,)
+        float64, elevation (N,) float64, start (N,) int64, stop (N,) int64, labels list
+        of N str)``: every motion image gathered, one row each."""
+        return (
+            np.concatenate(self.vectors).astype(np.float32),
+            np.asarray(self.motion, dtype=np.int64),
+            np.asarray(self.body, dtype=np.int64),
+            np.asarray(self.azimuth, dtype=np.float64),
+            np.asarray(self.elevation, dtype=np.float64),
+            np.asarray(self.start, dtype=np.int64),
+            np.asarray(self.stop, dtype=np.int64),
+            list(self.labels),
         )
-    outfits = []
-    for outfit in garments:
-        if isinstance(outfit, str):
-            raise InvalidParameterError(
-                f"each outfit in garments is a tuple of garment names, got {outfit!r}; "
-                f"write ({outfit!r},)"
-            )
-        names = tuple(garment(name).name for name in outfit)
-        if len(set(names)) < len(names):
-            raise InvalidParameterError(f"outfit {names} names a garment twice")
-        outfits.append(names)
-    return tuple(outfits)
 
 
-@lru_cache(maxsize=32)
-def _body(shape: tuple[float | None, float], garments: tuple[str, ...], low_poly_faces: int):
-    avatar = load_default_avatar()
-    height, girth = shape
-    if height is not None or girth != 1.0:
-        avatar = avatar.with_shape(height_m=height, girth=girth)
-    return dress(avatar, garments).decimated(low_poly_faces)
-
-
-def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
-    """A motion on a body, and the rig aimed at it: what every view of it is rendered from.
-
-    Parameters
-    ----------
-    motion : Motion
-    body : Avatar
-    rig : CameraRig
-    render_fps : float
-        Frames per second the motion is resampled to.
-
-    Returns
-    -------
-    vertices : (F, V, 3) float32
-        The skinned body per frame, metres.
-    fitted : CameraRig
-        The rig re-aimed so that the whole motion stays in every camera's frame.
-    """
-    # Lazy: retargeting loads scipy.spatial (~0.14 s), which a query never needs.
-    from eigmotion.body.retarget import animate_avatar
-
-    _, vertices = animate_avatar(body, motion.resample(render_fps))
-    return vertices, rig.fitted(hull_points(vertices))
-
-
-def build_body(
-    shape: tuple[float | None, float], low_poly_faces: int, garments: tuple[str, ...] = ()
-):
-    """The (cached) low-poly avatar of one body shape ``(height_m or None, girth)``,
-    wearing ``garments`` (names from :data:`eigmotion.body.garments.GARMENTS`)."""
-    return _body(shape, tuple(garments), low_poly_faces)
-
-
-@lru_cache(maxsize=2)
-def _posed(motion_index: int, shape_index: int):
-    """:func:`pose_for_views` cached per worker process (the views of one motion share it)."""
-    library, rig, config = (
-        _WORKER_STATE["library"],
-        _WORKER_STATE["rig"],
-        _WORKER_STATE["config"],
-    )
-    shape, garments = config.bodies[shape_index]
-    body = _body(shape, garments, config.low_poly_faces)
-    vertices, fitted = pose_for_views(library[motion_index].motion, body, rig, config.render_fps)
-    return vertices, body.faces, fitted
-
-
-def hull_points(vertices: np.ndarray) -> np.ndarray:
-    """The corners of the convex hull of every vertex over a clip.
-
-    A camera sees all of a body's frames exactly when it sees these (the image of a
-    convex hull is the convex hull of the image), so fitting a camera to them is as
-    exact as fitting it to every vertex, and much cheaper.
-
-    Parameters
-    ----------
-    vertices : (F, V, 3) float
-
-    Returns
-    -------
-    (H, 3) float64
-    """
-    from scipy.spatial import ConvexHull, QhullError
-
-    points = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    try:
-        return points[ConvexHull(points).vertices]
-    except QhullError:  # flat or degenerate: keep them all
-        return points
-
-
-_WORKER_STATE: dict = {}
-
-
-def _exit_with_parent() -> None:
-    """End this worker process when the process that started it dies (even by
-    SIGKILL, which gives the pool no chance to stop its workers)."""
-    parent = os.getppid()
-
-    def watch():
-        while True:
-            time.sleep(0.5)
-            if os.getppid() != parent:
-                os._exit(1)
-
-    threading.Thread(target=watch, daemon=True, name="exit-with-parent").start()
-
-
-def _init_worker(library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig):
-    _exit_with_parent()
-    # Each process renders with one core; BLAS threads would only fight each other.
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    _WORKER_STATE.update(library=library, rig=rig, config=config)
-    _posed.cache_clear()
-
-
-def _render_task(task: tuple[int, int, int]) -> ViewImages:
-    motion_index, shape_index, view_index = task
-    library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
-    vertices, faces, fitted = _posed(motion_index, shape_index)
-    masks = render_masks(vertices, faces, fitted[view_index])
-    indices = (motion_index, view_index, shape_index)
-    return view_images(library[motion_index], masks, config, indices)
-
-
-def view_images(
-    item: LibraryMotion,
-    masks: np.ndarray,
-    config: BuildConfig,
-    indices: tuple[int, int, int] = (0, 0, 0),
-) -> ViewImages:
-    """The motion images of one rendered view of a library motion.
-
-    Parameters
-    ----------
-    item : LibraryMotion
-    masks : (F, H, W) bool
-        The silhouettes of ``item.motion`` resampled to ``config.render_fps``.
-    config : BuildConfig
-    indices : (int, int, int)
-        ``(motion_index, view_index, shape_index)`` to file the images under.
-
-    Returns
-    -------
-    ViewImages
-        The whole motion and every sliding window that shows something (a window
-        labelled ``None`` by :func:`window_labels`, or where nothing moves, is left
-        out), windows in ``item.motion``'s own frames; and the whole motion's
-        silhouette sequence.
-    """
-    windows = window_bounds(len(masks), config.render_fps, config.window_s, config.window_step_s)
-    images = ClipMotionImages(masks, config.motion_image, clip_fps=config.render_fps)
-    vectors, kept, labels = [], [], []
-    for (start, stop), label in zip(
-        windows, window_labels(item, windows / config.render_fps), strict=True
-    ):
-        if label is None:
-            continue  # standing before or after the action: not the action
-        try:
-            vectors.append(images.window(start, stop))
-            kept.append((start, stop))
-            labels.append(label)
-        except VideoError:
-            continue  # a window where nothing moves (a held pose) carries no motion image
-    motion = item.motion
-    to_source = motion.fps / config.render_fps
-    source_windows = np.round(np.asarray(kept, dtype=np.float64) * to_source).astype(np.int64)
-    source_windows = np.minimum(source_windows, motion.n_frames)
-    dims = config.motion_image.n_dims
-    return ViewImages(
-        *indices,
-        source_windows.reshape(-1, 2),
-        np.asarray(vectors, dtype=np.float32).reshape(-1, dims),
-        tuple(labels),
-        _whole_sequence(images),
-    )
-
-
-def _whole_sequence(images: ClipMotionImages) -> np.ndarray:
-    """(F, SEQUENCE_SIZE**2 + 1) float32: the rendering's silhouette sequence, no frames when
-    the person is missing from too many of them."""
-    try:
-        return sequence_frames(images)
-    except VideoError:
-        return np.zeros((0, SEQUENCE_SIZE**2 + 1), dtype=np.float32)
-
-
-def render_views(
+def build_database(
     library: Sequence[LibraryMotion],
     rig: CameraRig,
-    config: BuildConfig,
+    uri: str | os.PathLike = DEFAULT_DB_PATH,
+    config: BuildConfig | None = None,
     workers: int | None = None,
     progress: bool = True,
-) -> Iterator[ViewImages]:
-    """Motion images of every (motion, body shape, view), computed in parallel.
+    views: Iterable[ViewImages] | None = None,
+) -> BuildReport:
+    """Build a database from a motion library and a rig of virtual cameras.
+
+    Renders every (motion, body shape, view), fits the eigenspace, cuts the keys,
+    calibrates the "unknown" threshold and writes everything in one transaction.  A
+    file database is written beside the target and moved over it only once complete,
+    so a failed or interrupted build leaves any previous database as it was.
 
     Parameters
     ----------
     library : sequence of LibraryMotion
     rig : CameraRig
-        Virtual cameras (with azimuth and elevation).
-    config : BuildConfig
+    uri : str or path
+        Where to write (see :mod:`eigmotion.retrieval.store`); an existing database there is
+        replaced.
+    config : BuildConfig, optional
     workers : int, optional
-        Processes; default the number of CPU cores.  ``1`` runs in this process.
+        Processes for rendering.
     progress : bool
-        A progress bar on stderr.
+        Progress bars on stderr.
+    views : iterable of ViewImages, optional
+        The motion images of every (motion, body, view), as
+        :func:`~eigmotion.retrieval.library_views.render_views` yields them for ``library``,
+        ``rig`` and ``config`` (its ``motion_index`` an index into ``library``), when they
+        were made already —
+        e.g. from stored silhouettes; default: rendered here.
 
-    Yields
-    ------
-    ViewImages
-        In (motion, shape, view) order.
+    Returns
+    -------
+    BuildReport
     """
-    tasks = [
-        (m, s, v)
-        for m in range(len(library))
-        for s in range(len(config.bodies))
-        for v in range(len(rig))
-    ]
-    bar = tqdm(total=len(tasks), desc="rendering views", unit="view", disable=not progress)
-    workers = workers or os.cpu_count() or 1
-    try:
-        if workers == 1:
-            _init_worker(library, rig, config)
-            for task in tasks:
-                yield _render_task(task)
-                bar.update()
-        else:
-            with ProcessPoolExecutor(
-                workers, initializer=_init_worker, initargs=(library, rig, config)
-            ) as pool:
-                for result in pool.map(_render_task, tasks, chunksize=len(rig)):
-                    yield result
-                    bar.update()
-    finally:
-        bar.close()
+    t0 = time.perf_counter()
+    config = config or BuildConfig()
+    if not library:
+        raise InvalidParameterError("the motion library is empty: nothing to build")
+    names = [m.name for m in library]
+    if len(set(names)) != len(names):
+        raise InvalidParameterError("motion names in the library must be unique")
+    collected = CollectedViews()
+    if views is None:
+        views = render_views(library, rig, config, workers=workers, progress=progress)
+    for view in views:
+        collected.add(view, rig)
+    X, motion_of, body_of, az, el, start, stop, labels = collected.arrays()
+    if not collected.sequences:
+        raise InvalidParameterError("no rendering of the library shows a person: nothing to build")
+    space = Eigenspace(config.n_components, config.explained_variance).fit(X)
+    pose_space = fit_pose_space(np.concatenate([seq for *_, seq in collected.sequences]))
+    points = space.transform(X).astype(np.float32)
+    n_axes = min(config.key_axes, space.n_components_)
+    quantizer = Quantizer(n_axes, config.key_sections, config.key_method).fit(points)
+    keys = quantizer.keys(points)
+    whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
+    originals = [m.mirror_of or m.name for m in library]
+    performance = np.unique(originals, return_inverse=True)[1]
+    calibration = leave_one_motion_out_distances(points, performance[motion_of], whole, body_of)
+    threshold = threshold_from_distances(calibration, points)
+    recon = space.reconstruction_error(X)
+    stored_config = {
+        "build": config.to_dict(),
+        "rig": rig_to_plain(rig),
+        "threshold": threshold,
+        "calibration_quantiles": calibration_quantiles(calibration),
+        "reconstruction_error_median": float(np.median(recon)),
+        "reconstruction_error_p95": float(np.quantile(recon, 0.95)),
+    }
+    with replacing(uri) as target:
+        store = Store.create(target, overwrite=True)
+        try:
+            with store.transaction():
+                store.initialise(stored_config, space, quantizer, pose_space)
+                motion_ids = [store_motion(store, m) for m in library]
+                of_entry = np.asarray(motion_ids)[motion_of]
+                store.add_entries(of_entry, points, keys, az, el, start, stop, labels, body_of)
+                store_sequences(store, motion_ids, collected.sequences, pose_space)
+        finally:
+            store.close()
+    return BuildReport(
+        os.fspath(uri),
+        len(library),
+        len(points),
+        int(space.n_components_),
+        float(np.sum(space.explained_variance_ratio_)),
+        threshold,
+        time.perf_counter() - t0,
+    )
+
+
+def store_motion(store: Store, item: LibraryMotion) -> int:
+    """Store a library motion (its BVH text and metadata); returns its motion id."""
+    motion = item.motion
+    return store.add_motion(
+        item.label,
+        ";".join(str(p) for p in item.source),
+        format_bvh(motion),
+        {
+            "name": item.name,
+            "performer": item.performer,
+            "variation": item.variation,
+            "role": item.role,
+            "mirror_of": item.mirror_of or "",
+            "action": list(item.action or ()),
+            "filler": item.filler or "",
+            "n_frames": motion.n_frames,
+            "frame_time_s": motion.frame_time_s,
+            "length_unit_m": -1.0 if motion.length_unit_m is None else motion.length_unit_m,
+        },
+    )
+
+
+def store_sequences(
+    store: Store, motion_ids: Sequence[int], sequences: list, pose_space: Eigenspace
+) -> None:
+    """Store every rendering's silhouette sequence in the pose eigenspace, motion by
+    motion (``sequences`` as :class:`CollectedViews` holds them, motion indices into
+    ``motion_ids``)."""
+    by_motion: dict[int, list] = {}
+    for motion_index, azimuth, elevation, frames in sequences:
+        by_motion.setdefault(motion_index, []).append((azimuth, elevation, frames))
+    for motion_index, rows in by_motion.items():
+        azimuth, elevation, frames = zip(*rows, strict=True)
+        coordinates = [pose_coordinates(pose_space, f) for f in frames]
+        store.add_sequences(motion_ids[motion_index], azimuth, elevation, coordinates)

@@ -1,6 +1,6 @@
 """The motion database, open: queries, and new motions indexed into it.
 
-Steps 4–6 of the retrieval engine, on top of :mod:`eigmotion.retrieval.building` (which
+Steps 4–6 of the retrieval engine, on top of :mod:`eigmotion.retrieval.build` (which
 builds it), :mod:`eigmotion.retrieval.eigenspace`, :mod:`eigmotion.retrieval.search` and
 :mod:`eigmotion.retrieval.store` (which reads and writes its objects).  Every query takes
 the patent's path: motion image → eigenspace point → exact nearest entries through the
@@ -26,13 +26,13 @@ from eigmotion.mocap.bvh import parse_bvh
 from eigmotion.mocap.library import LibraryMotion
 from eigmotion.mocap.motion import Motion
 from eigmotion.retrieval.brute_force import brute_force
-from eigmotion.retrieval.build import BuildConfig, render_views, window_bounds
-from eigmotion.retrieval.building import CollectedViews, store_motion, store_sequences
+from eigmotion.retrieval.build import CollectedViews, store_motion, store_sequences
 from eigmotion.retrieval.calibration import (
     share_known,
     stored_quantiles,
     threshold_for_false_rejection,
 )
+from eigmotion.retrieval.library_views import BuildConfig, render_views, window_bounds
 from eigmotion.retrieval.motion_image import ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
 from eigmotion.retrieval.query_windows import (
@@ -138,7 +138,7 @@ class MotionDatabase:
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
-        """Open a database built by :func:`~eigmotion.retrieval.building.build_database`."""
+        """Open a database built by :func:`~eigmotion.retrieval.build.build_database`."""
         if Path(os.fspath(uri)) == DEFAULT_DB_PATH and not DEFAULT_DB_PATH.is_file():
             raise DatabaseError(
                 f"{DEFAULT_DB_PATH}: the default database has not been built yet; "
@@ -224,7 +224,8 @@ class MotionDatabase:
 
     def _label_of(self, entry_id: int) -> str:
         """The entry's label: its motion's, or the filler's for a window outside the
-        motion's action (:func:`eigmotion.retrieval.build.window_labels`); read once, then kept."""
+        motion's action (:func:`eigmotion.retrieval.library_views.window_labels`); read once,
+        then kept."""
         label = self._entry_labels.get(entry_id)
         if label is None:
             label = self._entry_labels[entry_id] = self.store.entry(entry_id)["label"]

@@ -2,7 +2,7 @@
 the clip's segments.
 
 Besides the whole clip, a query searches each window of
-:func:`~eigmotion.retrieval.build.window_bounds` (:func:`search_windows`).  Where the
+:func:`~eigmotion.retrieval.library_views.window_bounds` (:func:`search_windows`).  Where the
 whole clip's answer is filler (walking into a turn), windows that show a specific
 action answer instead (:func:`specific_window_entry`); and the windows' labels, made
 consistent along the clip (:func:`window_label_path`), cut it into segments

@@ -44,7 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.canonical import (
     CANONICAL_JOINTS,
     canonical_skeleton,
-    load_rig,
+    load_makehuman_rig,
     makehuman_dir,
 )
 from eigmotion.mocap.kinematics import rest_points
@@ -461,7 +461,7 @@ def _body_surface_points() -> dict[str, np.ndarray]:
     owner = np.argmax(weights[ids], axis=1)
     grid = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)])
     directions = grid[np.any(grid != 0, axis=1)].astype(np.float64)
-    rig = load_rig()
+    rig = load_makehuman_rig()
     out = {}
     for j, name in enumerate(CANONICAL_JOINTS):
         v = verts[ids[owner == j]] - rig[name][0]

@@ -21,7 +21,7 @@ from eigmotion.imaging.cameras import Camera, virtual_rig
 from eigmotion.imaging.render import BODY_RGB, render_shaded
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.motion import Motion
-from eigmotion.retrieval.build import hull_points
+from eigmotion.retrieval.library_views import hull_points
 from eigmotion.synth.scene import compose_scene
 
 
