@@ -31,6 +31,7 @@ import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
+from numbers import Real
 from pathlib import Path
 
 import cv2
@@ -39,6 +40,7 @@ from PIL import Image, ImageSequence, UnidentifiedImageError
 from tqdm import tqdm
 
 from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.validation import Interval
 
 #: Extensions read and written through OpenCV's FFmpeg backend.
 VIDEO_EXTENSIONS = (".mp4", ".avi", ".mov", ".mkv")
@@ -48,6 +50,9 @@ IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 WRITABLE_EXTENSIONS = (".mp4", ".mov", ".avi", ".gif")
 #: Frame rate reported for an image folder, and for a file that stores none, frames/s.
 DEFAULT_FPS = 30.0
+#: The frame rates a caller may give a clip of masks or sample it to, frames/s
+#: (a constraint of :mod:`eigmotion.validation`).
+FRAME_RATE_FPS = Interval(Real, 1e-3, 1e4)
 
 _NUMBER = re.compile(r"(\d+)")
 

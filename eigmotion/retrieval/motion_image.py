@@ -63,12 +63,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
+from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.media import sample_indices
-from eigmotion.validation import check_choice, check_int, check_real
+from eigmotion.imaging.media import FRAME_RATE_FPS, sample_indices
+from eigmotion.validation import Interval, Options, validate, validate_params
 
 FRAMES = ("image", "person")
 WEIGHTINGS = ("uniform", "recency")
@@ -150,21 +152,27 @@ class MotionImageConfig:
     phases: int = 2
     phase_cuts: str = "motion"
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`);
+    #: ``log_sigma_px``, whose upper bound is ``size / 8``, is checked after.
+    _parameter_constraints: ClassVar[dict] = {
+        "size": Interval(Integral, 8, 512),
+        "step": Interval(Integral, 1, 3),
+        "sample_fps": Interval(Real, 1.0, 50.0),
+        "frame": Options(str, list(FRAMES)),
+        "weighting": Options(str, list(WEIGHTINGS)),
+        "filter": Options(str, list(FILTERS)),
+        "silhouette_weight": Interval(Real, 0.0, 1.0),
+        "residual_floor": Interval(Real, 0.0, 0.5, closed="left"),
+        "margin_frac": Interval(Real, 0.0, 0.45),
+        "person_height_frac": Interval(Real, 0.1, 1.0),
+        "min_motion_frac": Interval(Real, 0.0, 1.0, closed="left"),
+        "phases": Interval(Integral, 1, 4),
+        "phase_cuts": Options(str, list(PHASE_CUTS)),
+    }
+
     def __post_init__(self):
-        check_int("size", self.size, 8, 512)
-        check_int("step", self.step, 1, 3)
-        check_real("sample_fps", self.sample_fps, 1.0, 50.0)
-        check_choice("frame", self.frame, FRAMES)
-        check_choice("weighting", self.weighting, WEIGHTINGS)
-        check_choice("filter", self.filter, FILTERS)
-        check_real("log_sigma_px", self.log_sigma_px, 0.3, self.size / 8.0)
-        check_real("silhouette_weight", self.silhouette_weight, 0.0, 1.0)
-        check_real("residual_floor", self.residual_floor, 0.0, 0.5, hi_open=True)
-        check_real("margin_frac", self.margin_frac, 0.0, 0.45)
-        check_real("person_height_frac", self.person_height_frac, 0.1, 1.0)
-        check_real("min_motion_frac", self.min_motion_frac, 0.0, 1.0, hi_open=True)
-        check_int("phases", self.phases, 1, 4)
-        check_choice("phase_cuts", self.phase_cuts, PHASE_CUTS)
+        validate_params(self, self._parameter_constraints)
+        validate("log_sigma_px", self.log_sigma_px, Interval(Real, 0.3, self.size / 8.0))
         # Normalise numeric types so that to_dict() round-trips exactly.
         object.__setattr__(self, "size", int(self.size))
         object.__setattr__(self, "step", int(self.step))
@@ -271,7 +279,7 @@ class ClipMotionImages:
     ):
         stack = _check_masks(masks)
         if clip_fps is not None:
-            check_real("clip_fps", clip_fps, 1e-3, 1e4)
+            validate("clip_fps", clip_fps, FRAME_RATE_FPS)
         self.config, self.clip_fps = config, clip_fps
         values = stack.astype(np.float32)  # one conversion; every later step reads it
         if stack.dtype == np.uint8 and stack.max() > 1:

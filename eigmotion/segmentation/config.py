@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
+from numbers import Integral, Real
+from typing import ClassVar
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.validation import check_choice, check_int, check_real
+from eigmotion.validation import Interval, Options, validate, validate_params
 
 #: How the empty scene may be estimated from a clip
 #: (:func:`eigmotion.segmentation.background.estimate_background`).
@@ -82,12 +84,26 @@ class SilhouetteConfig:
     upper_body_frac: float = 0.6
     work_max_side_px: int = 4096
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
+    #: high factor's lower bound and the shadow ratio's order are checked after.
+    _parameter_constraints: ClassVar[dict] = {
+        "background": Options(str, list(BACKGROUND_METHODS)),
+        "max_background_frames": Interval(Integral, 3, 1000),
+        "low_factor": Interval(Real, 1.0, 100.0),
+        "min_delta_e": Interval(Real, 0.5, 50.0),
+        "shadow_chroma": Interval(Real, 0.0, 0.5),
+        "smooth_sigma_px": Interval(Real, 0.0, 5.0),
+        "close_px": Interval(Integral, 0, 31),
+        "min_person_frac": Interval(Real, 1e-6, 0.5),
+        "keep_piece_frac": Interval(Real, 0.0, 1.0),
+        "small_hole_frac": Interval(Real, 0.0, 1.0),
+        "upper_body_frac": Interval(Real, 0.0, 1.0),
+        "work_max_side_px": Interval(Integral, 64, 4096),
+    }
+
     def __post_init__(self):
-        check_choice("background", self.background, BACKGROUND_METHODS)
-        check_int("max_background_frames", self.max_background_frames, 3, 1000)
-        check_real("low_factor", self.low_factor, 1.0, 100.0)
-        check_real("high_factor", self.high_factor, self.low_factor, 100.0)
-        check_real("min_delta_e", self.min_delta_e, 0.5, 50.0)
+        validate_params(self, self._parameter_constraints)
+        validate("high_factor", self.high_factor, Interval(Real, self.low_factor, 100.0))
         ratio = tuple(self.shadow_ratio)
         if (
             len(ratio) != 2
@@ -98,14 +114,6 @@ class SilhouetteConfig:
                 f"shadow_ratio must be (lo, hi) with 0 < lo < hi <= 1, got {self.shadow_ratio!r}"
             )
         object.__setattr__(self, "shadow_ratio", (float(ratio[0]), float(ratio[1])))
-        check_real("shadow_chroma", self.shadow_chroma, 0.0, 0.5)
-        check_real("smooth_sigma_px", self.smooth_sigma_px, 0.0, 5.0)
-        check_int("close_px", self.close_px, 0, 31)
-        check_real("min_person_frac", self.min_person_frac, 1e-6, 0.5)
-        check_real("keep_piece_frac", self.keep_piece_frac, 0.0, 1.0)
-        check_real("small_hole_frac", self.small_hole_frac, 0.0, 1.0)
-        check_real("upper_body_frac", self.upper_body_frac, 0.0, 1.0)
-        check_int("work_max_side_px", self.work_max_side_px, 64, 4096)
 
     def to_dict(self) -> dict:
         """Plain data (the shadow ratio as a list)."""

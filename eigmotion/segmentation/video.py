@@ -21,13 +21,13 @@ import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.media import FrameSampleStream, sample_indices
+from eigmotion.imaging.media import FRAME_RATE_FPS, FrameSampleStream, sample_indices
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import check_frames, shrink
 from eigmotion.segmentation.subtraction import CHUNK_FRAMES, frame_chunks, segment_chunks
 from eigmotion.segmentation.workers import opencv_in_calling_threads
-from eigmotion.validation import check_real
+from eigmotion.validation import validate
 
 #: Frame rate assumed for an ``.npz`` of masks that stores none, frames per second.
 DEFAULT_NPZ_FPS = 30.0
@@ -203,7 +203,7 @@ def load_clip_masks(
                 f"{path}: background_path applies to video input, not to stored masks"
             )
         if sample_fps is not None:
-            check_real("sample_fps", sample_fps, 1e-3, 1e4)
+            validate("sample_fps", sample_fps, FRAME_RATE_FPS)
         masks, clip_fps = _load_npz_masks(path)
         rate = clip_fps if sample_fps is None else sample_fps
         indices = sample_indices(len(masks), clip_fps, rate)

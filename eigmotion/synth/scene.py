@@ -18,12 +18,23 @@ same motion can be sampled at any frame rate.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from numbers import Real
 
 import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.validation import check_in_range
+from eigmotion.validation import Interval, validate_params
+
+#: The valid values of :func:`compose_scene`'s scalar parameters (see
+#: :mod:`eigmotion.validation`).
+SCENE_CONSTRAINTS = {
+    "shadow_strength": Interval(Real, 0.0, 0.9, noun=""),
+    "camouflage": Interval(Real, 0.0, 1.0, noun=""),
+    "camouflage_delta": Interval(Real, 0.0, 255.0, noun=""),
+    "noise_sigma": Interval(Real, 0.0, 50.0, noun=""),
+    "blur_sigma_px": Interval(Real, 0.0, 5.0, noun=""),
+}
 
 
 @dataclass(frozen=True)
@@ -126,11 +137,16 @@ def compose_scene_with_layout(
             f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got "
             f"{type(rng).__name__}"
         )
-    check_in_range("shadow_strength", shadow_strength, 0.0, 0.9)
-    check_in_range("camouflage", camouflage, 0.0, 1.0)
-    check_in_range("camouflage_delta", camouflage_delta, 0.0, 255.0)
-    check_in_range("noise_sigma", noise_sigma, 0.0, 50.0)
-    check_in_range("blur_sigma_px", blur_sigma_px, 0.0, 5.0)
+    validate_params(
+        {
+            "shadow_strength": shadow_strength,
+            "camouflage": camouflage,
+            "camouflage_delta": camouflage_delta,
+            "noise_sigma": noise_sigma,
+            "blur_sigma_px": blur_sigma_px,
+        },
+        SCENE_CONSTRAINTS,
+    )
     n, h, w = masks.shape
 
     body = _body_boxes(masks)
