@@ -29,10 +29,12 @@ from __future__ import annotations
 
 import math
 from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, NotFittedError
+from eigmotion.validation import Interval, validate_params
 
 #: Version of the dictionary written by :meth:`Eigenspace.to_state`.
 STATE_VERSION = 1
@@ -169,20 +171,20 @@ class Eigenspace:
         ``P``, the number of vectors fitted on.
     """
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`), checked
+    #: by :meth:`fit`.
+    _parameter_constraints: ClassVar[dict] = {
+        "n_components": [Interval(Integral, 1, None, description="a positive integer"), None],
+        "explained_variance": Interval(Real, 0.0, 1.0, closed="right", noun=""),
+    }
+
     def __init__(self, n_components: int | None = None, explained_variance: float = 0.95):
         self.n_components = n_components
         self.explained_variance = explained_variance
 
     # -- parameters ---------------------------------------------------------------
     def _validate_params(self) -> None:
-        k = self.n_components
-        if k is not None and (isinstance(k, bool) or not isinstance(k, Integral) or k < 1):
-            raise InvalidParameterError(
-                f"n_components must be a positive integer or None, got {k!r}"
-            )
-        ev = self.explained_variance
-        if isinstance(ev, bool) or not isinstance(ev, Real) or not 0.0 < float(ev) <= 1.0:
-            raise InvalidParameterError(f"explained_variance must be in (0, 1], got {ev!r}")
+        validate_params(self, self._parameter_constraints)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "components_"):

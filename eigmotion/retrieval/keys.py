@@ -26,11 +26,13 @@ number of entries the exact search examines.
 from __future__ import annotations
 
 from numbers import Integral
+from typing import ClassVar
 
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, NotFittedError
 from eigmotion.retrieval.eigenspace import pack_array, unpack_array
+from eigmotion.validation import Interval, Options, validate
 
 METHODS = ("quantile", "equal")
 
@@ -38,6 +40,11 @@ METHODS = ("quantile", "equal")
 STATE_VERSION = 1
 
 _KEY_LIMIT = 2**63
+
+#: ``R``, the sections per axis, and ``K``, the axes of a key (see
+#: :mod:`eigmotion.validation`).
+_N_SECTIONS = Interval(Integral, 2, None)
+_N_AXES = Interval(Integral, 1, None)
 
 
 def check_key_space(n_sections: int, n_axes: int) -> None:
@@ -55,9 +62,8 @@ def check_key_space(n_sections: int, n_axes: int) -> None:
     InvalidParameterError
         ``R < 2``, ``K < 1``, or ``R**K >= 2**63``; the message names R and K.
     """
-    for name, value, low in (("n_sections (R)", n_sections, 2), ("n_axes (K)", n_axes, 1)):
-        if isinstance(value, bool) or not isinstance(value, Integral) or value < low:
-            raise InvalidParameterError(f"{name} must be an integer >= {low}, got {value!r}")
+    validate("n_sections (R)", n_sections, _N_SECTIONS)
+    validate("n_axes (K)", n_axes, _N_AXES)
     if int(n_sections) ** int(n_axes) >= _KEY_LIMIT:
         raise InvalidParameterError(
             f"R={n_sections} sections on K={n_axes} axes give R**K = "
@@ -195,6 +201,15 @@ class Quantizer:
         Inner boundaries per axis, non-decreasing along each row.
     """
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`), checked
+    #: by :meth:`fit`: ``n_sections`` and ``n_axes`` through :func:`check_key_space`,
+    #: which names them R and K and also bounds ``R**K``.
+    _parameter_constraints: ClassVar[dict] = {
+        "n_sections": _N_SECTIONS,
+        "n_axes": _N_AXES,
+        "method": Options(str, METHODS),
+    }
+
     def __init__(self, n_axes: int = 4, n_sections: int = 8, method: str = "quantile"):
         self.n_axes = n_axes
         self.n_sections = n_sections
@@ -202,8 +217,7 @@ class Quantizer:
 
     def _validate_params(self) -> None:
         check_key_space(self.n_sections, self.n_axes)
-        if self.method not in METHODS:
-            raise InvalidParameterError(f"method must be one of {METHODS}, got {self.method!r}")
+        validate("method", self.method, self._parameter_constraints["method"])
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "edges_"):

@@ -25,6 +25,8 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
+from numbers import Real
+from typing import ClassVar
 
 import numpy as np
 from tqdm import tqdm
@@ -35,8 +37,10 @@ from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import CameraRig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import LibraryMotion
+from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.retrieval.sequences import SEQUENCE_SIZE, sequence_frames
+from eigmotion.validation import Interval, validate_params
 
 #: Body shapes of the default build: (height in metres or None for the avatar's own,
 #: girth factor).  Several shapes stand in for several people.
@@ -108,19 +112,21 @@ class BuildConfig:
     body_shapes: tuple[tuple[float | None, float], ...] = DEFAULT_BODY_SHAPES
     garments: tuple[tuple[str, ...], ...] = DEFAULT_GARMENTS
 
+    #: The valid values of the scalar parameters (see :mod:`eigmotion.validation`);
+    #: the eigenspace's are its own (:class:`~eigmotion.retrieval.eigenspace.Eigenspace`).
+    #: The key's (``key_*``) are checked when the keys are made
+    #: (:class:`~eigmotion.retrieval.keys.Quantizer`), the body shapes by
+    #: :func:`~eigmotion.body.avatar.check_body_shape` and the garments by name.
+    _parameter_constraints: ClassVar[dict] = {
+        "render_fps": Interval(Real, 0.0, None, closed="neither", noun=""),
+        "window_s": Interval(Real, 0.0, None, closed="neither", noun=""),
+        "window_step_s": Interval(Real, 0.0, None, closed="neither", noun=""),
+        "n_components": Eigenspace._parameter_constraints["n_components"],
+        "explained_variance": Eigenspace._parameter_constraints["explained_variance"],
+    }
+
     def __post_init__(self):
-        for name in ("render_fps", "window_s", "window_step_s"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
-        if self.n_components is not None and self.n_components < 1:
-            raise InvalidParameterError(
-                f"n_components must be >= 1 or None, got {self.n_components!r}"
-            )
-        if not 0 < self.explained_variance <= 1:
-            raise InvalidParameterError(
-                f"explained_variance must be in (0, 1], got {self.explained_variance!r}"
-            )
+        validate_params(self, self._parameter_constraints)
         if not self.body_shapes:
             raise InvalidParameterError("body_shapes must hold at least one (height_m, girth)")
         shapes = tuple((None if h is None else float(h), float(g)) for h, g in self.body_shapes)
