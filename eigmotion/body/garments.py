@@ -42,11 +42,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from numbers import Real
+from typing import ClassVar
 
 import numpy as np
 
 from eigmotion.body.avatar import DEFAULT_LOW_POLY_FACES, Avatar
 from eigmotion.errors import InvalidParameterError
+from eigmotion.validation import Interval, Options, validate_params
 
 #: Wall thickness of every garment, metres.
 THICKNESS_M = 0.006
@@ -139,20 +142,17 @@ class Garment:
     rgb: tuple[float, float, float] = (0.3, 0.35, 0.5)
     held_out: bool = False
 
+    #: The valid values of the measures (see :mod:`eigmotion.validation`); that only a
+    #: coat has sleeves, and the colour, are checked after.
+    _parameter_constraints: ClassVar[dict] = {
+        "kind": Options(str, list(KINDS)),
+        "length": Interval(Real, 0.05, 1.0, noun=""),
+        "looseness_m": Interval(Real, 0.0, 0.25, noun=""),
+        "sleeves": Interval(Real, 0.0, 1.0, noun=""),
+    }
+
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise InvalidParameterError(
-                f"garment {self.name!r}: kind must be one of {list(KINDS)}, got {self.kind!r}"
-            )
-        for field, value, lo, hi in (
-            ("length", self.length, 0.05, 1.0),
-            ("looseness_m", self.looseness_m, 0.0, 0.25),
-            ("sleeves", self.sleeves, 0.0, 1.0),
-        ):
-            if not (np.isfinite(value) and lo <= value <= hi):
-                raise InvalidParameterError(
-                    f"garment {self.name!r}: {field} must lie in [{lo}, {hi}], got {value!r}"
-                )
+        validate_params(self, self._parameter_constraints, context=f"garment {self.name!r}: ")
         if self.sleeves and self.kind != "coat":
             raise InvalidParameterError(
                 f"garment {self.name!r}: only a coat has sleeves, got sleeves={self.sleeves}"

@@ -57,8 +57,9 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -75,9 +76,14 @@ from eigmotion.pose.silhouette_scoring import (
     observe_silhouettes,
     reference_window,
 )
+from eigmotion.tracking.tracker import SCALE_FACTORS
+from eigmotion.validation import Interval, validate_params
 
 if TYPE_CHECKING:
     from eigmotion.retrieval.database import MotionDatabase, QueryResult
+
+_POSITIVE = Interval(Real, 0.0, None, closed="neither", noun="")
+_NOT_NEGATIVE = Interval(Real, 0.0, None, noun="")
 
 
 @dataclass(frozen=True)
@@ -146,48 +152,30 @@ class ContinuousPoseConfig:
     min_silhouette_px: int = 30
     n_faces: int = 4000
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`).
+    _parameter_constraints: ClassVar[dict] = {
+        "max_speed": _POSITIVE,
+        "coarse_fps": _POSITIVE,
+        "coarse_reference_fps": _POSITIVE,
+        "azimuth_step_deg": _POSITIVE,
+        "elevation_step_deg": _POSITIVE,
+        "comparison_height_px": _POSITIVE,
+        "margin_s": _NOT_NEGATIVE,
+        "band_s": _NOT_NEGATIVE,
+        "azimuth_search_deg": _NOT_NEGATIVE,
+        "elevation_search_deg": _NOT_NEGATIVE,
+        "speed_weight": _NOT_NEGATIVE,
+        "reference_fps": [None, _POSITIVE],
+        "shift_radius_px": Interval(Integral, 0, None),
+        "smoothing_frames": Interval(Integral, 1, None),
+        "min_silhouette_px": Interval(Integral, 1, None),
+        "n_faces": Interval(Integral, 100, None),
+        "scales": SCALE_FACTORS,
+    }
+
     def __post_init__(self):
-        positive = (
-            "max_speed",
-            "coarse_fps",
-            "coarse_reference_fps",
-            "azimuth_step_deg",
-            "elevation_step_deg",
-            "comparison_height_px",
-        )
-        for name in positive:
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
-        for name in (
-            "margin_s",
-            "band_s",
-            "azimuth_search_deg",
-            "elevation_search_deg",
-            "speed_weight",
-        ):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InvalidParameterError(f"{name} must be >= 0, got {value!r}")
-        if self.reference_fps is not None and not (
-            np.isfinite(self.reference_fps) and self.reference_fps > 0
-        ):
-            raise InvalidParameterError(
-                f"reference_fps must be None or > 0, got {self.reference_fps!r}"
-            )
-        for name, low in (
-            ("shift_radius_px", 0),
-            ("smoothing_frames", 1),
-            ("min_silhouette_px", 1),
-            ("n_faces", 100),
-        ):
-            value = getattr(self, name)
-            if int(value) != value or value < low:
-                raise InvalidParameterError(f"{name} must be an integer >= {low}, got {value!r}")
-        scales = tuple(float(s) for s in self.scales)
-        if not scales or not all(np.isfinite(s) and 0.2 <= s <= 5.0 for s in scales):
-            raise InvalidParameterError(f"scales must be factors in [0.2, 5], got {self.scales!r}")
-        object.__setattr__(self, "scales", scales)
+        validate_params(self, self._parameter_constraints)
+        object.__setattr__(self, "scales", tuple(float(s) for s in self.scales))
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,12 +18,16 @@ estimates instead (:func:`playback_motion`).
 
 from __future__ import annotations
 
+from numbers import Integral, Real
+from typing import ClassVar
+
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.motion import Motion, Skeleton, standard_channels
 from eigmotion.tracking.dictionary import PostureSequence
 from eigmotion.tracking.postures import d1_distance, heading_deg, wrap_deg, yaw_rotation
+from eigmotion.validation import Interval, validate_params
 
 
 class VariableSpeedPlayback:
@@ -43,6 +47,13 @@ class VariableSpeedPlayback:
         Include the heading in the d1 comparisons.
     """
 
+    #: The valid values of the scalar parameters (see :mod:`eigmotion.validation`);
+    #: ``start_frame``, whose bound is the reference's length, is checked apart.
+    _parameter_constraints: ClassVar[dict] = {
+        "window_frames": Interval(Integral, 1, None),
+        "start_threshold_deg": Interval(Real, 0.0, None, closed="neither", noun=""),
+    }
+
     def __init__(
         self,
         reference_vectors: np.ndarray,
@@ -60,14 +71,10 @@ class VariableSpeedPlayback:
             raise InvalidParameterError(
                 f"start_frame {start_frame} outside the reference's frames 0..{len(ref) - 1}"
             )
-        if int(window_frames) != window_frames or window_frames < 1:
-            raise InvalidParameterError(
-                f"window_frames must be an integer >= 1, got {window_frames!r}"
-            )
-        if not (np.isfinite(start_threshold_deg) and start_threshold_deg > 0):
-            raise InvalidParameterError(
-                f"start_threshold_deg must be > 0, got {start_threshold_deg!r}"
-            )
+        validate_params(
+            {"window_frames": window_frames, "start_threshold_deg": start_threshold_deg},
+            self._parameter_constraints,
+        )
         self.reference_vectors = ref.copy()
         if not compare_heading:
             self.reference_vectors[:, 0] = 0.0

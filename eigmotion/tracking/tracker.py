@@ -24,6 +24,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from numbers import Integral, Real
+from typing import ClassVar
 
 import numpy as np
 
@@ -45,8 +47,15 @@ from eigmotion.tracking.search import (
     two_layer_search,
 )
 from eigmotion.tracking.similarity import ViewWindow, score_masks, view_window
+from eigmotion.validation import Interval, SequenceOf, validate_params
 
 RenderMasks = Callable[[np.ndarray, np.ndarray, Camera], np.ndarray]
+
+#: 2D scales of a candidate silhouette searched about its centre (a constraint of
+#: :mod:`eigmotion.validation`).
+SCALE_FACTORS = SequenceOf(Interval(Real, 0.2, 5.0, noun="factors"))
+_COUNT = Interval(Integral, 1, None)
+_POSITIVE = Interval(Real, 0.0, None, closed="neither", noun="")
 
 
 @dataclass(frozen=True)
@@ -124,38 +133,31 @@ class TrackerConfig:
     recovery_window: int = 15
     min_silhouette_px: int = 30
 
+    #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
+    #: order of ``body_scale_range`` is checked after.
+    _parameter_constraints: ClassVar[dict] = {
+        "layer_step": _COUNT,
+        "top_k": _COUNT,
+        "max_candidates": _COUNT,
+        "downsample": _COUNT,
+        "init_beam": _COUNT,
+        "min_silhouette_px": _COUNT,
+        "body_scale_estimates": _COUNT,
+        "recovery_window": _COUNT,
+        "shift_radius_px": Interval(Integral, 0, None),
+        "init_refinements": Interval(Integral, 0, None),
+        "init_branching": Interval(Integral, 2, None),
+        "max_d1_deg": _POSITIVE,
+        "max_d2_m": _POSITIVE,
+        "max_heading_deg": [None, _POSITIVE],
+        "scales": SCALE_FACTORS,
+        "recovery_ratio": [None, Interval(Real, 0.0, 1.0, closed="right", noun="")],
+        "body_scale": [None, Interval(Real, 0.3, 3.0, noun="a factor")],
+    }
+
     def __post_init__(self):
-        for name in (
-            "layer_step",
-            "top_k",
-            "max_candidates",
-            "downsample",
-            "init_beam",
-            "min_silhouette_px",
-            "body_scale_estimates",
-            "recovery_window",
-        ):
-            value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise InvalidParameterError(f"{name} must be an integer >= 1, got {value!r}")
-        for name in ("shift_radius_px", "init_refinements"):
-            value = getattr(self, name)
-            if int(value) != value or value < 0:
-                raise InvalidParameterError(f"{name} must be an integer >= 0, got {value!r}")
-        if int(self.init_branching) != self.init_branching or self.init_branching < 2:
-            raise InvalidParameterError(
-                f"init_branching must be an integer >= 2, got {self.init_branching!r}"
-            )
-        for name in ("max_d1_deg", "max_d2_m", "max_heading_deg"):
-            value = getattr(self, name)
-            if value is None and name == "max_heading_deg":
-                continue
-            if not (np.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
-        scales = tuple(float(s) for s in self.scales)
-        if not scales or not all(np.isfinite(s) and 0.2 <= s <= 5.0 for s in scales):
-            raise InvalidParameterError(f"scales must be factors in [0.2, 5], got {self.scales!r}")
-        object.__setattr__(self, "scales", scales)
+        validate_params(self, self._parameter_constraints)
+        object.__setattr__(self, "scales", tuple(float(s) for s in self.scales))
         lo, hi = (float(v) for v in self.body_scale_range)
         if not (0.3 <= lo <= hi <= 3.0):
             raise InvalidParameterError(
@@ -163,16 +165,6 @@ class TrackerConfig:
                 f"{self.body_scale_range!r}"
             )
         object.__setattr__(self, "body_scale_range", (lo, hi))
-        if self.recovery_ratio is not None and not 0.0 < self.recovery_ratio <= 1.0:
-            raise InvalidParameterError(
-                f"recovery_ratio must be None or in (0, 1], got {self.recovery_ratio!r}"
-            )
-        if self.body_scale is not None and not (
-            np.isfinite(self.body_scale) and 0.3 <= self.body_scale <= 3.0
-        ):
-            raise InvalidParameterError(
-                f"body_scale must be None or a factor in [0.3, 3], got {self.body_scale!r}"
-            )
 
 
 @dataclass(frozen=True, eq=False)
