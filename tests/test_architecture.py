@@ -136,6 +136,51 @@ def test_no_import_cycles():
     assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
 
 
+#: What may be imported inside a function, and why: optional or heavy back ends that
+#: most runs never need, and modules kept off a query's start-up path (scipy's
+#: submodules and the retargeting that loads them cost a cold query ~0.14-0.4 s).
+LAZY_IMPORTS = {
+    "pyrender": "GL rendering, an optional back end",
+    "OpenGL": "GL rendering, an optional back end",
+    "numba": "compiled kernels: the JIT costs seconds at first use",
+    "ZEO": "zeo:// databases only",
+    "fast_simplification": "mesh decimation, build only",
+    "matplotlib": "plots, benchmarks only",
+    "scipy": "kept off the query's start-up path",
+    "eigmotion.body.retarget": "loads scipy.spatial, kept off the query's start-up path",
+}
+
+
+def _imports_inside_functions() -> list[tuple[str, int, str]]:
+    """(module, line, imported module) of every import that is not at a module's top
+    level (an ``if TYPE_CHECKING:`` block at the top level counts as top level)."""
+    found = []
+    for name, path in _modules().items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        top = {id(node) for node in tree.body}
+        for node in tree.body:
+            if isinstance(node, ast.If):
+                top.update(id(inner) for inner in ast.walk(node))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import | ast.ImportFrom) and id(node) not in top:
+                if isinstance(node, ast.Import):
+                    imported = [alias.name for alias in node.names]
+                else:
+                    imported = [node.module or ""]
+                found += [(name, node.lineno, module) for module in imported]
+    return found
+
+
+def test_imports_inside_functions_are_only_lazy_back_ends():
+    allowed = tuple(LAZY_IMPORTS)
+    stray = [
+        f"{name}:{line} imports {module}"
+        for name, line, module in _imports_inside_functions()
+        if not any(module == a or module.startswith(a + ".") for a in allowed)
+    ]
+    assert not stray, "imports inside functions: " + "; ".join(stray)
+
+
 def test_no_module_over_800_lines():
     lengths = {
         name: len(path.read_text(encoding="utf-8").splitlines())

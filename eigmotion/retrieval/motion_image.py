@@ -66,6 +66,7 @@ from dataclasses import asdict, dataclass, fields
 from numbers import Integral, Real
 from typing import ClassVar
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
@@ -566,7 +567,6 @@ def _time_weights(n: int, weighting: str) -> np.ndarray:
 def _filter(image: np.ndarray, config: MotionImageConfig) -> np.ndarray:
     if config.filter == "none":
         return image
-    import cv2
 
     if config.filter == "log":
         blurred = cv2.GaussianBlur(
@@ -621,8 +621,6 @@ def _warp(roi: np.ndarray, scale: float, centres: np.ndarray, size: int) -> np.n
     Downscaling goes in two steps so thin limbs do not alias away: an exact box
     average by an integer factor, then bilinear resampling by the rest (>= 0.5).
     """
-    import cv2
-
     factor = max(1, int(math.floor(1.0 / scale))) if scale < 1.0 else 1
     if factor > 1:
         roi = _box_downsample(roi, factor)
