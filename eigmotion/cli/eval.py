@@ -1,0 +1,96 @@
+"""``eigmotion eval recognition``: the accuracy on the independent development set.
+
+Examples::
+
+    eigmotion eval recognition                       # ../shared/eval/dev, default database
+    eigmotion eval recognition --dev DIR --db my.fs --modes bg nobg --json-out dev.json
+    eigmotion eval recognition --only walk_ wave_
+
+Every clip is answered in this process exactly as ``eigmotion query CLIP --json``
+answers it (:mod:`eigmotion.evaluation.devset`), in each mode asked: ``bg`` (the video
+with its empty-scene image), ``nobg`` (the video alone), ``masks`` (the true masks as
+an ``.npz``: the representation's ceiling), ``real`` (the real clips).  The tables
+(:mod:`eigmotion.evaluation.devset_report`) are printed as Markdown; ``--json-out``
+keeps every clip's answer and the summaries.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.devset import (
+    MODE_KIND,
+    MODES,
+    answer_mode,
+    find_dev_set,
+    load_dev_clips,
+)
+from eigmotion.evaluation.devset_report import format_mode, format_overview, summarise
+from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "what", choices=["recognition"], help="what to evaluate: recognition (query)"
+    )
+    parser.add_argument(
+        "--dev",
+        type=Path,
+        default=None,
+        help="the development set's folder (default ../shared/eval/dev if it exists)",
+    )
+    parser.add_argument("--db", default=None, help="database (default database/eigmotion.fs)")
+    parser.add_argument(
+        "--modes",
+        nargs="+",
+        choices=MODES,
+        default=list(MODES),
+        help="bg: video and empty-scene image; nobg: video alone; masks: true masks; "
+        "real: real clips (default all four)",
+    )
+    parser.add_argument(
+        "--only", nargs="+", metavar="SUBSTR", help="clips whose id contains any of these"
+    )
+    parser.add_argument(
+        "--json-out", type=Path, help="write every clip's answer and the summaries as JSON"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.json_out is not None and not args.json_out.parent.is_dir():
+        raise InvalidParameterError(
+            f"{args.json_out}: folder {args.json_out.parent} does not exist"
+        )
+    dev = find_dev_set(args.dev)
+    modes = list(dict.fromkeys(args.modes))
+    clips = {kind: load_dev_clips(dev, kind, args.only) for kind in set(MODE_KIND.values())}
+    if not any(clips[MODE_KIND[mode]] for mode in modes):
+        raise InvalidParameterError(f"{dev}: no clips for the modes and --only asked")
+    uri = args.db or DEFAULT_DB_PATH
+    summaries, report = [], {"dev": str(dev), "db": str(uri), "modes": {}}
+    with MotionDatabase.open(uri) as db, tempfile.TemporaryDirectory() as scratch:
+        for mode in modes:
+            asked = clips[MODE_KIND[mode]]
+            if not asked:
+                print(f"{mode}: no clips, skipped", file=sys.stderr)
+                continue
+            answers = answer_mode(db, asked, mode, Path(scratch), progress=True)
+            summary = summarise(mode, answers)
+            summaries.append(summary)
+            print(format_mode(summary) + "\n", flush=True)
+            report["modes"][mode] = {
+                "summary": summary.to_json(),
+                "clips": [a.to_json() for a in answers],
+            }
+    print("## all modes\n\n" + format_overview(summaries))
+    print(f"\ndevelopment set {dev}, database {uri}")
+    if args.json_out is not None:
+        args.json_out.write_text(json.dumps(report, indent=1))
+        print(f"wrote {args.json_out}", file=sys.stderr)
+    return 0
