@@ -148,6 +148,7 @@ LAZY_IMPORTS = {
     "matplotlib": "plots, benchmarks only",
     "scipy": "kept off the query's start-up path",
     "eigmotion.body.retarget": "loads scipy.spatial, kept off the query's start-up path",
+    "ai_edge_litert": "the learned segmenter's faster runtime, an optional extra",
 }
 
 

@@ -33,6 +33,7 @@ from eigmotion.evaluation.devset import (
 from eigmotion.evaluation.devset_report import format_mode, format_overview, summarise
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
+from eigmotion.segmentation.learned import SEGMENTERS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,6 +56,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "real: real clips (default all four)",
     )
     parser.add_argument(
+        "--segmenter",
+        choices=SEGMENTERS,
+        default="auto",
+        help="the query's front end for video, as for eigmotion query (default auto: "
+        "subtraction with the background image, learned without; learned in the bg mode "
+        "asks the video without its background image)",
+    )
+    parser.add_argument(
         "--only", nargs="+", metavar="SUBSTR", help="clips whose id contains any of these"
     )
     parser.add_argument(
@@ -73,14 +82,17 @@ def run(args: argparse.Namespace) -> int:
     if not any(clips[MODE_KIND[mode]] for mode in modes):
         raise InvalidParameterError(f"{dev}: no clips for the modes and --only asked")
     uri = args.db or DEFAULT_DB_PATH
-    summaries, report = [], {"dev": str(dev), "db": str(uri), "modes": {}}
+    summaries = []
+    report = {"dev": str(dev), "db": str(uri), "segmenter": args.segmenter, "modes": {}}
     with MotionDatabase.open(uri) as db, tempfile.TemporaryDirectory() as scratch:
         for mode in modes:
             asked = clips[MODE_KIND[mode]]
             if not asked:
                 print(f"{mode}: no clips, skipped", file=sys.stderr)
                 continue
-            answers = answer_mode(db, asked, mode, Path(scratch), progress=True)
+            answers = answer_mode(
+                db, asked, mode, Path(scratch), progress=True, segmenter=args.segmenter
+            )
             summary = summarise(mode, answers)
             summaries.append(summary)
             print(format_mode(summary) + "\n", flush=True)
@@ -89,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
                 "clips": [a.to_json() for a in answers],
             }
     print("## all modes\n\n" + format_overview(summaries))
-    print(f"\ndevelopment set {dev}, database {uri}")
+    print(f"\ndevelopment set {dev}, database {uri}, segmenter {args.segmenter}")
     if args.json_out is not None:
         args.json_out.write_text(json.dumps(report, indent=1))
         print(f"wrote {args.json_out}", file=sys.stderr)

@@ -7,6 +7,12 @@ Examples::
         --replay-out clip_replay.mp4
     eigmotion query clip.mp4 --pose-out clip_pose.npz
     eigmotion query clip.mp4 --false-rejection 0.2
+    eigmotion query clip.mp4 --segmenter subtraction
+
+Without ``--background`` the person is cut out by a person segmentation network
+shipped with eigmotion (:mod:`eigmotion.segmentation.learned`); with it, by subtracting
+the empty scene.  ``--segmenter`` picks either.  The answer warns when more than one
+person is in view.
 
 ``--false-rejection`` trades known motions turned away for unknown ones rejected: the
 answer's ``p_known`` is the share of new performances of library motions that lie as
@@ -33,6 +39,7 @@ from eigmotion.pose.replay import read_input_panel, replay, replay_video, segmen
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
+from eigmotion.segmentation.learned import SEGMENTERS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,6 +53,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="image of the empty scene from the same camera, the size of the frames; "
         "without it the scene is estimated from the clip, which needs the person to move "
         "and finds them less well",
+    )
+    parser.add_argument(
+        "--segmenter",
+        choices=SEGMENTERS,
+        default="auto",
+        help="how the person is cut out of video: learned (a person segmentation "
+        "network, shipped with eigmotion), subtraction (against --background, or the "
+        "empty scene estimated from the clip); auto (default): subtraction with "
+        "--background, learned without",
     )
     parser.add_argument(
         "--top", type=int, default=3, help="distinct actions (labels) and motions to list"
@@ -92,6 +108,7 @@ def run(args: argparse.Namespace) -> int:
             every_frame=answer_3d,
             progress=True,
             false_rejection=args.false_rejection,
+            segmenter=args.segmenter,
         )
         if answer_3d:
             _write_replay(db, result, clip.masks, clip.fps, args)
@@ -101,6 +118,8 @@ def run(args: argparse.Namespace) -> int:
         best = result.best
         verdict = "" if result.accepted else "  (UNKNOWN: farther than the threshold)"
         print(f"{best.label}  ({_described(best)}){verdict}")
+        for warning in result.warnings:
+            print(f"  warning: {warning}")
         if result.p_known is not None:
             print(
                 f"  {result.p_known:.0%} of new performances of library motions lie as far "

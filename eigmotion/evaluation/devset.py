@@ -280,7 +280,11 @@ def silhouette_iou(
 
 
 def answer_clip(
-    db: MotionDatabase, clip: DevClip, mode: str, scratch: Path | None = None
+    db: MotionDatabase,
+    clip: DevClip,
+    mode: str,
+    scratch: Path | None = None,
+    segmenter: str = "auto",
 ) -> ClipAnswer:
     """Ask ``db`` one clip in one mode, as ``eigmotion query CLIP --json`` asks it.
 
@@ -292,6 +296,9 @@ def answer_clip(
         One of :data:`MODES` (see the module's description).
     scratch : Path, optional
         A folder for the ``masks`` mode's ``.npz`` query (needed in that mode).
+    segmenter : {"auto", "learned", "subtraction"}
+        The front end for video (``eigmotion query --segmenter``); in the ``bg`` mode
+        ``learned`` ignores the background image (the clip is asked without it).
 
     Returns
     -------
@@ -301,7 +308,7 @@ def answer_clip(
     if mode not in MODES:
         raise InvalidParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
     path, background = clip.video, None
-    if mode == "bg":
+    if mode == "bg" and segmenter != "learned":
         background = clip.background
     elif mode == "masks":
         if scratch is None:
@@ -310,7 +317,7 @@ def answer_clip(
         np.savez_compressed(path, masks=clip.true_masks(), fps=np.float64(clip.fps))
     t0 = time.perf_counter()
     try:
-        result, cut = db.query_clip(path, background, TOP_K)
+        result, cut = db.query_clip(path, background, TOP_K, segmenter=segmenter)
     except EigmotionError as exc:
         message = " ".join(str(exc).split())
         return ClipAnswer(
@@ -343,8 +350,9 @@ def answer_mode(
     mode: str,
     scratch: Path | None = None,
     progress: bool = False,
+    segmenter: str = "auto",
 ) -> list[ClipAnswer]:
     """Every clip's :func:`answer_clip` in ``mode``, in order; a bar on stderr if
     ``progress``."""
     bar = tqdm(clips, desc=mode, unit="clip", disable=not progress, leave=False)
-    return [answer_clip(db, clip, mode, scratch) for clip in bar]
+    return [answer_clip(db, clip, mode, scratch, segmenter) for clip in bar]

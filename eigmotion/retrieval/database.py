@@ -40,7 +40,7 @@ from eigmotion.retrieval.query_windows import (
     search_windows,
     specific_window_entry,
 )
-from eigmotion.retrieval.results import IndexReport, Match, QueryResult
+from eigmotion.retrieval.results import IndexReport, Match, QueryResult, people_warning
 from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import (
     CANDIDATE_MOTIONS,
@@ -422,6 +422,7 @@ class MotionDatabase:
         every_frame: bool = False,
         progress: bool = False,
         false_rejection: float | None = None,
+        segmenter: str = "auto",
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -443,12 +444,18 @@ class MotionDatabase:
             Progress bars on stderr while a long video is read.
         false_rejection : float, optional
             As for :meth:`query_masks`.
+        segmenter : {"auto", "learned", "subtraction"}
+            How the person is cut out of video (:func:`~eigmotion.segmentation.video.
+            load_clip_masks`): ``auto`` subtracts the background image when one is
+            given and runs the learned segmenter when none is.
 
         Returns
         -------
         result : QueryResult
-            Segment frames are frames of the clip.  ``timing_ms["silhouettes"]`` is
-            the time the answer's silhouettes took; with ``every_frame``,
+            Segment frames are frames of the clip; ``warnings`` says when more than
+            one person is in view (:attr:`~eigmotion.segmentation.video.ClipMasks.
+            people`).  ``timing_ms["silhouettes"]`` is the time the answer's
+            silhouettes took; with ``every_frame``,
             ``timing_ms["every_frame_silhouettes"]`` that of the others.
         clip : ClipMasks
             The silhouettes the answer was computed from; with ``every_frame``, those
@@ -459,7 +466,7 @@ class MotionDatabase:
             self.threshold_at(false_rejection)  # a bad value is told before the video is read
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
         sample_fps = self.config.motion_image.sample_fps
-        clip = load_clip_masks(path, background, config, sample_fps, progress)
+        clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
         t1 = time.perf_counter()
         result = self.query_masks(clip.masks, clip.fps, top_k, false_rejection)
         # Segments come in mask indices; a mask's successor starts the next segment.
@@ -472,10 +479,14 @@ class MotionDatabase:
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
         if every_frame:
             t2 = time.perf_counter()
-            clip = load_clip_masks(path, background, config, progress=progress)
+            people = clip.people
+            clip = load_clip_masks(path, background, config, progress=progress, segmenter=segmenter)
+            clip = dataclasses.replace(clip, people=people)
             timing["every_frame_silhouettes"] = (time.perf_counter() - t2) * 1e3
         timing["total"] = (time.perf_counter() - t0) * 1e3
-        return dataclasses.replace(result, segments=segments, timing_ms=timing), clip
+        warnings = () if clip.people <= 1 else (people_warning(clip.people),)
+        result = dataclasses.replace(result, segments=segments, timing_ms=timing, warnings=warnings)
+        return result, clip
 
     # -- indexing ---------------------------------------------------------------------
     def index_motion(self, item: LibraryMotion, progress: bool = True) -> IndexReport:

@@ -123,6 +123,9 @@ class QueryResult:
         beside it and the next step), ``sequences`` (the candidates ranked), ``total``.
     motion_image : (D,) float32
         The clip's motion image.
+    warnings : tuple of str
+        What the user should know about the answer (:func:`people_warning`: more than
+        one person in view); empty when nothing.
     """
 
     best: Match
@@ -137,6 +140,7 @@ class QueryResult:
     db_entries: int
     timing_ms: dict[str, float]
     motion_image: np.ndarray
+    warnings: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
         out = self.best.to_json()
@@ -150,7 +154,16 @@ class QueryResult:
         out["examined_windows"] = int(self.examined_windows)
         out["db_entries"] = int(self.db_entries)
         out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
+        out["warnings"] = list(self.warnings)
         return out
+
+
+def people_warning(people: int) -> str:
+    """The answer's warning for a clip that shows ``people`` (> 1) people."""
+    return (
+        f"{people} people in view: the answer describes the largest figure, possibly "
+        "mixed with the others; crop the clip to one person"
+    )
 
 
 @dataclass(frozen=True)

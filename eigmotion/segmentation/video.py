@@ -25,6 +25,14 @@ from eigmotion.imaging.media import FRAME_RATE_FPS, FrameSampleStream, sample_in
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import check_frames, shrink
+from eigmotion.segmentation.learned import (
+    count_people,
+    learned_masks,
+    model_input,
+    people_in_view,
+    resolve_segmenter,
+    working_size,
+)
 from eigmotion.segmentation.subtraction import CHUNK_FRAMES, frame_chunks, segment_chunks
 from eigmotion.segmentation.workers import opencv_in_calling_threads
 from eigmotion.validation import validate
@@ -147,6 +155,12 @@ class ClipMasks:
         was taken, else the sample rate asked for.
     clip_fps : float
         The clip's frame rate, frames/s.
+    people : int
+        People in view (:func:`~eigmotion.segmentation.learned.people_in_view`): with the
+        learned segmenter the blobs of the network's masks, else those of the masks.
+    segmenter : str
+        The front end that cut them: ``"learned"``, ``"subtraction"``, or ``"masks"``
+        for an ``.npz`` of masks.
     """
 
     masks: np.ndarray
@@ -154,6 +168,8 @@ class ClipMasks:
     n_frames: int
     fps: float
     clip_fps: float
+    people: int = 1
+    segmenter: str = "subtraction"
 
 
 def load_clip_masks(
@@ -162,6 +178,7 @@ def load_clip_masks(
     config: SilhouetteConfig = SilhouetteConfig(),  # noqa: B008 - frozen, immutable
     sample_fps: float | None = None,
     progress: bool = False,
+    segmenter: str = "subtraction",
 ) -> ClipMasks:
     """Silhouettes of the person in a clip on disk.
 
@@ -194,9 +211,11 @@ def load_clip_masks(
         Missing or unreadable file, zero frames, no person, background of another size.
     InvalidParameterError
         An ``.npz`` without ``masks`` or with masks of the wrong shape; a background
-        given with an ``.npz`` of masks; a bad ``sample_fps``.
+        given with an ``.npz`` of masks; a bad ``sample_fps``; an unknown segmenter, or
+        the learned one with a background.
     """
     path = Path(path)
+    segmenter = resolve_segmenter(segmenter, background_path is not None)
     if path.suffix.lower() == ".npz":
         if background_path is not None:
             raise InvalidParameterError(
@@ -206,8 +225,13 @@ def load_clip_masks(
             validate("sample_fps", sample_fps, FRAME_RATE_FPS)
         masks, clip_fps = _load_npz_masks(path)
         rate = clip_fps if sample_fps is None else sample_fps
-        indices = sample_indices(len(masks), clip_fps, rate)
-        return ClipMasks(masks[indices], indices, len(masks), min(rate, clip_fps), clip_fps)
+        n_frames = len(masks)
+        indices = sample_indices(n_frames, clip_fps, rate)
+        masks = masks[indices]
+        people = people_in_view(count_people(masks, config))
+        return ClipMasks(masks, indices, n_frames, min(rate, clip_fps), clip_fps, people, "masks")
+    if segmenter == "learned":
+        return _learned_clip_masks(path, config, sample_fps, progress)
 
     def to_working_size(frame: np.ndarray) -> np.ndarray:
         """Each frame shrunk as soon as it is decoded (as the segmentation would shrink
@@ -228,7 +252,36 @@ def load_clip_masks(
     else:  # segmented as it is decoded
         small = shrink(background[None], config)[0]
         masks = _person_found(segment_chunks(stream.chunks(CHUNK_FRAMES), small, config), config)
-    return ClipMasks(masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps)
+    people = people_in_view(count_people(masks, config))
+    return ClipMasks(
+        masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps, people
+    )
+
+
+def _learned_clip_masks(
+    path: Path, config: SilhouetteConfig, sample_fps: float | None, progress: bool
+) -> ClipMasks:
+    """:func:`load_clip_masks` of a video through the learned segmenter: each frame is
+    resized to the network's input as soon as it is decoded."""
+    sizes = []
+
+    def to_model_input(frame: np.ndarray) -> np.ndarray:
+        if not sizes:
+            sizes.append(frame.shape[:2])
+        return model_input(frame)
+
+    stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_model_input)
+    inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
+    masks, people = learned_masks(inputs, working_size(*sizes[0], config), config)
+    if not masks.any():
+        raise VideoError(
+            f"no person found in {len(masks)} frame(s): the person segmenter found no one "
+            f"covering {config.min_person_frac:.2%} of the image"
+        )
+    return ClipMasks(
+        masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
+        people_in_view(people), "learned",
+    )  # fmt: skip
 
 
 def read_background(path: str | Path) -> np.ndarray:

@@ -1,0 +1,285 @@
+"""The learned front end: person masks from a trained segmentation network.
+
+For clips without an image of the empty scene, a network trained to find people cuts
+the person out of each frame on its own, so the person need not move and the scene
+need not be estimated.  The network is MediaPipe's selfie segmentation (general
+model, 256×256 RGB in, the probability of "person" per pixel out; Apache-2.0), shipped
+with the package in ``eigmotion/data/segmenter/`` beside its licence: nothing is
+downloaded.  It runs on the CPU through the LiteRT interpreter when the optional
+``ai-edge-litert`` package is installed (``pip install 'eigmotion[segmenter]'``),
+else through OpenCV's DNN module, which reads the same file and gives the same
+probabilities, several times slower (``docs/segmentation.md`` has the measurements).
+
+Each frame is resized whole to the network's input (no cropping), its probabilities
+resized back to the working size of the classical path
+(:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
+:data:`PERSON_PROBABILITY`; then, as in the classical path, the largest blob and the
+big pieces beside it are the person (:func:`person_in_frame`).  The masks go on to the
+motion image exactly as the classical masks do.
+
+Every blob beside the largest one and at least :data:`PERSON_SHARE` of its area is
+counted as one more person in view (:func:`people_in_view`): a clip with two people side by side is
+answered from the largest, and the answer carries a warning.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from contextlib import contextmanager
+from functools import cache
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.segmentation.config import SilhouetteConfig
+
+#: The front ends a query may cut the person out with: ``auto`` is ``learned`` when no
+#: image of the empty scene is given and ``subtraction`` (against that image) when one is.
+SEGMENTERS = ("auto", "learned", "subtraction")
+
+#: The network's file, shipped with the package.
+MODEL_PATH = (
+    Path(__file__).resolve().parents[1] / "data" / "segmenter" / "selfie_segmentation.tflite"
+)
+
+#: The network's input and output side, pixels.
+MODEL_SIDE_PX = 256
+
+#: A pixel whose probability of being the person is above this is the person.
+PERSON_PROBABILITY = 0.5
+
+#: A blob counts as a person in view when its area is at least this share of the
+#: frame's largest blob (and at least the smallest person's area).
+PERSON_SHARE = 0.3
+
+#: The clip shows as many people as at least this share of its frames do.
+PEOPLE_FRAME_SHARE = 1.0 / 3.0
+
+
+def resolve_segmenter(segmenter: str, with_background: bool) -> str:
+    """The front end a query uses: ``"learned"`` or ``"subtraction"``.
+
+    Parameters
+    ----------
+    segmenter : {"auto", "learned", "subtraction"}
+    with_background : bool
+        Whether an image of the empty scene was given.
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown name, or ``"learned"`` with a background image (the network does not
+        use it).
+    """
+    if segmenter not in SEGMENTERS:
+        raise InvalidParameterError(
+            f"segmenter must be one of {', '.join(SEGMENTERS)}, got {segmenter!r}"
+        )
+    if segmenter == "auto":
+        return "subtraction" if with_background else "learned"
+    if segmenter == "learned" and with_background:
+        raise InvalidParameterError(
+            "the learned segmenter does not use an image of the empty scene: give "
+            "--background with --segmenter subtraction or auto, or leave it out"
+        )
+    return segmenter
+
+
+def runtime() -> str:
+    """``"litert"`` when the LiteRT interpreter is installed, else ``"opencv"``."""
+    return _network()[0]
+
+
+def model_input(frame: np.ndarray) -> np.ndarray:
+    """One RGB frame (H, W, 3) uint8 resized whole to the network's input,
+    (:data:`MODEL_SIDE_PX`, :data:`MODEL_SIDE_PX`, 3) uint8 (area averaging when it
+    shrinks, bilinear when it grows)."""
+    h, w = frame.shape[:2]
+    shrinking = h >= MODEL_SIDE_PX and w >= MODEL_SIDE_PX
+    interpolation = cv2.INTER_AREA if shrinking else cv2.INTER_LINEAR
+    return cv2.resize(frame, (MODEL_SIDE_PX, MODEL_SIDE_PX), interpolation=interpolation)
+
+
+def working_size(height: int, width: int, config: SilhouetteConfig) -> tuple[int, int]:
+    """(H', W') of a frame of ``height`` × ``width`` pixels at the working size, as
+    :func:`~eigmotion.segmentation.evidence.shrink` shrinks it."""
+    factor = max(1, math.ceil(max(height, width) / config.work_max_side_px))
+    return height // factor, width // factor
+
+
+def person_probabilities(inputs: np.ndarray) -> np.ndarray:
+    """The network's probability of "person" per pixel.
+
+    Parameters
+    ----------
+    inputs : (F, 256, 256, 3) uint8
+        Frames made by :func:`model_input`, RGB.
+
+    Returns
+    -------
+    (F, 256, 256) float32
+        In [0, 1].
+    """
+    inputs = np.asarray(inputs)
+    if (
+        inputs.dtype != np.uint8
+        or inputs.ndim != 4
+        or inputs.shape[1:] != (MODEL_SIDE_PX, MODEL_SIDE_PX, 3)
+    ):
+        raise InvalidParameterError(
+            f"network inputs must be (F, {MODEL_SIDE_PX}, {MODEL_SIDE_PX}, 3) uint8, got "
+            f"{inputs.dtype} {inputs.shape}"
+        )
+    _, run = _network()
+    out = np.empty(inputs.shape[:3], np.float32)
+    for i, frame in enumerate(inputs):
+        out[i] = run(frame.astype(np.float32) * np.float32(1.0 / 255.0))
+    return out
+
+
+def learned_masks(
+    inputs: np.ndarray, size: tuple[int, int], config: SilhouetteConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """The person in each frame, and the people in view.
+
+    Parameters
+    ----------
+    inputs : (F, 256, 256, 3) uint8
+        Frames made by :func:`model_input`, RGB.
+    size : (int, int)
+        (H', W') of the masks wanted: the frames' working size (:func:`working_size`).
+    config : SilhouetteConfig
+        Its ``min_person_frac`` and ``keep_piece_frac`` apply.
+
+    Returns
+    -------
+    masks : (F, H', W') bool
+        All False in a frame where no blob covers ``min_person_frac`` of the image.
+    people : (F,) int64
+        Blobs per frame large enough to be a person (:data:`PERSON_SHARE`).
+    """
+    h, w = size
+    probabilities = person_probabilities(inputs)
+    masks = np.zeros((len(probabilities), h, w), bool)
+    people = np.zeros(len(probabilities), np.int64)
+    for i, p in enumerate(probabilities):
+        p = cv2.resize(p, (w, h), interpolation=cv2.INTER_LINEAR)
+        masks[i], people[i] = person_in_frame(p > PERSON_PROBABILITY, config)
+    return masks, people
+
+
+def person_in_frame(mask: np.ndarray, config: SilhouetteConfig) -> tuple[np.ndarray, int]:
+    """The person's blobs of one frame's foreground, and how many blobs are people.
+
+    The largest blob, when it covers at least ``config.min_person_frac`` of the image,
+    plus pieces of at least ``config.keep_piece_frac`` of its area touching its bounding
+    box grown by 25 % sideways and 50 % up and down (the classical path's rule).
+
+    Parameters
+    ----------
+    mask : (H, W) bool
+
+    Returns
+    -------
+    person : (H, W) bool
+    people : int
+        The largest blob, and the blobs beside it (sharing no column with it) of at
+        least :data:`PERSON_SHARE` of its area and at least the smallest person's: the
+        pieces of one person torn apart by the segmentation lie above one another.
+    """
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), 8)
+    if count <= 1:
+        return np.zeros(mask.shape, bool), 0
+    area = stats[1:, cv2.CC_STAT_AREA]
+    largest = int(np.argmax(area))
+    min_area = config.min_person_frac * mask.size
+    if area[largest] < min_area:
+        return np.zeros(mask.shape, bool), 0
+    x0, y0 = stats[1:, cv2.CC_STAT_LEFT], stats[1:, cv2.CC_STAT_TOP]
+    x1, y1 = x0 + stats[1:, cv2.CC_STAT_WIDTH], y0 + stats[1:, cv2.CC_STAT_HEIGHT]
+    bw, bh = x1[largest] - x0[largest], y1[largest] - y0[largest]
+    near = (
+        (x1 >= x0[largest] - 0.25 * bw)
+        & (x0 <= x1[largest] + 0.25 * bw)
+        & (y1 >= y0[largest] - 0.5 * bh)
+        & (y0 <= y1[largest] + 0.5 * bh)
+    )
+    keep = near & (area >= config.keep_piece_frac * area[largest])
+    keep[largest] = True
+    beside = (x1 <= x0[largest]) | (x0 >= x1[largest])  # no column shared with it
+    big = area >= max(min_area, PERSON_SHARE * area[largest])
+    people = 1 + int(np.count_nonzero(big & beside))
+    return np.r_[False, keep][labels], people
+
+
+def people_in_view(people: np.ndarray) -> int:
+    """The people a clip shows: the most that at least :data:`PEOPLE_FRAME_SHARE` of its
+    frames show (a stray blob in a frame or two does not count).
+
+    Parameters
+    ----------
+    people : (F,) int
+        People per frame (as :func:`learned_masks` or :func:`count_people` count them).
+    """
+    people = np.sort(np.asarray(people, np.int64))[::-1]
+    if len(people) == 0:
+        return 0
+    return int(people[min(len(people) - 1, int(len(people) * PEOPLE_FRAME_SHARE))])
+
+
+def count_people(masks: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
+    """People per frame in finished masks (F, H, W) bool, counted as
+    :func:`person_in_frame` counts them; (F,) int64."""
+    return np.array([person_in_frame(m, config)[1] for m in masks], np.int64)
+
+
+@cache
+def _network():
+    """(runtime name, function from one (256, 256, 3) float32 input in [0, 1] to the
+    (256, 256) float32 probabilities), the network loaded once per process."""
+    if not MODEL_PATH.is_file():
+        raise VideoError(f"{MODEL_PATH}: the person segmenter's network is missing")
+    try:
+        from ai_edge_litert.interpreter import Interpreter
+    except ImportError:
+        Interpreter = None  # noqa: N806 - the class, when installed
+    if Interpreter is not None:
+        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+        with _quiet_stderr():  # LiteRT announces its CPU delegate on stderr
+            interpreter = Interpreter(model_path=str(MODEL_PATH), num_threads=max(1, threads))
+            interpreter.allocate_tensors()
+        source = interpreter.get_input_details()[0]["index"]
+        target = interpreter.get_output_details()[0]["index"]
+
+        def run_litert(x: np.ndarray) -> np.ndarray:
+            interpreter.set_tensor(source, x[None])
+            interpreter.invoke()
+            return interpreter.get_tensor(target)[0, :, :, 0]
+
+        return "litert", run_litert
+    net = cv2.dnn.readNetFromTFLite(str(MODEL_PATH))
+
+    def run_opencv(x: np.ndarray) -> np.ndarray:
+        net.setInput(np.ascontiguousarray(x.transpose(2, 0, 1)[None]))
+        return net.forward()[0, 0]
+
+    return "opencv", run_opencv
+
+
+@contextmanager
+def _quiet_stderr():
+    """File descriptor 2 sent to ``/dev/null`` for the block (what a native library
+    prints there), then restored."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
