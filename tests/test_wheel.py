@@ -93,6 +93,9 @@ def test_installed_wheel_builds_and_queries_outside_the_source_tree(tmp_path):
         "eigmotion/_bundled/virtual_cameras/default.toml",
         "eigmotion/_bundled/database/samples/walk.mp4",
         "eigmotion/data/avatar/makehuman/base.obj",
+        "eigmotion/serve/static/index.html",
+        "eigmotion/serve/static/three/three.module.min.js",
+        "eigmotion/serve/static/three/LICENSE",
     ):
         assert shipped in names
     assert not any(n.startswith("eigmotion/_bundled/") and n.endswith(".py") for n in names)

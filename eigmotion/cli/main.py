@@ -36,6 +36,7 @@ COMMANDS = {
     "convert": "convert a BVH or CMU ASF/AMC motion to BVH (resample, trim, rename joints)",
     "show": "render a motion on the avatar: a contact sheet (.png) or a replay (.gif, .mp4)",
     "render": "render a motion's silhouettes and motion images from every camera of a rig",
+    "serve": "a web page on this machine: upload a clip, see the answer, replay and 3D motion",
     "eval": "score recognition on the independent development set (accuracy, IoU, time)",
 }
 

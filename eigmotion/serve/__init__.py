@@ -1,0 +1,1 @@
+"""``eigmotion serve``: the query as a web page on localhost, and its HTTP API."""
