@@ -53,7 +53,7 @@ from eigmotion.retrieval.sequences import (
     view_reach,
 )
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
-from eigmotion.retrieval.store import Store
+from eigmotion.retrieval.store import Store, damage_named
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.video import ClipMasks, load_clip_masks
 from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_threads
@@ -144,7 +144,13 @@ class MotionDatabase:
                 f"{DEFAULT_DB_PATH}: the default database has not been built yet; "
                 "run 'eigmotion build' (or pass --db)"
             )
-        return cls(Store.open(uri, read_only=read_only))
+        store = Store.open(uri, read_only=read_only)
+        try:
+            with damage_named(store.uri, "its build configuration and motions"):
+                return cls(store)
+        except BaseException:
+            store.close()
+            raise
 
     def close(self) -> None:
         self.store.close()

@@ -24,9 +24,10 @@ from BTrees.LLBTree import LLTreeSet
 from BTrees.LOBTree import LOBTree
 from persistent.mapping import PersistentMapping
 
-from eigmotion.errors import DatabaseError, InvalidParameterError
+from eigmotion.errors import DatabaseError, EigmotionError, InvalidParameterError
 from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.keys import Quantizer
+from eigmotion.retrieval.safe_loading import RefusedObjectError
 from eigmotion.retrieval.schema import (
     SCHEMA_VERSION,
     MotionSequences,
@@ -40,7 +41,31 @@ from eigmotion.retrieval.schema import (
     unpack_columns,
     unpack_sequences,
 )
-from eigmotion.retrieval.storage import open_zodb, parse_uri, remove_file_storage
+from eigmotion.retrieval.storage import (
+    close_writable_file_storage,
+    open_zodb,
+    parse_uri,
+    remove_file_storage,
+)
+
+
+@contextlib.contextmanager
+def damage_named(uri: str, what: str = "it") -> Iterator[None]:
+    """Turn a failure to read stored objects (damaged bytes, a missing object or
+    table, an unreadable pickle) into one DatabaseError naming the database and
+    ``what`` was being read; errors of this package pass as they are."""
+    try:
+        yield
+    except RefusedObjectError as exc:
+        raise DatabaseError(f"{uri}: {exc}") from None
+    except EigmotionError:
+        raise
+    except Exception as exc:
+        text = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise DatabaseError(
+            f"{uri}: damaged: reading {what} failed ({type(exc).__name__}: {text}); "
+            f"'eigmotion check {uri}' tells more"
+        ) from exc
 
 
 class Store:
@@ -132,8 +157,15 @@ class Store:
             raise DatabaseError(f"{target}: no such database file")
         store = cls(text, open_zodb(scheme, target, text, read_only), read_only)
         try:
-            store._check_schema()
-            store._load_arrays()
+            with damage_named(text, "its root"):
+                store._check_schema()
+                store._load_arrays()
+        except DatabaseError as exc:
+            damage = getattr(store._db.storage, "eigmotion_damage", None)
+            store.close()
+            if damage:
+                raise DatabaseError(f"{text}: {damage}") from exc
+            raise
         except BaseException:
             store.close()
             raise
@@ -146,6 +178,8 @@ class Store:
         with contextlib.suppress(Exception):
             self._tm.abort()
         self._conn.close()
+        if not self.read_only and parse_uri(self.uri)[0] == "file":
+            close_writable_file_storage(self._db.storage)
         self._db.close()
         self._db = None
 
@@ -415,6 +449,8 @@ class Store:
                 for i in range(n)
             }
         )
+        if n == 0:
+            return ids
         tree = root["keys"]
         order = np.argsort(keys, kind="stable")
         unique, starts = np.unique(keys[order], return_index=True)
@@ -497,14 +533,15 @@ class Store:
     def sequences(self, motion_id: int) -> MotionSequences:
         """The silhouette sequences of one motion's renderings (none for a motion
         stored without them)."""
-        root = self._require_initialised()
-        p = frame_columns(root)
-        record = root["sequences"].get(int(motion_id))
-        if record is None:
-            if int(motion_id) not in root["motions"]:
-                raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-            record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
-        return unpack_sequences(record, p, self.uri, motion_id)
+        with damage_named(self.uri, f"the sequences of motion {motion_id}"):
+            root = self._require_initialised()
+            p = frame_columns(root)
+            record = root["sequences"].get(int(motion_id))
+            if record is None:
+                if int(motion_id) not in root["motions"]:
+                    raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
+                record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+            return unpack_sequences(record, p, self.uri, motion_id)
 
     @property
     def n_entries(self) -> int:
@@ -520,19 +557,21 @@ class Store:
 
     def motion(self, motion_id: int) -> dict:
         """A motion's record: ``label``, ``source``, ``bvh``, ``metadata`` (a copy)."""
-        record = self._require_initialised()["motions"].get(int(motion_id))
-        if record is None:
-            raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-        return thawed(record)
+        with damage_named(self.uri, f"motion {motion_id}"):
+            record = self._require_initialised()["motions"].get(int(motion_id))
+            if record is None:
+                raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
+            return thawed(record)
 
     def entry(self, entry_id: int) -> dict:
         """An entry's record (a copy); ``point`` is decoded to a (k,) float32 array."""
-        record = self._require_initialised()["entries"].get(int(entry_id))
-        if record is None:
-            raise InvalidParameterError(f"{self.uri}: no entry with id {entry_id}")
-        out = dict(record)
-        out["point"] = np.frombuffer(record["point"], dtype="<f4").astype(np.float32)
-        return out
+        with damage_named(self.uri, f"entry {entry_id}"):
+            record = self._require_initialised()["entries"].get(int(entry_id))
+            if record is None:
+                raise InvalidParameterError(f"{self.uri}: no entry with id {entry_id}")
+            out = dict(record)
+            out["point"] = np.frombuffer(record["point"], dtype="<f4").astype(np.float32)
+            return out
 
     def ids_for_key(self, key: int) -> np.ndarray:
         """(n,) int64: the entry ids stored under one B-tree key (empty if none)."""
