@@ -28,8 +28,6 @@ from ZODB.MappingStorage import MappingStorage
 from ZODB.utils import z64
 
 from eigmotion.errors import DatabaseError, EigmotionError
-from eigmotion.retrieval.eigenspace import Eigenspace
-from eigmotion.retrieval.keys import Quantizer
 from eigmotion.retrieval.safe_loading import allowed_class, check_index_file
 from eigmotion.retrieval.schema import SCHEMA_VERSION
 from eigmotion.retrieval.storage import parse_uri, replacing
@@ -228,9 +226,9 @@ def inspect_database(uri: str | os.PathLike) -> DatabaseInspection:
 
     _, readable = _attempt(opened)
     found = DatabaseInspection(readable, scan_file(path), index)
-    store = _records_store(path, found.scan.records)
+    store, why = _attempt(lambda: _records_store(path, found.scan.records))
     if store is None:
-        found.problem = "its root object is lost"
+        found.problem = f"its root object is unreadable ({why})" if why else "its root is lost"
         return found
     found.store = store
     root = store._conn.root
@@ -368,4 +366,3 @@ def _copy_motions(source: Store, new: Store, motion_ids: list, n_entries: int) -
             stored.elevation_deg,
             np.split(stored.frames, bounds) if len(stored.lengths) else [],
         )
-

@@ -158,13 +158,15 @@ def _zeo_storage(target: str, uri: str, read_only: bool):
         raise DatabaseError(f"{uri}: no ZEO server answered ({exc})") from exc
 
 
-def check_zeo_reachable(uri: str | os.PathLike) -> None:
-    """For a ``zeo://`` URI, DatabaseError unless its server answers (at once, before
-    any long work); nothing for other URIs."""
+def check_target(uri: str | os.PathLike) -> None:
+    """Before long work that ends by writing a database at ``uri``: DatabaseError
+    unless a ``zeo://`` server answers, or a file's folder exists."""
     text = os.fspath(uri)
     scheme, target = parse_uri(text)
     if scheme == "zeo":
         _zeo_storage(target, text, read_only=True).close()
+    elif scheme == "file" and not Path(target).parent.is_dir():
+        raise DatabaseError(f"{target}: folder {Path(target).parent} does not exist")
 
 
 def verified_file_storage(path: str, uri: str, for_writing: bool = False) -> FileStorage:
