@@ -144,7 +144,8 @@ class DatabaseInspection:
     Attributes
     ----------
     readable : str or None
-        None when the database opens as a query would open it; else why not.
+        None when the database opens as a query would open it and its B-tree, records
+        and columns agree (:meth:`Store.check`); else why not.
     scan : FileScan
     index : str
         The state of the ``.index`` file: ``"whole"``, ``"missing"`` or ``"damaged"``.
@@ -221,8 +222,8 @@ def inspect_database(uri: str | os.PathLike) -> DatabaseInspection:
         index = "damaged"
 
     def opened():
-        with Store.open(text, read_only=True):
-            pass
+        with Store.open(text, read_only=True) as store:
+            store.check()  # the B-tree, the records and the columns agree
 
     _, readable = _attempt(opened)
     found = DatabaseInspection(readable, scan_file(path), index)
