@@ -224,10 +224,23 @@ def test_a_crafted_zeo_server_is_refused_and_its_code_never_runs(tmp_path):
 
 @pytest.mark.parametrize(
     "content, message",
-    [(b"", "empty file"), (b"hello, not a database\n" * 10, "not a ZODB FileStorage")],
+    [
+        (b"", "empty file"),
+        (b"hello, not a database\n" * 10, "not a ZODB FileStorage"),
+        (None, "not an eigmotion database"),
+    ],
 )
 def test_an_empty_or_foreign_file_is_refused_and_left_alone(tmp_path, capsys, content, message):
     work = tmp_path / "db.fs"
+    if content is None:  # a ZODB file of some other program
+        db = ZODB.DB(FileStorage(str(work)))
+        with db.transaction() as conn:
+            conn.root()["orders"] = 12
+        db.close()
+        for suffix in (".lock", ".tmp"):
+            Path(f"{work}{suffix}").unlink(missing_ok=True)
+        content = work.read_bytes()
+        Path(f"{work}.index").unlink()
     work.write_bytes(content)
     for argv in (["index", str(AUTHORED), "--label", "x", "--db", str(work)],):
         assert main(argv) == 2
