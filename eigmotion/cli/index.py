@@ -55,7 +55,10 @@ def run(args: argparse.Namespace) -> int:
             library = db.stored_library()
             rig, config = db.rig, db.config
         if name in {m.name for m in library}:
-            raise InvalidParameterError(f"a motion named {name!r} is already in the database")
+            raise InvalidParameterError(
+                f"a motion named {name!r} is already in the database; give it another name "
+                "with --name"
+            )
         report = build_database(library + [item], rig, uri, config, progress=not args.quiet)
         print(
             f"rebuilt {report.uri} with {name!r}: {report.n_entries} entries, "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import os
 import sys
 from types import ModuleType
@@ -38,9 +39,24 @@ COMMANDS = {
     "render": "render a motion's silhouettes and motion images from every camera of a rig",
     "serve": "a web page on this machine: upload a clip, see the answer, replay and 3D motion",
     "eval": "score recognition on the independent development set (accuracy, IoU, time)",
+    "check": "check a database file: readable or not, what is damaged, what is intact",
+    "repair": "copy every intact motion of a damaged database file into a new file",
 }
 
 EXIT_BAD_INPUT = 2
+
+#: Libraries whose own log lines would reach stderr beside the command's one line (a
+#: damaged database is reported by the command, naming what to do).
+QUIET_LOGGERS = ("ZODB", "ZEO", "txn", "transaction", "persistent", "BTrees", "zc.lockfile")
+
+
+def quiet_library_logs() -> None:
+    """Keep the log lines of :data:`QUIET_LOGGERS` off stderr (Python's last-resort
+    handler prints warnings of an unconfigured logger there)."""
+    for name in QUIET_LOGGERS:
+        logger = logging.getLogger(name)
+        logger.addHandler(logging.NullHandler())
+        logger.propagate = False
 
 
 def requested_command(argv: list[str]) -> str | None:
@@ -79,6 +95,7 @@ def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, M
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    quiet_library_logs()
     parser, module = build_parser(requested_command(argv))
     args = parser.parse_args(argv)
     if not args.command:

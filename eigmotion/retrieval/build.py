@@ -34,7 +34,7 @@ from eigmotion.retrieval.keys import Quantizer
 from eigmotion.retrieval.library_views import BuildConfig, ViewImages, render_views
 from eigmotion.retrieval.results import BuildReport
 from eigmotion.retrieval.sequences import fit_pose_space, pose_coordinates
-from eigmotion.retrieval.storage import DEFAULT_DB_PATH, replacing
+from eigmotion.retrieval.storage import DEFAULT_DB_PATH, check_target, replacing
 from eigmotion.retrieval.store import Store
 
 
@@ -133,6 +133,7 @@ def build_database(
     names = [m.name for m in library]
     if len(set(names)) != len(names):
         raise InvalidParameterError("motion names in the library must be unique")
+    check_target(uri)  # an unreachable server is told before minutes of rendering
     collected = CollectedViews()
     if views is None:
         views = render_views(library, rig, config, workers=workers, progress=progress)
@@ -164,12 +165,8 @@ def build_database(
     with replacing(uri) as target:
         store = Store.create(target, overwrite=True)
         try:
-            with store.transaction():
-                store.initialise(stored_config, space, quantizer, pose_space)
-                motion_ids = [store_motion(store, m) for m in library]
-                of_entry = np.asarray(motion_ids)[motion_of]
-                store.add_entries(of_entry, points, keys, az, el, start, stop, labels, body_of)
-                store_sequences(store, motion_ids, collected.sequences, pose_space)
+            fitted = (stored_config, space, quantizer, pose_space)
+            store_library(store, fitted, library, collected, points, keys)
         finally:
             store.close()
     return BuildReport(
@@ -181,6 +178,61 @@ def build_database(
         threshold,
         time.perf_counter() - t0,
     )
+
+
+def store_library(
+    store: Store,
+    fitted: tuple,
+    library: Sequence[LibraryMotion],
+    collected: CollectedViews,
+    points: np.ndarray,
+    keys: np.ndarray,
+) -> None:
+    """Write a built database: its configuration and eigenspaces, then each motion with
+    its entries and silhouette sequences in a transaction of its own, then the packed
+    columns (so damage to the end of the file costs the last motion, not the database:
+    ``eigmotion repair``).  Entry ids run motion by motion, in library order.
+
+    Parameters
+    ----------
+    store : Store
+        Created, empty, writable.
+    fitted : tuple
+        ``(stored config, eigenspace, quantizer, pose eigenspace)`` for
+        :meth:`Store.initialise`.
+    library : sequence of LibraryMotion
+    collected : CollectedViews
+        Every rendering of ``library``.
+    points : (N, k) float32
+        The eigen-coordinates of ``collected``'s motion images.
+    keys : (N,) int64
+        Their B-tree keys.
+    """
+    _, motion_of, body_of, az, el, start, stop, labels = collected.arrays()
+    pose_space = fitted[3]
+    with store.transaction():
+        store.initialise(*fitted)
+    ids, order, motion_ids = [], [], []
+    for index, item in enumerate(library):
+        rows = np.flatnonzero(motion_of == index)
+        with store.transaction():
+            motion_id = store_motion(store, item)
+            ids.append(
+                store.add_entries(
+                    np.full(len(rows), motion_id), points[rows], keys[rows], az[rows],
+                    el[rows], start[rows], stop[rows], [labels[i] for i in rows],
+                    body_of[rows], columns=False,
+                )
+            )  # fmt: skip
+            own = [(0, *view[1:]) for view in collected.sequences if view[0] == index]
+            store_sequences(store, [motion_id], own, pose_space)
+        order.append(rows)
+        motion_ids.append(motion_id)
+    rows = np.concatenate(order)
+    with store.transaction():
+        store.append_columns(
+            np.concatenate(ids), keys[rows], points[rows], np.asarray(motion_ids)[motion_of[rows]]
+        )
 
 
 def store_motion(store: Store, item: LibraryMotion) -> int:

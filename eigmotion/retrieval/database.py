@@ -53,7 +53,7 @@ from eigmotion.retrieval.sequences import (
     view_reach,
 )
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
-from eigmotion.retrieval.store import Store
+from eigmotion.retrieval.store import Store, damage_named
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.video import ClipMasks, load_clip_masks
 from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_threads
@@ -144,7 +144,15 @@ class MotionDatabase:
                 f"{DEFAULT_DB_PATH}: the default database has not been built yet; "
                 "run 'eigmotion build' (or pass --db)"
             )
-        return cls(Store.open(uri, read_only=read_only))
+        if not read_only:  # every stored motion readable before the file is opened to write
+            cls.open(uri, read_only=True).close()
+        store = Store.open(uri, read_only=read_only)
+        try:
+            with damage_named(store.uri, "its build configuration and motions"):
+                return cls(store)
+        except BaseException:
+            store.close()
+            raise
 
     def close(self) -> None:
         self.store.close()
@@ -507,11 +515,19 @@ class MotionDatabase:
         names = {rec["metadata"].get("name") for rec in self._motions.values()}
         if item.name in names:
             raise InvalidParameterError(
-                f"a motion named {item.name!r} is already in the database; choose another name"
+                f"a motion named {item.name!r} is already in the database; give it another "
+                "name (eigmotion index --name)"
             )
         collected = CollectedViews()
         for view in render_views([item], self.rig, self.config, workers=None, progress=progress):
             collected.add(view, self.rig)
+        if not sum(len(v) for v in collected.vectors):
+            motion = item.motion
+            raise InvalidParameterError(
+                f"{item.name}: its {motion.n_frames} frame(s) "
+                f"({motion.n_frames * motion.frame_time_s:.3g} s) give no motion image to "
+                "index; a motion needs at least two frames in which the person moves"
+            )
         X, _, body_of, az, el, start, stop, labels = collected.arrays()
         points = self.eigenspace.transform(X).astype(np.float32)
         keys = self.store.quantizer().keys(points)

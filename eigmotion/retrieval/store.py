@@ -24,9 +24,10 @@ from BTrees.LLBTree import LLTreeSet
 from BTrees.LOBTree import LOBTree
 from persistent.mapping import PersistentMapping
 
-from eigmotion.errors import DatabaseError, InvalidParameterError
+from eigmotion.errors import DatabaseError, EigmotionError, InvalidParameterError
 from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.keys import Quantizer
+from eigmotion.retrieval.safe_loading import RefusedObjectError
 from eigmotion.retrieval.schema import (
     SCHEMA_VERSION,
     MotionSequences,
@@ -40,7 +41,36 @@ from eigmotion.retrieval.schema import (
     unpack_columns,
     unpack_sequences,
 )
-from eigmotion.retrieval.storage import open_zodb, parse_uri, remove_file_storage
+from eigmotion.retrieval.storage import (
+    close_writable_file_storage,
+    open_zodb,
+    parse_uri,
+    remove_file_storage,
+)
+
+
+@contextlib.contextmanager
+def damage_named(uri: str, what: str = "it") -> Iterator[None]:
+    """Turn a failure to read stored objects (damaged bytes, a missing object or
+    table, an unreadable pickle) into one DatabaseError naming the database and
+    ``what`` was being read; errors of this package pass as they are."""
+    try:
+        yield
+    except RefusedObjectError as exc:
+        raise DatabaseError(f"{uri}: {exc}") from None
+    except EigmotionError:
+        raise
+    except Exception as exc:
+        cause = exc
+        while cause is not None and not isinstance(cause, RefusedObjectError):
+            cause = cause.__cause__ or cause.__context__
+        if cause is not None:  # ZODB wraps what its unpickler raised
+            raise DatabaseError(f"{uri}: {cause}") from None
+        text = " ".join(str(exc).split())[:160] or type(exc).__name__
+        hint = f"; 'eigmotion check {uri}' tells more" if parse_uri(uri)[0] == "file" else ""
+        raise DatabaseError(
+            f"{uri}: damaged: reading {what} failed ({type(exc).__name__}: {text}){hint}"
+        ) from exc
 
 
 class Store:
@@ -66,6 +96,8 @@ class Store:
         self._in_transaction = False
         self._overwrite = False
         self._arrays: StoreArrays | None = None
+        self._index_existed = True
+        self._committed = False
 
     # -- opening ---------------------------------------------------------------------
     @classmethod
@@ -130,10 +162,23 @@ class Store:
             )
         if scheme == "file" and not Path(target).is_file():
             raise DatabaseError(f"{target}: no such database file")
+        if scheme == "file" and not read_only:
+            # verified read-only first: a file that cannot be read is never opened for
+            # writing (which takes its lock and may write its index)
+            cls.open(uri, read_only=True).close()
+        index_existed = scheme == "file" and Path(f"{target}.index").exists()
         store = cls(text, open_zodb(scheme, target, text, read_only), read_only)
+        store._index_existed = index_existed
         try:
-            store._check_schema()
-            store._load_arrays()
+            with damage_named(text, "its root"):
+                store._check_schema()
+                store._load_arrays()
+        except DatabaseError as exc:
+            damage = getattr(store._db.storage, "eigmotion_damage", None)
+            store.close()
+            if damage:
+                raise DatabaseError(f"{text}: {damage}") from exc
+            raise
         except BaseException:
             store.close()
             raise
@@ -146,8 +191,15 @@ class Store:
         with contextlib.suppress(Exception):
             self._tm.abort()
         self._conn.close()
+        file_path = parse_uri(self.uri)[1] if parse_uri(self.uri)[0] == "file" else None
+        if not self.read_only and file_path:
+            close_writable_file_storage(self._db.storage)
         self._db.close()
         self._db = None
+        if file_path and not self.read_only and not self._committed and not self._index_existed:
+            # opened for writing, nothing written: leave no index ZODB made on opening
+            with contextlib.suppress(OSError):
+                os.unlink(f"{file_path}.index")
 
     def __enter__(self) -> Store:
         return self
@@ -232,8 +284,8 @@ class Store:
             raise DatabaseError(f"{self.uri}: commit failed, nothing was written: {exc}") from exc
         finally:
             self._in_transaction = False
-        if "schema_version" in self._root():
-            self._load_arrays()
+        self._committed = True
+        self._arrays = None  # read again on first use
 
     def refresh(self) -> None:
         """See what other clients committed since (reloads the in-memory arrays)."""
@@ -340,6 +392,7 @@ class Store:
         end_frame,
         labels=None,
         bodies=None,
+        columns: bool = True,
     ) -> np.ndarray:
         """Store N entries (motion images' points) under their keys.
 
@@ -362,6 +415,10 @@ class Store:
         bodies : (N,) int, optional
             The body each motion image was rendered on (an index into the build
             configuration's ``bodies``, >= 0); stored as the record's ``body``.
+        columns : bool
+            Also pack them onto the columns; False leaves that to
+            :meth:`append_columns` (a build storing motion after motion, each in its
+            own transaction, packs the columns once at the end).
 
         Returns
         -------
@@ -415,6 +472,8 @@ class Store:
                 for i in range(n)
             }
         )
+        if n == 0:
+            return ids
         tree = root["keys"]
         order = np.argsort(keys, kind="stable")
         unique, starts = np.unique(keys[order], return_index=True)
@@ -424,9 +483,51 @@ class Store:
                 bucket = tree[key] = LLTreeSet()
             bucket.update(group.tolist())
 
-        append_to_columns(root["columns"], first, ids, keys, point_bytes, motions)
         counters["next_entry"] = first + n
+        if columns:
+            self.append_columns(ids, keys, point_bytes, motions)
         return ids
+
+    def append_columns(self, ids, keys, points, motions) -> None:
+        """Pack entries stored with ``add_entries(..., columns=False)`` onto the columns.
+
+        Parameters
+        ----------
+        ids : (N,) int
+            The entries after the last one packed, in order.
+        keys, motions : (N,) int
+        points : (N, k) float32
+            As given to :meth:`add_entries`.
+
+        Raises
+        ------
+        InvalidParameterError
+            ``ids`` are not the next entries to pack, or their keys or motions differ
+            from the stored records'.
+        """
+        self._require_writing("append_columns()")
+        root = self._require_initialised()
+        ids = np.asarray(ids, dtype=np.int64)
+        keys = np.asarray(keys, dtype=np.int64)
+        motions = np.asarray(motions, dtype=np.int64)
+        packed = sum(len(chunk["ids"]) for chunk in root["columns"].values()) // 8
+        if not np.array_equal(ids, np.arange(packed, packed + len(ids))) or (
+            packed + len(ids) > int(root["counters"]["next_entry"])
+        ):
+            raise InvalidParameterError(
+                f"append_columns() takes the entries after the {packed} packed, in order"
+            )
+        if len(ids):
+            first, last = root["entries"][int(ids[0])], root["entries"][int(ids[-1])]
+            if (first["key"], first["motion"], last["key"], last["motion"]) != (
+                keys[0],
+                motions[0],
+                keys[-1],
+                motions[-1],
+            ):
+                raise InvalidParameterError("append_columns(): keys or motions differ")
+        point_bytes = np.ascontiguousarray(points, dtype="<f4")
+        append_to_columns(root["columns"], int(packed), ids, keys, point_bytes, motions)
 
     def add_sequences(
         self, motion_id: int, view_azimuth_deg, view_elevation_deg, sequences
@@ -497,14 +598,15 @@ class Store:
     def sequences(self, motion_id: int) -> MotionSequences:
         """The silhouette sequences of one motion's renderings (none for a motion
         stored without them)."""
-        root = self._require_initialised()
-        p = frame_columns(root)
-        record = root["sequences"].get(int(motion_id))
-        if record is None:
-            if int(motion_id) not in root["motions"]:
-                raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-            record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
-        return unpack_sequences(record, p, self.uri, motion_id)
+        with damage_named(self.uri, f"the sequences of motion {motion_id}"):
+            root = self._require_initialised()
+            p = frame_columns(root)
+            record = root["sequences"].get(int(motion_id))
+            if record is None:
+                if int(motion_id) not in root["motions"]:
+                    raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
+                record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+            return unpack_sequences(record, p, self.uri, motion_id)
 
     @property
     def n_entries(self) -> int:
@@ -520,19 +622,21 @@ class Store:
 
     def motion(self, motion_id: int) -> dict:
         """A motion's record: ``label``, ``source``, ``bvh``, ``metadata`` (a copy)."""
-        record = self._require_initialised()["motions"].get(int(motion_id))
-        if record is None:
-            raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-        return thawed(record)
+        with damage_named(self.uri, f"motion {motion_id}"):
+            record = self._require_initialised()["motions"].get(int(motion_id))
+            if record is None:
+                raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
+            return thawed(record)
 
     def entry(self, entry_id: int) -> dict:
         """An entry's record (a copy); ``point`` is decoded to a (k,) float32 array."""
-        record = self._require_initialised()["entries"].get(int(entry_id))
-        if record is None:
-            raise InvalidParameterError(f"{self.uri}: no entry with id {entry_id}")
-        out = dict(record)
-        out["point"] = np.frombuffer(record["point"], dtype="<f4").astype(np.float32)
-        return out
+        with damage_named(self.uri, f"entry {entry_id}"):
+            record = self._require_initialised()["entries"].get(int(entry_id))
+            if record is None:
+                raise InvalidParameterError(f"{self.uri}: no entry with id {entry_id}")
+            out = dict(record)
+            out["point"] = np.frombuffer(record["point"], dtype="<f4").astype(np.float32)
+            return out
 
     def ids_for_key(self, key: int) -> np.ndarray:
         """(n,) int64: the entry ids stored under one B-tree key (empty if none)."""
