@@ -519,11 +519,20 @@ def test_query_cli_text_lists_the_likeliest_actions_and_motions(
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith(f"{answer['label']}  ({answer['motion']}, distance ")
     assert lines[1] == (
-        f"  {answer['p_known']:.0%} of new performances of library motions lie as far or "
-        f"farther (threshold {answer['threshold']:.3f})"
+        f"  at least as close to the library as {answer['p_known']:.0%} of new performances "
+        f"of known motions (p_known {answer['p_known']:.2f}; unknown beyond distance "
+        f"{answer['threshold']:.3f})"
     )
+    assert lines[2].startswith("  motions ranked by a combined score: the motion-image ")
+    assert "× the silhouette-sequence distance" in lines[2]
     actions = [m["label"] for m in answer["labels"][:3]]
-    assert lines[2] == "  actions, likeliest first: " + ", ".join(actions)
+    assert lines[3] == "  actions, likeliest first: " + ", ".join(actions)
+    # Segments with both ends included: the last ends on the clip's last frame.
+    spans = [line for line in lines if line.startswith(("  frames ", "  frame "))]
+    assert len(spans) == len(answer["segments"]) > 0
+    last = answer["segments"][-1]
+    assert spans[-1] == f"  frames {last['start_frame']}–{last['end_frame'] - 1}: {last['label']}"
+    assert last["end_frame"] == len(masks)
     then = [line for line in lines if line.startswith("  then ")]
     assert [line.split()[1] for line in then] == [m["label"] for m in answer["top"][1:]]
     assert [line.split("(")[1].split(",")[0] for line in then] == [
