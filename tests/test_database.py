@@ -877,3 +877,34 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         assert one.store.n_motions == 1
         assert one.motion_record(0)["label"] == "wave"
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
+
+
+def test_list_cli_names_the_stored_motions(db_path, library, tmp_path, capsys):
+    assert main(["list", "--db", str(db_path), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    motions = listed["motions"]
+    assert [m["name"] for m in motions] == list(MOTIONS)
+    assert [m["label"] for m in motions] == [item.label for item in library]
+    assert [m["performer"] for m in motions] == [item.performer for item in library]
+    assert {m["role"] for m in motions} == {"basic"}
+    with MotionDatabase.open(db_path) as db:
+        assert sum(m["entries"] for m in motions) == listed["n_entries"] == db.n_entries
+    assert all(m["entries"] > 0 for m in motions)
+    assert main(["list", "--db", str(db_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == f"{db_path}: 4 motions, 4 labels, {listed['n_entries']:,} entries"
+    assert lines[1].split() == ["name", "label", "performer", "role", "entries", "source"]
+    assert lines[3].split()[:5] == ["kick_135_04", "kick", motions[1]["performer"], "basic",
+                                    str(motions[1]["entries"])]  # fmt: skip
+    # A missing database: one line, exit 2.
+    assert main(["list", "--db", str(tmp_path / "none.fs")]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [
+        f"eigmotion list: error: {tmp_path / 'none.fs'}: no such database file"
+    ]
+    assert not captured.out
+    # The library's motions, without a database.
+    assert main(["list", "--library", "--json"]) == 0
+    offered = json.loads(capsys.readouterr().out)["motions"]
+    names = {m["name"] for m in offered}
+    assert set(MOTIONS) <= names and {m["role"] for m in offered} == {"basic", "distractor"}
