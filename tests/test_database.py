@@ -798,12 +798,23 @@ attribution = "a"
     db = tmp_path / "girths.fs"
     rig = REPO / "virtual_cameras" / "ring6.toml"
     argv = ["build", "--motions", manifest, "--rig", rig, "--db", db, "--components", "8"]
-    proc = _eigmotion(*map(str, argv), "--girth", "0.85", "--girth", "1.25", "--quiet")
+    proc = _eigmotion(*map(str, argv), "--girth", "0.85", "--girth", "1.25")
     _, err = proc.communicate(timeout=600)
     assert proc.returncode == 0, err
+    # Each step after the rendering says so; the summary counts the renderings.
+    stages = [line.split(" … ")[0] for line in err.splitlines() if line.startswith("build: ")]
+    assert stages[-1].endswith("entries and 2 motions")
+    assert [" ".join(line.split()[1:3]) for line in stages] == [
+        "fitting the",
+        "cutting the",
+        "calibrating the",
+        "storing " + stages[-1].split()[2],
+    ]
+    outfits = len(BuildConfig().garments)
+    bodies = 2 * outfits
+    assert f"2 motions × 6 views × {bodies} bodies = {12 * bodies} renderings → " in err
     with MotionDatabase.open(db) as built:
         assert built.config.body_shapes == ((None, 0.85), (None, 1.25))
-        outfits = len(BuildConfig().garments)
         for motion_id in np.unique(built.store.arrays().motions):
             renderings = built.store.sequences(int(motion_id)).lengths
             assert len(renderings) == 6 * 2 * outfits  # views × girths × outfits
