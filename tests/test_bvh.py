@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 
 from eigmotion.errors import InvalidParameterError, MotionFormatError
 from eigmotion.mocap.amc import read_amc
-from eigmotion.mocap.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
+from eigmotion.mocap.bvh import (
+    format_bvh,
+    parse_bvh,
+    read_bvh,
+    root_position_in_channels,
+    write_bvh,
+)
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import ALL_CHANNELS, Motion, Skeleton
 from eigmotion.mocap.rotations import euler_to_matrix
@@ -160,6 +166,9 @@ def test_write_read_round_trip_keeps_every_channel(m):
     again = parse_bvh(format_bvh(m))
     assert set(again.skeleton.names) == set(m.skeleton.names)
     assert again.frame_time_s == m.frame_time_s
+    # The root comes back with a zero OFFSET and its position in its channels.
+    np.testing.assert_array_equal(again.skeleton.offsets[0], 0.0)
+    m = root_position_in_channels(m)
     ours, theirs = _by_joint(m), _by_joint(again)
     for name in m.skeleton.names:
         assert list(theirs[name]) == list(ours[name])  # same channels, same order
@@ -174,14 +183,63 @@ def test_write_read_round_trip_keeps_every_channel(m):
         assert (j in m.skeleton.end_sites) == (k in again.skeleton.end_sites)
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(motions())
+def test_written_root_has_zero_offset_and_the_same_joint_positions(m):
+    again = parse_bvh(format_bvh(m))
+    root = again.skeleton.index(m.skeleton.names[0])
+    assert root == 0
+    np.testing.assert_array_equal(again.skeleton.offsets[0], 0.0)
+    positions = [ch for ch in again.skeleton.channels[0] if ch.endswith("position")]
+    assert sorted(positions) in ([], ["Xposition", "Yposition", "Zposition"])
+    # The rotation channels of the root keep their order.
+    rotations = [ch for ch in again.skeleton.channels[0] if ch.endswith("rotation")]
+    assert rotations == [ch for ch in m.skeleton.channels[0] if ch.endswith("rotation")]
+    index = [again.skeleton.index(n) for n in m.skeleton.names]
+    ours = forward_kinematics(m, length_unit_m=1.0, ground=False)
+    theirs = forward_kinematics(again, length_unit_m=1.0, ground=False)
+    # Angles are written to 1e-6 degrees; lever arms reach a few thousand units.
+    np.testing.assert_allclose(theirs.positions[:, index], ours.positions, atol=1e-3)
+
+
+def test_old_files_with_a_root_offset_read_as_the_rewritten_ones(tmp_path):
+    """A file with a non-zero root OFFSET (as written before) and its rewrite agree."""
+    old = parse_bvh(SMALL)
+    assert old.skeleton.offsets[0].any()
+    path = tmp_path / "rewritten.bvh"
+    write_bvh(old, path)
+    assert "ROOT Hips\n{\n\tOFFSET 0.000000 0.000000 0.000000\n" in path.read_text()
+    new = read_bvh(path)
+    np.testing.assert_allclose(
+        forward_kinematics(new, length_unit_m=1.0, ground=False).positions,
+        forward_kinematics(old, length_unit_m=1.0, ground=False).positions,
+        atol=1e-9,
+    )
+    # Written again, the file does not change.
+    assert format_bvh(new) == path.read_text()
+
+
+def test_a_root_without_position_channels_gets_them_for_its_offset():
+    sk = Skeleton(
+        ("a", "b"), [-1, 0], np.array([[1.0, 2.0, 3.0], [0, 1.0, 0]]), (("Yrotation",), ())
+    )
+    m = Motion(sk, np.array([[90.0], [0.0]]), 0.1)
+    again = parse_bvh(format_bvh(m))
+    assert again.skeleton.channels[0] == ("Xposition", "Yposition", "Zposition", "Yrotation")
+    np.testing.assert_allclose(again.values, [[1, 2, 3, 90], [1, 2, 3, 0]])
+    # Already in the convention: nothing to change.
+    assert root_position_in_channels(again) is again
+
+
 def test_write_bvh_file_and_precision(tmp_path, rng):
     m = parse_bvh(SMALL)
     m = m.replace(values=m.values + rng.uniform(-1, 1, size=m.values.shape) * 1e-3)
     path = tmp_path / "out.bvh"
     write_bvh(m, path)
-    np.testing.assert_allclose(read_bvh(path).values, m.values, atol=5e-7)
+    expected = root_position_in_channels(m).values
+    np.testing.assert_allclose(read_bvh(path).values, expected, atol=5e-7)
     coarse = parse_bvh(format_bvh(m, precision=1))
-    assert np.abs(coarse.values - m.values).max() > 1e-4
+    assert np.abs(coarse.values - expected).max() > 1e-4
     with pytest.raises(InvalidParameterError, match="precision"):
         format_bvh(m, precision=-1)
 
@@ -204,7 +262,8 @@ def test_breadth_first_skeleton_is_written_depth_first():
     m = Motion(sk, np.array([[1.0, 2.0, 3.0, 4.0, 5.0]]), 0.1)
     again = parse_bvh(format_bvh(m))
     assert again.skeleton.names == ("a", "b", "d", "c")
-    np.testing.assert_allclose(again.values, [[1.0, 2.0, 3.0, 5.0, 4.0]])
+    # The root's OFFSET (1, 0, 0) moves into its position channels, now all three.
+    np.testing.assert_allclose(again.values, [[2.0, 0.0, 0.0, 2.0, 3.0, 5.0, 4.0]])
     np.testing.assert_allclose(
         forward_kinematics(again, 1.0, ground=False).positions[:, [0, 1, 3, 2]],
         forward_kinematics(m, 1.0, ground=False).positions,
@@ -242,6 +301,29 @@ def test_converted_cmu_clip_matches_bvhio(tmp_path, cmu_dir):
     # And both agree with the motion before it was written.
     direct = forward_kinematics(m, ground=False).positions
     np.testing.assert_allclose(pose.positions, direct, atol=1e-5)
+
+
+def test_bvhio_reads_a_written_root_offset_where_we_do(tmp_path):
+    """bvhio drops a root OFFSET beside position channels; written files have none."""
+    m = parse_bvh(SMALL)
+    # Keep the root's position channels only, so that bvhio reads every other joint as we do.
+    sk = m.skeleton
+    channels = (
+        sk.channels[0],
+        ("Xrotation", "Zrotation"),
+        ("Yrotation", "Xrotation", "Zrotation"),
+        (),
+    )
+    keep = [0, 1, 2, 3, 4, 5, 6, 7, 9, 10, 11]
+    m = Motion(
+        Skeleton(sk.names, sk.parents, sk.offsets, channels, sk.end_sites), m.values[:, keep], 0.04
+    )
+    path = tmp_path / "written.bvh"
+    write_bvh(m, path)
+    names, theirs = _bvhio_positions(path)
+    pose = forward_kinematics(m, length_unit_m=1.0, ground=False)
+    index = [m.skeleton.index(n) for n in names]
+    np.testing.assert_allclose(theirs, pose.positions[:, index], atol=1e-4)
 
 
 def test_bvhio_position_channels_replace_the_offset(tmp_path):

@@ -519,11 +519,20 @@ def test_query_cli_text_lists_the_likeliest_actions_and_motions(
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith(f"{answer['label']}  ({answer['motion']}, distance ")
     assert lines[1] == (
-        f"  {answer['p_known']:.0%} of new performances of library motions lie as far or "
-        f"farther (threshold {answer['threshold']:.3f})"
+        f"  at least as close to the library as {answer['p_known']:.0%} of new performances "
+        f"of known motions (p_known {answer['p_known']:.2f}; unknown beyond distance "
+        f"{answer['threshold']:.3f})"
     )
+    assert lines[2].startswith("  motions ranked by a combined score: the motion-image ")
+    assert "× the silhouette-sequence distance" in lines[2]
     actions = [m["label"] for m in answer["labels"][:3]]
-    assert lines[2] == "  actions, likeliest first: " + ", ".join(actions)
+    assert lines[3] == "  actions, likeliest first: " + ", ".join(actions)
+    # Segments with both ends included: the last ends on the clip's last frame.
+    spans = [line for line in lines if line.startswith(("  frames ", "  frame "))]
+    assert len(spans) == len(answer["segments"]) > 0
+    last = answer["segments"][-1]
+    assert spans[-1] == f"  frames {last['start_frame']}–{last['end_frame'] - 1}: {last['label']}"
+    assert last["end_frame"] == len(masks)
     then = [line for line in lines if line.startswith("  then ")]
     assert [line.split()[1] for line in then] == [m["label"] for m in answer["top"][1:]]
     assert [line.split("(")[1].split(",")[0] for line in then] == [
@@ -789,12 +798,23 @@ attribution = "a"
     db = tmp_path / "girths.fs"
     rig = REPO / "virtual_cameras" / "ring6.toml"
     argv = ["build", "--motions", manifest, "--rig", rig, "--db", db, "--components", "8"]
-    proc = _eigmotion(*map(str, argv), "--girth", "0.85", "--girth", "1.25", "--quiet")
+    proc = _eigmotion(*map(str, argv), "--girth", "0.85", "--girth", "1.25")
     _, err = proc.communicate(timeout=600)
     assert proc.returncode == 0, err
+    # Each step after the rendering says so; the summary counts the renderings.
+    stages = [line.split(" … ")[0] for line in err.splitlines() if line.startswith("build: ")]
+    assert stages[-1].endswith("entries and 2 motions")
+    assert [" ".join(line.split()[1:3]) for line in stages] == [
+        "fitting the",
+        "cutting the",
+        "calibrating the",
+        "storing " + stages[-1].split()[2],
+    ]
+    outfits = len(BuildConfig().garments)
+    bodies = 2 * outfits
+    assert f"2 motions × 6 views × {bodies} bodies = {12 * bodies} renderings → " in err
     with MotionDatabase.open(db) as built:
         assert built.config.body_shapes == ((None, 0.85), (None, 1.25))
-        outfits = len(BuildConfig().garments)
         for motion_id in np.unique(built.store.arrays().motions):
             renderings = built.store.sequences(int(motion_id)).lengths
             assert len(renderings) == 6 * 2 * outfits  # views × girths × outfits
@@ -868,3 +888,34 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         assert one.store.n_motions == 1
         assert one.motion_record(0)["label"] == "wave"
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
+
+
+def test_list_cli_names_the_stored_motions(db_path, library, tmp_path, capsys):
+    assert main(["list", "--db", str(db_path), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    motions = listed["motions"]
+    assert [m["name"] for m in motions] == list(MOTIONS)
+    assert [m["label"] for m in motions] == [item.label for item in library]
+    assert [m["performer"] for m in motions] == [item.performer for item in library]
+    assert {m["role"] for m in motions} == {"basic"}
+    with MotionDatabase.open(db_path) as db:
+        assert sum(m["entries"] for m in motions) == listed["n_entries"] == db.n_entries
+    assert all(m["entries"] > 0 for m in motions)
+    assert main(["list", "--db", str(db_path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == f"{db_path}: 4 motions, 4 labels, {listed['n_entries']:,} entries"
+    assert lines[1].split() == ["name", "label", "performer", "role", "entries", "source"]
+    assert lines[3].split()[:5] == ["kick_135_04", "kick", motions[1]["performer"], "basic",
+                                    str(motions[1]["entries"])]  # fmt: skip
+    # A missing database: one line, exit 2.
+    assert main(["list", "--db", str(tmp_path / "none.fs")]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == [
+        f"eigmotion list: error: {tmp_path / 'none.fs'}: no such database file"
+    ]
+    assert not captured.out
+    # The library's motions, without a database.
+    assert main(["list", "--library", "--json"]) == 0
+    offered = json.loads(capsys.readouterr().out)["motions"]
+    names = {m["name"] for m in offered}
+    assert set(MOTIONS) <= names and {m["role"] for m in offered} == {"basic", "distractor"}

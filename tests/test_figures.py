@@ -219,11 +219,13 @@ def test_each_frame_of_a_replay_is_captioned_with_its_segment():
     from eigmotion.pose.replay import segment_captions
     from eigmotion.retrieval.results import Segment
 
-    segments = [Segment(0, 3, "walk", 0.2), Segment(3, 5, "wave", 0.1)]
-    captions = segment_captions(segments, 6, "wave")
-    assert captions[:3] == ["answer: wave   frames 0-3: walk"] * 3
-    assert captions[3:5] == ["answer: wave   frames 3-5: wave"] * 2
+    segments = [Segment(0, 3, "walk", 0.2), Segment(3, 5, "wave", 0.1), Segment(6, 7, "kick", 1)]
+    captions = segment_captions(segments, 7, "wave")
+    # Frame ranges include both ends: frames 0, 1 and 2 are "frames 0-2".
+    assert captions[:3] == ["answer: wave   frames 0-2: walk"] * 3
+    assert captions[3:5] == ["answer: wave   frames 3-4: wave"] * 2
     assert captions[5] == "answer: wave"  # no segment there
+    assert captions[6] == "answer: wave   frame 6: kick"
 
 
 def test_replay_captions_must_be_one_per_mask():

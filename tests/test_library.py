@@ -165,10 +165,27 @@ def test_find_motion_by_path():
     assert amc.n_frames == 162
 
 
+def test_a_misspelt_name_gets_the_closest_basic_motions():
+    with pytest.raises(InvalidParameterError) as caught:
+        find_motion("kick_135_4")
+    message = str(caught.value)
+    assert message.startswith("no motion named 'kick_135_4' in the library; did you mean ")
+    suggested = message.split("did you mean ")[1].rstrip("?").split(", ")
+    assert suggested[0] == "kick_135_04" and 1 <= len(suggested) <= 5
+    distractors = {e.name for e in read_manifest() if e.role == "distractor"}
+    assert not distractors & set(suggested)
+    assert len(message) < 200
+    # A distractor's own misspelt name is suggested, as a distractor.
+    distractor = sorted(distractors)[0]
+    with pytest.raises(InvalidParameterError, match="did you mean the distractor ") as caught:
+        find_motion(distractor[:-1] + "Q")
+    assert distractor in str(caught.value) and "kick" not in str(caught.value)
+
+
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (("no_such_motion",), "known motions: walk_02_01"),
+        (("no_such_motion",), "no motion named 'no_such_motion'.*basic motions.*walk"),
         (("missing.bvh",), "not found"),
         (("missing.amc", "x.asf"), "not found"),
         ((str(MOTIONS_DIR / "cmu/amc/16_35.amc"),), r"needs its skeleton"),
@@ -302,7 +319,7 @@ def test_an_action_span_and_filler_load_and_mirror(tmp_path):
 def test_missing_manifest_raises(tmp_path):
     with pytest.raises(EigmotionError, match="manifest not found"):
         load_library(tmp_path / "nope.toml")
-    with pytest.raises(InvalidParameterError, match="known motions"):
+    with pytest.raises(InvalidParameterError, match="no motion named 'x'"):
         find_motion("x", manifest=_manifest(tmp_path, GOOD_ENTRY.replace('"x"', '"y"')))
 
 

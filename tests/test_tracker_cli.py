@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import subprocess
 import sys
 
 import cv2
 import numpy as np
 import pytest
+from blender_helpers import assert_blender_reads_as_eigmotion, blender_python, read_in_blender
 
 from eigmotion.body.avatar import load_default_avatar
 from eigmotion.body.retarget import retarget
@@ -99,19 +102,40 @@ def test_errors_in_a_subprocess_have_no_traceback(scene, tmp_path):
     assert len(lines) == 1 and "Traceback" not in proc.stderr
 
 
-def test_track_end_to_end(scene, capsys, tmp_path):
+@pytest.fixture(scope="module")
+def tracked(scene, tmp_path_factory):
+    """One run of ``eigmotion track`` on the scene: (folder of its outputs, stdout, stderr)."""
+    root, paths, *_ = scene
+    work = tmp_path_factory.mktemp("tracked")
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(
+            [
+                "track", "--calib", str(root / "cams.json"), *map(str, paths),
+                "--dictionary", "walk_02_01", "--heading-step-deg", "30",
+                "--bvh-out", str(work / "out.bvh"), "--joints-out", str(work / "out.npz"),
+                "--overlay-out", str(work / "out.gif"), "--dictionary-out", str(work / "dict.npz"),
+            ]
+        )  # fmt: skip
+    assert code == 0, err.getvalue()
+    return work, out.getvalue(), err.getvalue()
+
+
+def test_track_bvh_stands_on_the_floor_in_blender(scene, tracked, tmp_path):
+    """Blender places the tracked BVH as eigmotion does; its lowest joint (a toe joint:
+    the avatar's skeleton has no end sites at the soles) is as high as the truth's."""
+    python = blender_python()
+    if python is None:
+        pytest.skip("Blender's bpy module is not importable (.ci/run installs it)")
+    truth = scene[2]
+    readings = read_in_blender(python, [tracked[0] / "out.bvh"], tmp_path)
+    assert_blender_reads_as_eigmotion(readings, lowest_m=float(truth[..., 1].min()))
+
+
+def test_track_end_to_end(scene, tracked, capsys, tmp_path):
     root, paths, truth, *_ = scene
-    bvh, joints, overlay = tmp_path / "out.bvh", tmp_path / "out.npz", tmp_path / "out.gif"
-    code, out, err = run_cli(
-        [
-            "--calib", root / "cams.json", *paths,
-            "--dictionary", "walk_02_01", "--heading-step-deg", "30",
-            "--bvh-out", bvh, "--joints-out", joints, "--overlay-out", overlay,
-            "--dictionary-out", tmp_path / "dict.npz",
-        ],
-        capsys,
-    )  # fmt: skip
-    assert code == 0, err
+    work, out, _ = tracked
+    bvh, joints, overlay = work / "out.bvh", work / "out.npz", work / "out.gif"
     assert "tracked 10 frames" in out
     data = np.load(joints)
     assert data["positions"].shape == (N_FRAMES, 31, 3)
@@ -127,7 +151,7 @@ def test_track_end_to_end(scene, capsys, tmp_path):
     # the saved dictionary is reused, and a reference motion is replayed
     code, out, err = run_cli(
         [
-            "--calib", root / "cams.json", *paths, "--dictionary", tmp_path / "dict.npz",
+            "--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz",
             "--reference", "walk_02_01", "--bvh-out", tmp_path / "ref.bvh",
             "--joints-out", tmp_path / "ref.npz",
         ],

@@ -73,9 +73,12 @@ def run(args: argparse.Namespace) -> int:
     report = build_database(
         library, rig, uri, config, workers=args.workers, progress=not args.quiet
     )
+    renderings = report.n_motions * len(rig) * len(config.bodies)
     print(
-        f"built {report.uri}: {report.n_motions} motions × {len(rig)} views → "
-        f"{report.n_entries} entries, k = {report.n_components} "
+        f"built {report.uri}: {report.n_motions} motions × {len(rig)} views × "
+        f"{len(config.bodies)} bodies = {renderings:,} renderings → "
+        f"{report.n_entries:,} entries (each rendering's whole clip and windows), "
+        f"k = {report.n_components} "
         f"({report.explained_variance:.1%} of the variance), unknown threshold "
         f"{report.threshold:.3f}, {report.seconds:.1f} s",
         file=sys.stderr,

@@ -35,6 +35,7 @@ COMMANDS = {
         "calibrate cameras from chessboard images (one folder per camera) into a JSON file"
     ),
     "convert": "convert a BVH or CMU ASF/AMC motion to BVH (resample, trim, rename joints)",
+    "list": "list the motions a database holds: label, performer, role, entries (--json)",
     "show": "render a motion on the avatar: a contact sheet (.png) or a replay (.gif, .mp4)",
     "render": "render a motion's silhouettes and motion images from every camera of a rig",
     "serve": "a web page on this machine: upload a clip, see the answer, replay and 3D motion",
@@ -113,6 +114,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"eigmotion {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader went away (``eigmotion list | head``): stop quietly, as Unix tools do.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -15,9 +15,11 @@ the empty scene.  ``--segmenter`` picks either.  The answer warns when more than
 person is in view.
 
 ``--false-rejection`` trades known motions turned away for unknown ones rejected: the
-answer's ``p_known`` is the share of new performances of library motions that lie as
-far from the database as the clip or farther, and the clip is unknown when that share
-is below the one asked for (0.05 by default).
+answer's ``p_known`` says how close the clip is to the library: at least as close as
+that share of new performances of known motions (motions of the library performed
+again).  The clip is unknown when that share is below the one asked for (0.05 by
+default).  The text answer gives frame ranges with both ends included ("frames 0–76":
+77 frames); the JSON's segments keep ``end_frame`` one past the last frame.
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
@@ -38,6 +40,8 @@ from eigmotion.pose.continuous_pose import continuous_pose
 from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
+from eigmotion.retrieval.results import frame_range
+from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.segmentation.learned import SEGMENTERS
 
@@ -121,21 +125,35 @@ def run(args: argparse.Namespace) -> int:
         for warning in result.warnings:
             print(f"  warning: {warning}")
         if result.p_known is not None:
-            print(
-                f"  {result.p_known:.0%} of new performances of library motions lie as far "
-                f"or farther (threshold {result.threshold:.3f})"
-            )
+            print(f"  {_p_known_in_words(result.p_known, result.threshold)}")
+        print(f"  {RANKING_IN_WORDS}")
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
         for match in result.top[1:]:
             print(f"  then {match.label}  ({_described(match)})")
         for seg in result.segments:
-            print(f"  frames {seg.start_frame}–{seg.end_frame}: {seg.label}")
+            print(f"  {frame_range(seg.start_frame, seg.end_frame)}: {seg.label}")
         print(
             f"  examined {result.examined} of {result.db_entries} entries, "
             f"{result.timing_ms['total']:.0f} ms"
         )
     return 0
+
+
+#: How ``top`` and the actions are ordered, in the words the text answer prints.
+RANKING_IN_WORDS = (
+    "motions ranked by a combined score: the motion-image distance plus "
+    f"{SEQUENCE_WEIGHT:g} × the silhouette-sequence distance, each divided by the smallest "
+    "among the candidates"
+)
+
+
+def _p_known_in_words(p_known: float, threshold: float) -> str:
+    """``p_known`` as a sentence: how the clip's distance compares with known motions'."""
+    return (
+        f"at least as close to the library as {p_known:.0%} of new performances of known "
+        f"motions (p_known {p_known:.2f}; unknown beyond distance {threshold:.3f})"
+    )
 
 
 def _described(match) -> str:

@@ -418,6 +418,57 @@ def _is_float(token: str) -> bool:
 # -- writing ---------------------------------------------------------------------------
 
 
+_POSITIONS = ("Xposition", "Yposition", "Zposition")
+
+
+def root_position_in_channels(motion: Motion) -> Motion:
+    """The same motion with a zero root ``OFFSET`` and the root's position in channels.
+
+    BVH readers disagree on a root that has both: this reader (and the BVH
+    definition) adds the position channels to the ``OFFSET``, while Blender's
+    importer and bvhio take the channels as the whole position and drop the
+    ``OFFSET``.  With a zero root ``OFFSET`` every reader places the body the same.
+
+    Parameters
+    ----------
+    motion : Motion
+
+    Returns
+    -------
+    Motion
+        ``motion`` itself when its root ``OFFSET`` is zero and the root has all three
+        or no position channels; otherwise a motion whose root ``OFFSET`` is zero and
+        whose root channels are ``Xposition Yposition Zposition`` followed by its
+        rotation channels in their order, the positions holding ``OFFSET`` plus the
+        old position channels (file units).  Joint positions are the same for every
+        frame; other joints are untouched.
+    """
+    sk = motion.skeleton
+    root_channels = sk.channels[0]
+    n_positions = sum(ch.endswith("position") for ch in root_channels)
+    if not sk.offsets[0].any() and n_positions in (0, 3):
+        return motion
+    start = sk.channel_start()[0]
+    old = motion.values[:, start : start + len(root_channels)]
+    position = np.broadcast_to(sk.offsets[0], (motion.n_frames, 3)).copy()
+    rotations = []
+    for k, ch in enumerate(root_channels):
+        if ch.endswith("position"):
+            position[:, "XYZ".index(ch[0])] += old[:, k]
+        else:
+            rotations.append(k)
+    new_root = np.concatenate([position, old[:, rotations]], axis=1)
+    values = np.concatenate(
+        [motion.values[:, :start], new_root, motion.values[:, start + len(root_channels) :]],
+        axis=1,
+    )
+    offsets = sk.offsets.copy()
+    offsets[0] = 0.0
+    channels = (_POSITIONS + tuple(root_channels[k] for k in rotations),) + tuple(sk.channels[1:])
+    skeleton = Skeleton(sk.names, sk.parents, offsets, channels, sk.end_sites)
+    return motion.replace(skeleton=skeleton, values=values)
+
+
 def format_bvh(motion: Motion, precision: int = 6) -> str:
     """The text of a BVH file holding ``motion``.
 
@@ -434,7 +485,10 @@ def format_bvh(motion: Motion, precision: int = 6) -> str:
     str
         LF line ends, tab indentation.  Joints are written depth-first (a skeleton
         stored in another parents-first order is re-ordered, channels with it);
-        ``Frame Time`` is written with full float precision.
+        ``Frame Time`` is written with full float precision.  The root is written
+        with a zero ``OFFSET`` and its whole position in its position channels
+        (:func:`root_position_in_channels`), the convention Blender's and bvhio's
+        readers share; the joint positions are unchanged.
 
     Raises
     ------
@@ -445,6 +499,7 @@ def format_bvh(motion: Motion, precision: int = 6) -> str:
         raise InvalidParameterError(f"precision must be an integer >= 0, got {precision!r}")
     if not 0 <= precision <= 17:
         raise InvalidParameterError(f"precision must be in 0..17 digits, got {precision}")
+    motion = root_position_in_channels(motion)
     sk = motion.skeleton
     for name in sk.names:
         if not _VALID_NAME.fullmatch(name):

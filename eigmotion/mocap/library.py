@@ -44,6 +44,7 @@ action); see :func:`eigmotion.retrieval.library_views.window_labels`.  A mirror 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import re
 import tomllib
@@ -505,7 +506,7 @@ def find_motion(
     Raises
     ------
     InvalidParameterError
-        An unknown name (the message lists the known ones), a missing file, an
+        An unknown name (the message suggests the closest known ones), a missing file, an
         ``.amc`` without ``asf``, or an unsupported extension.
     """
     text = str(name_or_path)
@@ -530,11 +531,35 @@ def find_motion(
         )
     entries = {name: e for e in read_manifest(manifest) for name in _names(e)}
     if text not in entries:
-        raise InvalidParameterError(
-            f"no motion named {text!r} in the library; known motions: {', '.join(entries)}"
-        )
+        raise InvalidParameterError(_unknown_name_message(text, entries))
     item = load_entry(entries[text])
     return (item if text == item.name else mirror_image(item)).motion
+
+
+def _unknown_name_message(name: str, entries: dict[str, ManifestEntry]) -> str:
+    """The error for a name the library lacks: the closest names, at most five.
+
+    Basic motions and distractors are not mixed: distractors are suggested (as such)
+    only when one is closer than every basic motion.
+    """
+    basic = [n for n, e in entries.items() if e.role != "distractor"]
+    distractors = [n for n, e in entries.items() if e.role == "distractor"]
+    message = f"no motion named {name!r} in the library"
+    close = difflib.get_close_matches(name, basic, n=5, cutoff=0.6)
+    close_distractors = difflib.get_close_matches(name, distractors, n=5, cutoff=0.6)
+
+    def similarity(names: list[str]) -> float:
+        return difflib.SequenceMatcher(None, name, names[0]).ratio() if names else 0.0
+
+    if close_distractors and similarity(close_distractors) > similarity(close):
+        return f"{message}; did you mean the distractor {', '.join(close_distractors)}?"
+    if close:
+        return f"{message}; did you mean {', '.join(close)}?"
+    labels = sorted({entries[n].label for n in basic})
+    return (
+        f"{message} ({len(basic)} basic motions, named after their label: "
+        f"{', '.join(labels)}; all of them: `eigmotion list --library`)"
+    )
 
 
 def _read_motion_file(path: Path, asf: Path | None = None) -> Motion:

@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -26,9 +25,7 @@ from eigmotion.imaging.media import FrameSampleStream, write_video
 from eigmotion.imaging.render import render_shaded
 from eigmotion.mocap.motion import Motion
 from eigmotion.mocap.rotations import axis_rotation
-
-if TYPE_CHECKING:
-    from eigmotion.retrieval.results import Segment
+from eigmotion.retrieval.results import Segment, frame_range
 
 #: Height of each panel of a replay video, pixels.
 PANEL_HEIGHT_PX = 240
@@ -197,7 +194,8 @@ def replay_video(
 
 def segment_captions(segments: Sequence[Segment], n_frames: int, answer: str) -> list[str]:
     """One caption per clip frame: the clip's answer and the segment the frame lies in
-    (``"answer: wave   frames 30-62: wave"``), the answer alone where no segment is.
+    (``"answer: wave   frames 30-62: wave"``, both ends included), the answer alone where
+    no segment is.
 
     Parameters
     ----------
@@ -210,7 +208,7 @@ def segment_captions(segments: Sequence[Segment], n_frames: int, answer: str) ->
     captions = [f"answer: {answer}"] * n_frames
     for segment in segments:
         start, end = segment.start_frame, segment.end_frame
-        text = f"answer: {answer}   frames {start}-{end}: {segment.label}"
+        text = f"answer: {answer}   {frame_range(start, end, dash='-')}: {segment.label}"
         for f in range(max(start, 0), min(end, n_frames)):
             captions[f] = text
     return captions

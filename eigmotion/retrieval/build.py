@@ -14,6 +14,7 @@ stores a further motion with the same helpers (:class:`CollectedViews`,
 from __future__ import annotations
 
 import os
+import sys
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -142,12 +143,16 @@ def build_database(
     X, motion_of, body_of, az, el, start, stop, labels = collected.arrays()
     if not collected.sequences:
         raise InvalidParameterError("no rendering of the library shows a person: nothing to build")
+    stage = _stage_lines(progress, t0)
+    stage(f"fitting the eigenspace to {len(X):,} motion images")
     space = Eigenspace(config.n_components, config.explained_variance).fit(X)
     pose_space = fit_pose_space(np.concatenate([seq for *_, seq in collected.sequences]))
     points = space.transform(X).astype(np.float32)
+    stage(f"cutting the keys (k = {space.n_components_})")
     n_axes = min(config.key_axes, space.n_components_)
     quantizer = Quantizer(n_axes, config.key_sections, config.key_method).fit(points)
     keys = quantizer.keys(points)
+    stage("calibrating the unknown threshold")
     whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
     originals = [m.mirror_of or m.name for m in library]
     performance = np.unique(originals, return_inverse=True)[1]
@@ -162,6 +167,7 @@ def build_database(
         "reconstruction_error_median": float(np.median(recon)),
         "reconstruction_error_p95": float(np.quantile(recon, 0.95)),
     }
+    stage(f"storing {len(points):,} entries and {len(library)} motions")
     with replacing(uri) as target:
         store = Store.create(target, overwrite=True)
         try:
@@ -233,6 +239,17 @@ def store_library(
         store.append_columns(
             np.concatenate(ids), keys[rows], points[rows], np.asarray(motion_ids)[motion_of[rows]]
         )
+
+
+def _stage_lines(progress: bool, t0: float):
+    """``stage(text)``: one line on stderr as each step after the rendering starts."""
+
+    def stage(text: str) -> None:
+        if progress:
+            sys.stderr.write(f"build: {text} … ({time.perf_counter() - t0:.0f} s)\n")
+            sys.stderr.flush()
+
+    return stage
 
 
 def store_motion(store: Store, item: LibraryMotion) -> int:

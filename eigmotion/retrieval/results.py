@@ -54,6 +54,25 @@ class Match:
         return out
 
 
+def frame_range(start_frame: int, end_frame: int, dash: str = "–") -> str:
+    """Frames ``[start_frame, end_frame)`` as a person reads them, both ends included.
+
+    Parameters
+    ----------
+    start_frame, end_frame : int
+        The first frame and one past the last (as :class:`Segment` holds them).
+    dash : str
+        Between the two ends (``"-"`` where only ASCII can be drawn).
+
+    Returns
+    -------
+    str
+        ``"frames 0–76"`` for the 77 frames 0 … 76; ``"frame 5"`` for one frame.
+    """
+    last = end_frame - 1
+    return f"frame {start_frame}" if last <= start_frame else f"frames {start_frame}{dash}{last}"
+
+
 @dataclass(frozen=True)
 class Segment:
     """A stretch of the query clip with one label.
