@@ -144,6 +144,7 @@ LAZY_IMPORTS = {
     "OpenGL": "GL rendering, an optional back end",
     "numba": "compiled kernels: the JIT costs seconds at first use",
     "ZEO": "zeo:// databases only",
+    "distributed": "builds on a Dask cluster only (--scheduler), the optional cluster extra",
     "fast_simplification": "mesh decimation, build only",
     "matplotlib": "plots, benchmarks only",
     "scipy": "kept off the query's start-up path",
