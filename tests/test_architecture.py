@@ -149,6 +149,9 @@ LAZY_IMPORTS = {
     "matplotlib": "plots, benchmarks only",
     "scipy": "kept off the query's start-up path",
     "eigmotion.body.retarget": "loads scipy.spatial, kept off the query's start-up path",
+    "eigmotion.pose.continuous_pose": "3D output only (query --bvh-out/--pose-out/"
+    "--replay-out): loads retargeting and scipy.spatial",
+    "eigmotion.pose.replay": "3D output only (query --bvh-out/--replay-out)",
 }
 
 
