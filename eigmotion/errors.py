@@ -60,3 +60,7 @@ class VideoError(EigmotionError, ValueError):
 
 class DatabaseError(EigmotionError, RuntimeError):
     """A motion database that is missing, of another schema, or inconsistent."""
+
+
+class ClusterError(EigmotionError, ConnectionError):
+    """A Dask scheduler that cannot be reached or has no workers, or Dask not installed."""

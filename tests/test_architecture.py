@@ -144,11 +144,15 @@ LAZY_IMPORTS = {
     "OpenGL": "GL rendering, an optional back end",
     "numba": "compiled kernels: the JIT costs seconds at first use",
     "ZEO": "zeo:// databases only",
+    "distributed": "builds on a Dask cluster only (--scheduler), the optional cluster extra",
     "fast_simplification": "mesh decimation, build only",
     "matplotlib": "plots, benchmarks only",
     "scipy": "kept off the query's start-up path",
     "eigmotion.body.retarget": "loads scipy.spatial, kept off the query's start-up path",
     "ai_edge_litert": "the learned segmenter's faster runtime, an optional extra",
+    "eigmotion.pose.continuous_pose": "3D output only (query --bvh-out/--pose-out/"
+    "--replay-out): loads retargeting and scipy.spatial",
+    "eigmotion.pose.replay": "3D output only (query --bvh-out/--replay-out)",
 }
 
 

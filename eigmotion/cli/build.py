@@ -5,6 +5,7 @@ Examples::
     eigmotion build                                   # bundled library and rig
     eigmotion build --motions my_library.toml --rig virtual_cameras/ring6.toml --db my.fs
     eigmotion build --girth 1 --girth 0.85 --girth 1.25 --db bodies.fs   # three builds
+    eigmotion build --scheduler tcp://10.0.0.5:8786   # rendered by a Dask cluster's workers
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import load_rig
 from eigmotion.mocap.library import load_library
 from eigmotion.retrieval.build import build_database
-from eigmotion.retrieval.library_views import BuildConfig
+from eigmotion.retrieval.library_views import BuildConfig, render_views
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
 DEFAULT_RIG = resources.default_rig()
@@ -50,7 +51,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a body girth factor: every motion is rendered, in every outfit, on a body of "
         "each girth given (repeatable; 0.7-1.8; default 1.0 alone, the avatar's own build)",
     )
+    add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_scheduler_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="render on the Dask cluster of this scheduler (tcp://host:8786); its workers "
+        "need eigmotion installed, this machine the cluster extra (pip install "
+        "'eigmotion[cluster]')",
+    )
 
 
 def manifest_path(motions: Path | None) -> Path | None:
@@ -62,6 +74,10 @@ def manifest_path(motions: Path | None) -> Path | None:
 def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise InvalidParameterError(
+            "--workers and --scheduler exclude each other: the cluster's workers render"
+        )
     library = load_library(manifest_path(args.motions))
     rig = load_rig(args.rig)
     config = BuildConfig()
@@ -70,8 +86,13 @@ def run(args: argparse.Namespace) -> int:
     if args.girth:
         config = replace(config, body_shapes=tuple((None, girth) for girth in args.girth))
     uri = args.db or DEFAULT_DB_PATH
+    views = None
+    if args.scheduler:
+        views = render_views(
+            library, rig, config, progress=not args.quiet, scheduler=args.scheduler
+        )
     report = build_database(
-        library, rig, uri, config, workers=args.workers, progress=not args.quiet
+        library, rig, uri, config, workers=args.workers, progress=not args.quiet, views=views
     )
     renderings = report.n_motions * len(rig) * len(config.bodies)
     print(

@@ -4,6 +4,7 @@ Examples::
 
     eigmotion index my_wave.bvh --label wave
     eigmotion index 86_02.amc --asf 86.asf --label jump --name jump_86_02 --refit
+    eigmotion index my_wave.bvh --label wave --scheduler tcp://10.0.0.5:8786
 """
 
 from __future__ import annotations
@@ -12,10 +13,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from eigmotion.cli.build import add_scheduler_argument
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.library import LibraryMotion, find_motion
 from eigmotion.retrieval.build import build_database
 from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.library_views import render_views
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 
 
@@ -30,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--refit", action="store_true", help="rebuild the eigenspace with the new motion"
     )
+    add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
 
@@ -59,7 +63,13 @@ def run(args: argparse.Namespace) -> int:
                 f"a motion named {name!r} is already in the database; give it another name "
                 "with --name"
             )
-        report = build_database(library + [item], rig, uri, config, progress=not args.quiet)
+        library = library + [item]
+        views = None
+        if args.scheduler:
+            views = render_views(
+                library, rig, config, progress=not args.quiet, scheduler=args.scheduler
+            )
+        report = build_database(library, rig, uri, config, progress=not args.quiet, views=views)
         print(
             f"rebuilt {report.uri} with {name!r}: {report.n_entries} entries, "
             f"k = {report.n_components}",
@@ -67,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     with MotionDatabase.open(uri, read_only=False) as db:
-        report = db.index_motion(item, progress=not args.quiet)
+        report = db.index_motion(item, progress=not args.quiet, scheduler=args.scheduler)
     print(
         f"indexed {report.name!r} as {label!r}: {report.n_entries} entries",
         file=sys.stderr,

@@ -497,13 +497,17 @@ class MotionDatabase:
         return result, clip
 
     # -- indexing ---------------------------------------------------------------------
-    def index_motion(self, item: LibraryMotion, progress: bool = True) -> IndexReport:
+    def index_motion(
+        self, item: LibraryMotion, progress: bool = True, scheduler: str | None = None
+    ) -> IndexReport:
         """Add a motion to this (writable) database without changing the eigenspace.
 
         Its motion images are rendered with the stored build configuration and rig,
         projected into the stored eigenspace and inserted under their keys, and its
         silhouette sequences into the stored pose eigenspace, in one transaction; it
-        is queryable at once.
+        is queryable at once.  With ``scheduler`` (a Dask scheduler's address) the views
+        are rendered on that cluster (see
+        :func:`~eigmotion.retrieval.library_views.render_views`).
 
         Returns
         -------
@@ -519,7 +523,8 @@ class MotionDatabase:
                 "name (eigmotion index --name)"
             )
         collected = CollectedViews()
-        for view in render_views([item], self.rig, self.config, workers=None, progress=progress):
+        views = render_views([item], self.rig, self.config, progress=progress, scheduler=scheduler)
+        for view in views:
             collected.add(view, self.rig)
         if not sum(len(v) for v in collected.vectors):
             motion = item.motion

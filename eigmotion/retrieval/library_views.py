@@ -12,7 +12,8 @@ sliding window that shows mostly what comes before or after the motion's action
 (``LibraryMotion.action``), labelled with the motion's ``filler`` (the walking around
 a walking turn) or, when it has none, left out (the standing before a jump).
 
-The work is split over processes by (motion, view); the vectors then go to
+The work is split over processes by (motion, view), or sent to a Dask distributed
+cluster by (motion, body) (:func:`render_views` with ``scheduler``); the vectors then go to
 :mod:`eigmotion.retrieval.build`, which fits the eigenspace and writes the store.
 """
 
@@ -33,7 +34,7 @@ from tqdm import tqdm
 
 from eigmotion.body.avatar import check_body_shape, load_default_avatar
 from eigmotion.body.garments import dress, garment
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import ClusterError, InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import CameraRig
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import LibraryMotion
@@ -461,6 +462,7 @@ def render_views(
     config: BuildConfig,
     workers: int | None = None,
     progress: bool = True,
+    scheduler: str | None = None,
 ) -> Iterator[ViewImages]:
     """Motion images of every (motion, body shape, view), computed in parallel.
 
@@ -472,13 +474,24 @@ def render_views(
     config : BuildConfig
     workers : int, optional
         Processes; default the number of CPU cores.  ``1`` runs in this process.
+        Ignored with ``scheduler``.
     progress : bool
         A progress bar on stderr.
+    scheduler : str, optional
+        The address of a Dask distributed scheduler (``tcp://host:8786``): the views are
+        rendered by its workers (:func:`connect_cluster`), which need only eigmotion
+        installed; the images are the same, bit for bit, as a local rendering's.
 
     Yields
     ------
     ViewImages
         In (motion, shape, view) order.
+
+    Raises
+    ------
+    ClusterError
+        When ``scheduler`` is given and cannot be reached, has no worker, or Dask is not
+        installed; raised before anything is rendered.
     """
     tasks = [
         (m, s, v)
@@ -486,10 +499,13 @@ def render_views(
         for s in range(len(config.bodies))
         for v in range(len(rig))
     ]
+    client = None if scheduler is None else connect_cluster(scheduler)
     bar = tqdm(total=len(tasks), desc="rendering views", unit="view", disable=not progress)
     workers = workers or os.cpu_count() or 1
     try:
-        if workers == 1:
+        if client is not None:
+            yield from _render_on_cluster(client, library, rig, config, bar)
+        elif workers == 1:
             _init_worker(library, rig, config)
             for task in tasks:
                 yield _render_task(task)
@@ -503,3 +519,83 @@ def render_views(
                     bar.update()
     finally:
         bar.close()
+        if client is not None:
+            client.close()
+
+
+#: Seconds to wait for a Dask scheduler to answer, and then for its first worker.
+CLUSTER_TIMEOUT_S = 10.0
+
+
+def connect_cluster(address: str, timeout_s: float = CLUSTER_TIMEOUT_S):
+    """A client of the Dask distributed scheduler at ``address``, once a worker has joined.
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port`` (or ``host:port``) of a running ``dask scheduler``.
+    timeout_s : float
+        Seconds to wait for the scheduler, then as long again for a worker.
+
+    Returns
+    -------
+    distributed.Client
+
+    Raises
+    ------
+    ClusterError
+        Dask is not installed (the ``cluster`` extra), the scheduler does not answer, or
+        no worker joins it in time.
+    """
+    try:
+        from distributed import Client
+    except ImportError as error:
+        raise ClusterError(
+            "building on a Dask cluster needs dask.distributed: pip install 'eigmotion[cluster]'"
+        ) from error
+    try:
+        client = Client(address, timeout=timeout_s, set_as_default=False)
+    except (OSError, TimeoutError, ValueError, TypeError) as error:
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ClusterError(f"cannot reach the Dask scheduler at {address!r}: {reason}") from error
+    try:
+        client.wait_for_workers(1, timeout=timeout_s)
+    except (OSError, TimeoutError) as error:
+        client.close()
+        raise ClusterError(
+            f"the Dask scheduler at {address!r} has no worker (none joined in {timeout_s:g} s)"
+        ) from error
+    return client
+
+
+def _render_on_cluster(
+    client, library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig, bar: tqdm
+) -> Iterator[ViewImages]:
+    """Every view rendered by the cluster's workers, one task per (motion, body), yielded
+    in (motion, shape, view) order as the tasks finish.  The library, rig and
+    configuration go to every worker once (scattered), not with each task."""
+    from distributed import as_completed
+
+    [shipped] = client.scatter([(library, rig, config)], broadcast=True, hash=False)
+    groups = [(m, s) for m in range(len(library)) for s in range(len(config.bodies))]
+    futures = {client.submit(_render_group, shipped, m, s, pure=False): (m, s) for m, s in groups}
+    finished: dict[tuple[int, int], list[ViewImages]] = {}
+    next_group = 0
+    for future in as_completed(futures, loop=client.loop):
+        finished[futures[future]] = future.result()
+        future.release()
+        bar.update(len(rig))
+        while next_group < len(groups) and groups[next_group] in finished:
+            yield from finished.pop(groups[next_group])
+            next_group += 1
+
+
+def _render_group(shipped: tuple, motion_index: int, shape_index: int) -> list[ViewImages]:
+    """On a cluster worker: every view of one motion on one body.  ``shipped`` is the
+    scattered ``(library, rig, config)``, the same object for every task of a build."""
+    if _WORKER_STATE.get("shipped") is not shipped:
+        library, rig, config = shipped
+        _WORKER_STATE.update(library=library, rig=rig, config=config, shipped=shipped)
+        _posed.cache_clear()
+    n_views = len(_WORKER_STATE["rig"])
+    return [_render_task((motion_index, shape_index, v)) for v in range(n_views)]
