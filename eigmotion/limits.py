@@ -33,6 +33,8 @@ MAX_FRAME_PIXELS = 40_000_000
 MAX_CLIP_FRAMES = 36_000
 #: Largest clip held decoded in memory at once, bytes.
 MAX_CLIP_BYTES = 1 * 2**30
+#: Most frames of a motion rendered on the avatar at once (2 minutes at 30 frames/s).
+MAX_RENDERED_FRAMES = 3600
 #: Largest array read from an ``.npz`` file, bytes.
 MAX_NPZ_ARRAY_BYTES = 512 * 2**20
 
@@ -119,4 +121,14 @@ def check_clip_size(n_frames: int, frame_bytes: int, what: str) -> None:
             f"{what}: {n_frames:,} frames of {_size(frame_bytes)} exceed the "
             f"{_size(MAX_CLIP_BYTES)} held in memory at once; trim the clip or use a "
             "video file"
+        )
+
+
+def check_rendered_frames(n_frames: int, what: str) -> None:
+    """InvalidParameterError when more than :data:`MAX_RENDERED_FRAMES` frames of a
+    motion would be rendered (checked before the avatar is posed)."""
+    if n_frames > MAX_RENDERED_FRAMES:
+        raise InvalidParameterError(
+            f"{what}: {n_frames:,} frames to render; at most {MAX_RENDERED_FRAMES:,} are "
+            "rendered (trim the motion or lower the frame rate)"
         )

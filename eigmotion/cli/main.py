@@ -81,13 +81,20 @@ def requested_command(argv: list[str]) -> str | None:
     return None
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage block) and exit 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)} (see --help)\n")
+
+
 def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, ModuleType | None]:
     """The parser, with the arguments of ``command`` only, and that command's module.
 
     Every sub-command is listed (with its help); only ``command``'s module is imported
     and its arguments added.
     """
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog="eigmotion",
         description="3D human motion from one uncalibrated camera.",
     )

@@ -26,6 +26,7 @@ from eigmotion.imaging.media import (
     VIDEO_EXTENSIONS,
     FrameSampleStream,
     check_image_pixels,
+    read_image_rgb,
     sample_indices,
 )
 from eigmotion.limits import check_clip_size
@@ -259,7 +260,10 @@ def read_background(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise VideoError(f"{path}: background image not found")
-    check_image_pixels(path)
+    try:  # Pillow first: its errors are raised, not printed by a C library
+        return read_image_rgb(path)
+    except VideoError:
+        check_image_pixels(path)
     bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if bgr is None:
         raise VideoError(f"{path}: not a readable image")
