@@ -351,6 +351,8 @@ def campaign(count: int, seed: int, database: Path, work: Path, verbose: bool = 
         outcome = run_case(make_case(rng, command), work / f"case{i:05d}", database)
         shutil.rmtree(work / f"case{i:05d}", ignore_errors=True)
         outcomes.append(outcome)
+        if verbose and len(stderr_lines(outcome.stderr)) > 1:
+            print(i, command, "multi-line:", stderr_lines(outcome.stderr), flush=True)
         if verbose and (outcome.problems() or i % 50 == 0):
             print(i, command, outcome.case.argv[:6], outcome.code, f"{outcome.seconds:.1f}s",
                   f"{outcome.peak_bytes / 2**20:.0f}MiB", outcome.problems(),

@@ -483,20 +483,6 @@ def _opened_image(path: Path) -> Iterator[Image.Image]:
         yield image
 
 
-def check_image_pixels(path: str | os.PathLike) -> None:
-    """InvalidParameterError when an image's header states more than
-    :data:`~eigmotion.limits.MAX_FRAME_PIXELS` pixels; nothing when Pillow cannot read
-    the header (the decoder used then reports what is wrong)."""
-    path = Path(path)
-    try:
-        with _opened_image(path) as image:
-            check_frame_pixels(image.width, image.height, str(path))
-    except EigmotionError:
-        raise
-    except Exception:  # noqa: BLE001 - not Pillow's kind of image: decided by its reader
-        return
-
-
 def _pil_rgb(image: Image.Image, what: Path) -> np.ndarray:
     """An opened Pillow image (or GIF frame) as (H, W, 3) uint8, its size checked
     against :data:`~eigmotion.limits.MAX_FRAME_PIXELS` before it is decoded."""

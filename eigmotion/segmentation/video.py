@@ -16,7 +16,6 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
@@ -25,7 +24,6 @@ from eigmotion.imaging.media import (
     FRAME_RATE_FPS,
     VIDEO_EXTENSIONS,
     FrameSampleStream,
-    check_image_pixels,
     read_image_rgb,
     sample_indices,
 )
@@ -250,24 +248,25 @@ def read_background(path: str | Path) -> np.ndarray:
     Parameters
     ----------
     path : str or Path
-        Any still image OpenCV reads (``.png``, ``.jpg``, …).
+        Any still image Pillow reads (``.png``, ``.jpg``, ``.bmp``, ``.tif``, ``.webp`` …;
+        see :func:`eigmotion.imaging.media.read_image_rgb`).
 
     Returns
     -------
     (H, W, 3) uint8
         RGB.
+
+    Raises
+    ------
+    VideoError
+        Missing or not a readable image.
+    InvalidParameterError
+        An image beyond :data:`~eigmotion.limits.MAX_FRAME_PIXELS`.
     """
     path = Path(path)
     if not path.is_file():
         raise VideoError(f"{path}: background image not found")
-    try:  # Pillow first: its errors are raised, not printed by a C library
-        return read_image_rgb(path)
-    except VideoError:
-        check_image_pixels(path)
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise VideoError(f"{path}: not a readable image")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return read_image_rgb(path)
 
 
 def _load_npz_masks(path: Path) -> tuple[np.ndarray, float]:
