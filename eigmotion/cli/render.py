@@ -95,23 +95,28 @@ def run(args: argparse.Namespace) -> int:
     body = build_body(config.body_shapes[0], config.low_poly_faces)
     pictures, labels = [], []
     bar = tqdm(total=len(motions) * len(rig), desc="rendering views", unit="view")
-    for name, motion in motions:
-        folder = args.out / name
-        folder.mkdir(parents=True, exist_ok=True)
-        vertices, fitted = pose_for_views(motion, body, rig, config.render_fps)
-        for camera in fitted:
-            masks = render_masks(vertices, body.faces, camera)
-            vector = motion_image(masks, config.motion_image, clip_fps=config.render_fps)
-            picture = motion_image_picture(vector, config.motion_image)
-            if not args.no_masks:
-                np.savez_compressed(
-                    folder / f"{camera.name}.npz", masks=masks, fps=config.render_fps
-                )
-            save_image(picture, folder / f"{camera.name}.png")
-            pictures.append(cv2.resize(picture, (128, 128), interpolation=cv2.INTER_NEAREST))
-            labels.append(f"{name} {camera.azimuth_deg:.0f}/{camera.elevation_deg:.0f}")
-            bar.update()
-    bar.close()
+    try:
+        for name, motion in motions:
+            folder = args.out / name
+            folder.mkdir(parents=True, exist_ok=True)
+            vertices, fitted = pose_for_views(motion, body, rig, config.render_fps)
+            for camera in fitted:
+                masks = render_masks(vertices, body.faces, camera)
+                vector = motion_image(masks, config.motion_image, clip_fps=config.render_fps)
+                picture = motion_image_picture(vector, config.motion_image)
+                if not args.no_masks:
+                    np.savez_compressed(
+                        folder / f"{camera.name}.npz", masks=masks, fps=config.render_fps
+                    )
+                save_image(picture, folder / f"{camera.name}.png")
+                pictures.append(cv2.resize(picture, (128, 128), interpolation=cv2.INTER_NEAREST))
+                labels.append(f"{name} {camera.azimuth_deg:.0f}/{camera.elevation_deg:.0f}")
+                bar.update()
+    except BaseException:
+        bar.leave = False  # the error line is not written after a half-drawn bar
+        raise
+    finally:
+        bar.close()
     sheet = contact_sheet(pictures, n_cols=len(rig), labels=labels)
     save_image(sheet, args.out / "motion_images.png")
     return 0
