@@ -4,8 +4,9 @@ Each sub-command lives in :mod:`eigmotion.cli` as a module with
 ``add_arguments(parser)`` and ``run(args) -> int``; its one-line help is in
 :data:`COMMANDS`.  Only the module of the sub-command asked for is imported, so that
 ``eigmotion --help`` and one command's run do not load every other command's work.
-Any :class:`~eigmotion.errors.EigmotionError` (or an unreadable file) becomes one line
-on stderr and exit code 2, never a traceback.
+Any :class:`~eigmotion.errors.EigmotionError` (or a file that cannot be read or
+written, a full disk included) becomes one short line on stderr and exit code 2, never
+a traceback: control characters are escaped and long values cut (:func:`one_line`).
 """
 
 from __future__ import annotations
@@ -14,16 +15,20 @@ import argparse
 import importlib
 import logging
 import os
+import re
 import sys
 from types import ModuleType
 
 from eigmotion.errors import EigmotionError
+from eigmotion.limits import MAX_FRAME_PIXELS
 
 # A video that cannot be read is reported once, by the command, naming the file: the
 # lines FFmpeg and OpenCV print about it themselves would come before that one, so they
 # are silenced (read when cv2 is first imported; a setting of the user's own wins).
 os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+# OpenCV's own bound on the pixels of an image it decodes (its default is 2**30).
+os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_FRAME_PIXELS))
 
 #: Sub-commands in the order ``--help`` lists them, each with its one-line help.
 COMMANDS = {
@@ -45,6 +50,26 @@ COMMANDS = {
 }
 
 EXIT_BAD_INPUT = 2
+#: Longest error line printed, characters, and longest single value in it.
+MAX_ERROR_CHARS = 400
+MAX_VALUE_CHARS = 120
+
+_LONG_VALUE = re.compile(rf"\S{{{MAX_VALUE_CHARS + 1},}}")
+
+
+def _cut(text: str, keep: int) -> str:
+    half = keep // 2
+    return f"{text[:half]}…[{len(text) - 2 * half:,} characters cut]…{text[-half:]}"
+
+
+def one_line(message: object) -> str:
+    """``message`` as one short line: control characters escaped, any value longer
+    than :data:`MAX_VALUE_CHARS` and the whole beyond :data:`MAX_ERROR_CHARS` cut in
+    the middle (a file of NUL bytes or a huge joint name is not echoed in full)."""
+    text = str(message).replace("\n", " ")
+    text = "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+    text = _LONG_VALUE.sub(lambda m: _cut(m.group(), MAX_VALUE_CHARS // 2), text)
+    return text if len(text) <= MAX_ERROR_CHARS else _cut(text, MAX_ERROR_CHARS - 40)
 
 #: Libraries whose own log lines would reach stderr beside the command's one line (a
 #: damaged database is reported by the command, naming what to do).
@@ -74,13 +99,20 @@ def requested_command(argv: list[str]) -> str | None:
     return None
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (no usage block) and exit 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {one_line(message)} (see --help)\n")
+
+
 def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, ModuleType | None]:
     """The parser, with the arguments of ``command`` only, and that command's module.
 
     Every sub-command is listed (with its help); only ``command``'s module is imported
     and its arguments added.
     """
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog="eigmotion",
         description="3D human motion from one uncalibrated camera.",
     )
@@ -105,11 +137,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(module.run(args) or 0)
     except EigmotionError as exc:
-        print(f"eigmotion {args.command}: error: {exc}", file=sys.stderr)
+        print(f"eigmotion {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+    except OSError as exc:  # a missing or unreadable file, a full disk …
         where = f": {exc.filename}" if getattr(exc, "filename", None) else ""
-        print(f"eigmotion {args.command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        message = one_line(f"{exc.strerror or exc}{where}")
+        print(f"eigmotion {args.command}: error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print(f"eigmotion {args.command}: interrupted", file=sys.stderr)

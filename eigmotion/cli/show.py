@@ -27,6 +27,7 @@ from eigmotion.imaging.figures import contact_sheet, save_image
 from eigmotion.imaging.framing import frame_cameras
 from eigmotion.imaging.media import write_video
 from eigmotion.imaging.render import Renderer
+from eigmotion.limits import check_clip_size, check_frame_pixels, check_rendered_frames
 from eigmotion.mocap.library import find_motion
 
 SHEET_EXTENSIONS = (".png", ".jpg", ".jpeg")
@@ -106,8 +107,16 @@ def run(args: argparse.Namespace) -> int:
     width, height = args.size if args.size else ((320, 320) if sheet else (480, 480))
     if width < 16 or height < 16:
         raise InvalidParameterError(f"--size must be at least 16×16 pixels, got {width}×{height}")
+    check_frame_pixels(width, height, "--size")
 
     motion = find_motion(args.motion, asf=args.asf)
+    if sheet:
+        n_images = min(args.frames, motion.n_frames)
+    else:
+        end_s = (motion.n_frames - 1) * motion.frame_time_s
+        n_images = int(min(end_s * args.fps, 2**62)) + 1
+    check_rendered_frames(n_images, f"--out {out}")
+    check_clip_size(n_images, width * height * 3, f"--out {out}")
     avatar = load_default_avatar()
     if sheet:
         anim = retarget(motion, avatar)  # the whole clip: it sets the floor contact

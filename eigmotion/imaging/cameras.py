@@ -389,7 +389,7 @@ def load_rig(path: str | Path) -> CameraRig:
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # a decode error, bad UTF-8, a number too long
         raise InvalidParameterError(f"{path}: not valid TOML: {exc}") from None
     entries = doc.get("camera")
     if not entries:

@@ -28,7 +28,9 @@ import re
 import sys
 import tempfile
 import threading
+import warnings
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from numbers import Real
@@ -36,10 +38,16 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from PIL import Image, ImageSequence, UnidentifiedImageError
+from PIL import Image, ImageSequence
 from tqdm import tqdm
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import EigmotionError, InvalidParameterError, VideoError
+from eigmotion.limits import (
+    MAX_CLIP_FRAMES,
+    MAX_FRAME_PIXELS,
+    check_clip_size,
+    check_frame_pixels,
+)
 from eigmotion.validation import Interval
 
 #: Extensions read and written through OpenCV's FFmpeg backend.
@@ -61,6 +69,7 @@ def read_frames(
     path: str | os.PathLike,
     fps: float | None = None,
     max_frames: int | None = None,
+    transform: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, float]:
     """Read a whole clip into memory.
 
@@ -75,6 +84,9 @@ def read_frames(
         :data:`DEFAULT_FPS`; for a file it overrides the rate stored in the file.
     max_frames : int, optional
         Stop after this many frames.
+    transform : callable, optional
+        Applied to each frame ``(H, W, 3) uint8`` as soon as it is decoded (e.g. a
+        shrink), so that only its result is held.
 
     Returns
     -------
@@ -89,7 +101,10 @@ def read_frames(
         The path is missing, of an unknown kind, unreadable, holds no frames, or holds
         frames of different sizes.
     InvalidParameterError
-        ``fps`` or ``max_frames`` is not positive.
+        ``fps`` or ``max_frames`` is not positive; a frame larger than
+        :data:`~eigmotion.limits.MAX_FRAME_PIXELS`, or a clip beyond
+        :data:`~eigmotion.limits.MAX_CLIP_FRAMES` or
+        :data:`~eigmotion.limits.MAX_CLIP_BYTES` (checked as it is decoded).
     """
     path = Path(path)
     if fps is not None and not (np.isfinite(fps) and fps > 0):
@@ -98,12 +113,13 @@ def read_frames(
         raise InvalidParameterError(f"max_frames must be >= 1, got {max_frames!r}")
     if not path.exists():
         raise VideoError(f"{path}: no such file or folder")
+    held = _HeldFrames(path, transform)
     if path.is_dir():
-        frames, stored_fps = _read_folder(path, max_frames)
+        frames, stored_fps = _read_folder(path, max_frames, held)
     elif path.suffix.lower() == ".gif":
-        frames, stored_fps = _read_gif(path, max_frames)
+        frames, stored_fps = _read_gif(path, max_frames, held)
     elif path.suffix.lower() in VIDEO_EXTENSIONS:
-        frames, stored_fps = _read_video(path, max_frames)
+        frames, stored_fps = _read_video(path, max_frames, held)
     else:
         raise VideoError(
             f"{path}: unknown clip type {path.suffix!r}; expected a folder of images or "
@@ -233,7 +249,8 @@ class FrameSampleStream:
             )
             self._decoder.start()
         else:
-            self._frames, clip_fps = read_frames(self.path, fps)
+            self._frames, clip_fps = read_frames(self.path, fps, transform=transform)
+            self._transform = None  # applied as the frames were read
             self._finish(len(self._frames), clip_fps)
 
     def chunks(self, size: int) -> Iterator[np.ndarray]:
@@ -262,7 +279,7 @@ class FrameSampleStream:
         bar = None
         try:
             while (item := self._decoded.get()) is not _END_OF_CLIP:
-                if isinstance(item, VideoError):
+                if isinstance(item, VideoError | InvalidParameterError):
                     raise item
                 if self._progress:
                     if bar is None:
@@ -322,10 +339,13 @@ class FrameSampleStream:
                 clip_fps = DEFAULT_FPS
             count = capture.get(cv2.CAP_PROP_FRAME_COUNT)  # a container's guess, or <= 0
             self._expected_frames = int(count) if np.isfinite(count) and count > 0 else 0
+            _check_video_frame_size(capture, self.path)
             every = sample_fps is None or clip_fps <= sample_fps
             sample = 0
             while not self._stop.is_set() and capture.grab():
                 if every or n_frames == int(np.rint(sample / sample_fps * clip_fps)):
+                    if sample >= MAX_CLIP_FRAMES:
+                        check_clip_size(sample + 1, 0, str(self.path))
                     ok, bgr = capture.retrieve()
                     if not ok:
                         break
@@ -333,6 +353,8 @@ class FrameSampleStream:
                     sample += 1
                 n_frames += 1
             self._finish(n_frames, float(clip_fps))
+        except InvalidParameterError as exc:  # a limit: handed over as it is
+            self._decoded.put(exc)
         except Exception as exc:  # noqa: BLE001 - handed to the reading thread, named
             self._decoded.put(VideoError(f"{self.path}: decoding failed ({exc})"))
         finally:
@@ -391,41 +413,104 @@ def _stack(frames: list[np.ndarray], path: Path, names: list[str] | None = None)
     return np.stack(frames)
 
 
-def _read_video(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
+class _HeldFrames:
+    """The frames of a clip as they are decoded: each transformed (if asked) and
+    checked against the pixel, frame-count and memory limits before it is kept."""
+
+    def __init__(self, path: Path, transform: Callable[[np.ndarray], np.ndarray] | None):
+        self.path = path
+        self.transform = transform
+        self.frames: list[np.ndarray] = []
+        self.names: list[str] = []
+
+    def add(self, frame: np.ndarray, name: str | None = None) -> None:
+        if self.transform is not None:
+            frame = self.transform(frame)
+        check_clip_size(len(self.frames) + 1, frame.nbytes, str(self.path))
+        self.frames.append(frame)
+        if name is not None:
+            self.names.append(name)
+
+    def stacked(self) -> np.ndarray:
+        return _stack(self.frames, self.path, self.names or None)
+
+
+def _check_video_frame_size(capture, path: Path) -> None:
+    """InvalidParameterError when the video's frames, as its header states them, hold
+    more than :data:`~eigmotion.limits.MAX_FRAME_PIXELS`."""
+    width = capture.get(cv2.CAP_PROP_FRAME_WIDTH)
+    height = capture.get(cv2.CAP_PROP_FRAME_HEIGHT)
+    if np.isfinite(width) and np.isfinite(height) and width > 0 and height > 0:
+        check_frame_pixels(int(width), int(height), str(path))
+
+
+def _read_video(path: Path, max_frames: int | None, held: _HeldFrames) -> tuple[np.ndarray, float]:
     capture = cv2.VideoCapture(str(path))
     try:
         if not capture.isOpened():
             raise VideoError(f"{path}: cannot be opened as a video (corrupt or unsupported)")
+        _check_video_frame_size(capture, path)
         stored_fps = capture.get(cv2.CAP_PROP_FPS)
-        frames = []
-        while max_frames is None or len(frames) < max_frames:
+        while max_frames is None or len(held.frames) < max_frames:
             ok, bgr = capture.read()
             if not ok:
                 break
-            frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+            held.add(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
     finally:
         capture.release()
-    if not frames:
+    if not held.frames:
         raise VideoError(f"{path}: no frame could be decoded (empty or corrupt video)")
     if not (np.isfinite(stored_fps) and stored_fps > 0):
         stored_fps = DEFAULT_FPS
-    return _stack(frames, path), float(stored_fps)
+    return held.stacked(), float(stored_fps)
 
 
-def _read_gif(path: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
-    frames, durations_ms = [], []
+@contextmanager
+def _opened_image(path: Path) -> Iterator[Image.Image]:
+    """``Image.open(path)``, with Pillow's own decompression-bomb warning silenced and
+    its error (an image far beyond :data:`~eigmotion.limits.MAX_FRAME_PIXELS`) turned
+    into the same InvalidParameterError as any image beyond the limit."""
     try:
-        with Image.open(path) as image:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            image = Image.open(path)
+    except Image.DecompressionBombError:
+        raise InvalidParameterError(
+            f"{path}: a frame of more than {2 * Image.MAX_IMAGE_PIXELS:,} pixels; at most "
+            f"{MAX_FRAME_PIXELS / 1e6:g} million pixels per frame are read"
+        ) from None
+    with image:
+        yield image
+
+
+def _pil_rgb(image: Image.Image, what: Path) -> np.ndarray:
+    """An opened Pillow image (or GIF frame) as (H, W, 3) uint8, its size checked
+    against :data:`~eigmotion.limits.MAX_FRAME_PIXELS` before it is decoded."""
+    check_frame_pixels(image.width, image.height, str(what))
+    return np.asarray(image.convert("RGB"))
+
+
+def _read_gif(path: Path, max_frames: int | None, held: _HeldFrames) -> tuple[np.ndarray, float]:
+    durations_ms = []
+    try:
+        with _opened_image(path) as image:
             for frame in ImageSequence.Iterator(image):
-                frames.append(np.asarray(frame.convert("RGB")))
+                held.add(_pil_rgb(frame, path))
                 durations_ms.append(float(frame.info.get("duration", 0) or 0))
-                if max_frames is not None and len(frames) >= max_frames:
+                if max_frames is not None and len(held.frames) >= max_frames:
                     break
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
-        raise VideoError(f"{path}: not a readable GIF ({exc})") from None
+    except EigmotionError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - Pillow raises many kinds on a damaged file
+        raise VideoError(f"{path}: not a readable GIF ({_reason(exc)})") from None
     positive = [d for d in durations_ms if d > 0]
     fps = 1000.0 / float(np.mean(positive)) if positive else DEFAULT_FPS
-    return _stack(frames, path), fps
+    return held.stacked(), fps
+
+
+def _reason(exc: Exception) -> str:
+    """What a decoder's exception says, or its type when it says nothing."""
+    return str(exc) or type(exc).__name__
 
 
 def _natural_key(name: str) -> list:
@@ -450,7 +535,9 @@ def image_files(folder: str | os.PathLike) -> list[Path]:
     return sorted(files, key=lambda p: _natural_key(p.name))
 
 
-def _read_folder(folder: Path, max_frames: int | None) -> tuple[np.ndarray, float]:
+def _read_folder(
+    folder: Path, max_frames: int | None, held: _HeldFrames
+) -> tuple[np.ndarray, float]:
     files = image_files(folder)
     if not files:
         raise VideoError(
@@ -458,14 +545,42 @@ def _read_folder(folder: Path, max_frames: int | None) -> tuple[np.ndarray, floa
         )
     if max_frames is not None:
         files = files[:max_frames]
-    frames = []
     for file in files:
-        try:
-            with Image.open(file) as image:
-                frames.append(np.asarray(image.convert("RGB")))
-        except (UnidentifiedImageError, OSError, SyntaxError) as exc:
-            raise VideoError(f"{file}: not a readable image ({exc})") from None
-    return _stack(frames, folder, [f.name for f in files]), DEFAULT_FPS
+        held.add(read_image_rgb(file), file.name)
+    return held.stacked(), DEFAULT_FPS
+
+
+def read_image_rgb(path: str | os.PathLike) -> np.ndarray:
+    """Read one still image.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        Any image Pillow reads (``.png``, ``.jpg``, ``.bmp``, ``.tif``, ``.webp`` …).
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        RGB.
+
+    Raises
+    ------
+    VideoError
+        Not a readable image.
+    InvalidParameterError
+        More than :data:`~eigmotion.limits.MAX_FRAME_PIXELS` pixels (checked from the
+        header, before decoding).
+    """
+    path = Path(path)
+    try:
+        with _opened_image(path) as image:
+            return _pil_rgb(image, path)
+    except EigmotionError:
+        raise
+    except (FileNotFoundError, IsADirectoryError, PermissionError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - Pillow raises many kinds on a damaged file
+        raise VideoError(f"{path}: not a readable image ({_reason(exc)})") from None
 
 
 def as_rgb_frames(frames: np.ndarray) -> np.ndarray:

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, MotionFormatError
+from eigmotion.limits import MAX_FRAME_JOINTS, MAX_FRAMES, check_motion_size
 from eigmotion.mocap.asf import (
     LINE_BREAK,
     AsfSkeleton,
@@ -150,6 +151,10 @@ def parse_amc(
     order = _check_options(order, frame_time_s)
     where = None if path is None else str(path)
     name = "" if path is None else Path(path).stem
+    try:  # the frame time and the skeleton, before any frame is read
+        check_motion_size(1, len(asf.bones) + 1, frame_time_s, "the motion")
+    except InvalidParameterError as exc:
+        raise MotionFormatError(str(exc), where) from None
     raw, angle_unit = _read_amc_table(text, asf, where)
     try:
         return _amc_motion(asf, raw, angle_unit, order, frame_time_s, name)
@@ -173,6 +178,8 @@ def _read_amc_table(
     seen: set[str] = set()
     frame_number = frame_line = 0
     lines = LINE_BREAK.split(text)
+    n_joints = len(asf.bones) + 1
+    most_frames = min(MAX_FRAMES, MAX_FRAME_JOINTS // n_joints)
 
     def finish(line: int) -> None:
         missing = required - seen
@@ -209,6 +216,13 @@ def _read_amc_table(
                         f"expected frame number {frame_number + 1}, found {value}", where, number
                     )
             frame_number, frame_line = value, number
+            if len(rows) >= most_frames:
+                raise MotionFormatError(
+                    f"more than {most_frames:,} frames of {n_joints} joints: at most "
+                    f"{MAX_FRAMES:,} frames and {MAX_FRAME_JOINTS:,} joint poses are supported",
+                    where,
+                    number,
+                )
             current = [0.0] * width
             rows.append(current)
             seen = set()

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, MotionFormatError
+from eigmotion.limits import MAX_JOINTS, MAX_MOTION_FILE_BYTES, check_file_size
 from eigmotion.mocap.rotations import axis_rotation, check_euler_order
 
 #: Metres per inch; ASF lengths are inches divided by the ``:units length`` value.
@@ -186,7 +187,9 @@ def read_asf(path: str | Path) -> AsfSkeleton:
 
 
 def read_text(path: Path) -> str:
-    """The text of an ASF or AMC file: UTF-8, else Latin-1."""
+    """The text of an ASF or AMC file: UTF-8, else Latin-1 (at most
+    :data:`~eigmotion.limits.MAX_MOTION_FILE_BYTES`, else InvalidParameterError)."""
+    check_file_size(path.stat().st_size, MAX_MOTION_FILE_BYTES, str(path))
     raw = path.read_bytes()
     try:
         return raw.decode("utf-8")
@@ -482,6 +485,8 @@ def _close_bone(st: _AsfState, bone: _Bone, line: int) -> None:
         )
     if norm > 0:
         bone.direction = bone.direction / norm
+    if len(st.bones) + 1 >= MAX_JOINTS:  # the root is a joint too
+        raise st.error(f"more than {MAX_JOINTS} joints: larger skeletons are not supported", line)
     st.bones.append(bone)
 
 

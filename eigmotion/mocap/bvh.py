@@ -30,6 +30,13 @@ from pathlib import Path
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, MotionFormatError
+from eigmotion.limits import (
+    MAX_BVH_OUTPUT_BYTES,
+    MAX_JOINTS,
+    MAX_MOTION_FILE_BYTES,
+    check_file_size,
+    check_motion_size,
+)
 from eigmotion.mocap.motion import ALL_CHANNELS, Motion, Skeleton
 
 #: Channel names as they may be spelt in a file (any case) → canonical spelling.
@@ -121,8 +128,11 @@ def read_bvh(path: str | Path) -> Motion:
         The file is not a valid BVH file (the message names the file and line).
     FileNotFoundError
         The file does not exist.
+    InvalidParameterError
+        The file is larger than :data:`~eigmotion.limits.MAX_MOTION_FILE_BYTES`.
     """
     path = Path(path)
+    check_file_size(path.stat().st_size, MAX_MOTION_FILE_BYTES, str(path))
     raw = path.read_bytes()
     try:
         text = raw.decode("utf-8")
@@ -151,6 +161,8 @@ def parse_bvh(text: str, path: str | Path | None = None) -> Motion:
     Raises
     ------
     MotionFormatError
+        Also for a motion beyond the size limits of :mod:`eigmotion.limits` (joints,
+        frames, frame time), found from the header before the frames are read.
     """
     where = None if path is None else str(path)
     name = "" if path is None else Path(path).stem
@@ -171,7 +183,9 @@ def parse_bvh(text: str, path: str | Path | None = None) -> Motion:
             "the MOTION line must hold only the word MOTION", where, motion_line + 1
         )
     skeleton = _build_skeleton(joints, where)
-    values, frame_time_s = _parse_frames(lines, motion_line + 1, skeleton.n_channels, where)
+    values, frame_time_s = _parse_frames(
+        lines, motion_line + 1, skeleton.n_channels, skeleton.n_joints, where
+    )
     try:
         return Motion(skeleton, values, frame_time_s, None, name)
     except InvalidParameterError as exc:
@@ -259,6 +273,10 @@ def _open_joint(
         raise tokens.error(
             f"duplicate joint name {name!r} (first defined at line {seen[name]})", name_line
         )
+    if len(joints) >= MAX_JOINTS:
+        raise tokens.error(
+            f"more than {MAX_JOINTS} joints: larger skeletons are not supported", name_line
+        )
     seen[name] = name_line
     tokens.keyword("{")
     joints.append(_Joint(name, parent, name_line))
@@ -316,9 +334,10 @@ def _build_skeleton(joints: list[_Joint], where: str | None) -> Skeleton:
 
 
 def _parse_frames(
-    lines: list[str], start: int, n_channels: int, where: str | None
+    lines: list[str], start: int, n_channels: int, n_joints: int, where: str | None
 ) -> tuple[np.ndarray, float]:
-    """Read ``Frames:``, ``Frame Time:`` and the frame lines from ``lines[start:]``."""
+    """Read ``Frames:``, ``Frame Time:`` and the frame lines from ``lines[start:]``;
+    the motion's size is checked against :mod:`eigmotion.limits` before the frames."""
     body = [(i + 1, line.split()) for i, line in enumerate(lines[start:], start=start)]
     body = [(number, toks) for number, toks in body if toks]
     if not body:
@@ -353,6 +372,10 @@ def _parse_frames(
         raise MotionFormatError(
             f"the frame time must be > 0 seconds, found {toks[2]!r}", where, number
         )
+    try:
+        check_motion_size(n_frames, n_joints, frame_time_s, "the motion")
+    except InvalidParameterError as exc:
+        raise MotionFormatError(str(exc), where, frames_line) from None
     rows = body[2:]
     if n_channels == 0:
         # A skeleton without channels has empty frame lines, skipped above.
@@ -493,7 +516,8 @@ def format_bvh(motion: Motion, precision: int = 6) -> str:
     Raises
     ------
     InvalidParameterError
-        A joint name that cannot be written, or a bad ``precision``.
+        A joint name that cannot be written, a bad ``precision``, or a text larger
+        than :data:`~eigmotion.limits.MAX_BVH_OUTPUT_BYTES` (checked before writing).
     """
     if isinstance(precision, bool) or not isinstance(precision, int | np.integer):
         raise InvalidParameterError(f"precision must be an integer >= 0, got {precision!r}")
@@ -507,6 +531,19 @@ def format_bvh(motion: Motion, precision: int = 6) -> str:
                 f"joint name {name!r} cannot be written to BVH: it must be non-empty and "
                 "hold no whitespace or braces"
             )
+    # Each value takes at most sign, digits, point and separator (channel values
+    # beyond 1e9 are estimated by their own width); the hierarchy is indented by depth.
+    magnitude = float(np.max(np.abs(motion.values), initial=1.0))
+    per_value = precision + 4 + len(f"{magnitude:.0f}")
+    depth = np.zeros(sk.n_joints, dtype=np.int64)
+    for j in range(1, sk.n_joints):
+        depth[j] = depth[sk.parents[j]] + 1
+    expected = motion.values.size * per_value + int(depth.sum() + sk.n_joints) * 6 * 4
+    if expected > MAX_BVH_OUTPUT_BYTES:
+        raise InvalidParameterError(
+            f"the BVH text would take about {expected / 2**20:,.0f} MiB; at most "
+            f"{MAX_BVH_OUTPUT_BYTES / 2**20:,.0f} MiB are written (trim or resample the motion)"
+        )
     num = f"{{:.{precision}f}}"
 
     def vec(v: np.ndarray) -> str:

@@ -217,7 +217,7 @@ def read_manifest(manifest: str | Path | None = None) -> list[ManifestEntry]:
         raise InvalidParameterError(f"motion library manifest not found: {path}")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:  # a decode error, bad UTF-8, a number too long
         raise InvalidParameterError(f"{path}: not a valid TOML manifest: {exc}") from None
     tables = data.get("motion", [])
     if not isinstance(tables, list) or not tables:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.limits import check_motion_size
 from eigmotion.mocap.rotations import (
     check_euler_order,
     euler_to_matrix,
@@ -188,10 +189,16 @@ class Motion:
             raise InvalidParameterError(f"motion values are not finite (first at frame {frame})")
         if not (np.isfinite(self.frame_time_s) and self.frame_time_s > 0):
             raise InvalidParameterError(f"frame_time_s must be > 0, got {self.frame_time_s!r}")
+        check_motion_size(
+            values.shape[0], self.skeleton.n_joints, float(self.frame_time_s), self._what()
+        )
         if self.length_unit_m is not None and not (
             np.isfinite(self.length_unit_m) and self.length_unit_m > 0
         ):
             raise InvalidParameterError(f"length_unit_m must be > 0, got {self.length_unit_m!r}")
+
+    def _what(self) -> str:
+        return f"motion {self.name!r}" if self.name else "the motion"
 
     # -- basic facts -------------------------------------------------------------
     @property
@@ -331,14 +338,18 @@ class Motion:
         """Resample to ``fps`` frames per second (slerp rotations, lerp translations).
 
         The first frame is kept; the last output frame is the last one at or before
-        the original end time.
+        the original end time.  The result's size is checked against
+        :mod:`eigmotion.limits` before it is computed.
         """
         if not (np.isfinite(fps) and fps > 0):
             raise InvalidParameterError(f"fps must be > 0, got {fps!r}")
         if self.n_frames == 1:
             return self.replace(frame_time_s=1.0 / fps)
         end_t = (self.n_frames - 1) * self.frame_time_s
-        n_out = int(np.floor(end_t * fps + 1e-9)) + 1
+        n_out = int(min(np.floor(end_t * fps + 1e-9), 2**62)) + 1
+        check_motion_size(
+            n_out, self.skeleton.n_joints, 1.0 / fps, f"{self._what()} resampled to {fps:g} fps"
+        )
         src = np.arange(n_out) / fps / self.frame_time_s
         i0 = np.clip(np.floor(src).astype(np.int64), 0, self.n_frames - 1)
         i1 = np.minimum(i0 + 1, self.n_frames - 1)

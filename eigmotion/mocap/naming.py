@@ -505,7 +505,7 @@ def load_joint_map(path: str | Path) -> dict[str, str | None]:
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:  # a decode error, bad UTF-8, a number too long
         raise InvalidParameterError(f"{path}: not a valid TOML joint map: {exc}") from None
     joints = data.get("joints")
     if not isinstance(joints, dict):

@@ -37,6 +37,7 @@ from eigmotion.body.garments import dress, garment
 from eigmotion.errors import ClusterError, InvalidParameterError, VideoError
 from eigmotion.imaging.cameras import CameraRig
 from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.limits import check_rendered_frames
 from eigmotion.mocap.library import LibraryMotion
 from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
@@ -310,6 +311,9 @@ def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
     # Lazy: retargeting loads scipy.spatial (~0.14 s), which a query never needs.
     from eigmotion.body.retarget import animate_avatar
 
+    end_s = (motion.n_frames - 1) * motion.frame_time_s
+    name = f"motion {motion.name!r}" if motion.name else "the motion"
+    check_rendered_frames(int(min(end_s * render_fps, 2**62)) + 1, f"{name} at {render_fps:g} fps")
     _, vertices = animate_avatar(body, motion.resample(render_fps))
     return vertices, rig.fitted(hull_points(vertices))
 

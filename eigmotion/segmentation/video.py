@@ -12,16 +12,22 @@ a :class:`~eigmotion.segmentation.config.SilhouetteConfig`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
-from eigmotion.imaging.media import FRAME_RATE_FPS, FrameSampleStream, sample_indices
+from eigmotion.imaging.arrays import read_npz, scalar
+from eigmotion.imaging.media import (
+    FRAME_RATE_FPS,
+    VIDEO_EXTENSIONS,
+    FrameSampleStream,
+    read_image_rgb,
+    sample_indices,
+)
+from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import check_frames, shrink
@@ -240,9 +246,14 @@ def load_clip_masks(
             _check_size(frame.shape[:2], background)
         return shrink(frame[None], config)[0]
 
+    background = None
+    streamed = path.is_file() and path.suffix.lower() in VIDEO_EXTENSIONS
+    if background_path is not None and not streamed:  # frames shrunk as they are read
+        background = read_background(background_path)
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_working_size)
     try:  # read while the video starts decoding
-        background = None if background_path is None else read_background(background_path)
+        if background_path is not None and streamed:
+            background = read_background(background_path)
     except BaseException:
         stream.close()
         raise
@@ -290,43 +301,42 @@ def read_background(path: str | Path) -> np.ndarray:
     Parameters
     ----------
     path : str or Path
-        Any still image OpenCV reads (``.png``, ``.jpg``, …).
+        Any still image Pillow reads (``.png``, ``.jpg``, ``.bmp``, ``.tif``, ``.webp`` …;
+        see :func:`eigmotion.imaging.media.read_image_rgb`).
 
     Returns
     -------
     (H, W, 3) uint8
         RGB.
+
+    Raises
+    ------
+    VideoError
+        Missing or not a readable image.
+    InvalidParameterError
+        An image beyond :data:`~eigmotion.limits.MAX_FRAME_PIXELS`.
     """
     path = Path(path)
     if not path.is_file():
         raise VideoError(f"{path}: background image not found")
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise VideoError(f"{path}: not a readable image")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return read_image_rgb(path)
 
 
 def _load_npz_masks(path: Path) -> tuple[np.ndarray, float]:
-    if not path.is_file():
-        raise VideoError(f"{path}: no such file")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            if "masks" not in data:
-                raise InvalidParameterError(f"{path}: no array 'masks'; found {sorted(data.files)}")
-            masks = np.asarray(data["masks"])
-            fps = float(data["fps"]) if "fps" in data else DEFAULT_NPZ_FPS
-    except (OSError, ValueError) as exc:
-        if isinstance(exc, InvalidParameterError):
-            raise
-        raise VideoError(f"{path}: not a readable .npz ({exc})") from None
+    data = read_npz(path)
+    if "masks" not in data:
+        raise InvalidParameterError(f"{path}: no array 'masks'; found {sorted(data)}")
+    masks = data["masks"]
+    fps = scalar(data["fps"], f"{path}: fps") if "fps" in data else DEFAULT_NPZ_FPS
     if masks.ndim != 3:
         raise InvalidParameterError(f"{path}: masks must have shape (F, H, W), got {masks.shape}")
     if masks.shape[0] == 0:
         raise VideoError(f"{path}: the clip has zero frames")
-    if not (math.isfinite(fps) and fps > 0):
-        raise InvalidParameterError(f"{path}: fps must be > 0 frames/s, got {fps!r}")
+    validate(f"{path}: fps", fps, FRAME_RATE_FPS)
+    check_clip_size(masks.shape[0], 0, str(path))
     if masks.dtype != bool:
-        if not (np.issubdtype(masks.dtype, np.number)) or not np.all(np.isfinite(masks)):
+        real = np.issubdtype(masks.dtype, np.integer) or np.issubdtype(masks.dtype, np.floating)
+        if not real or not np.all(np.isfinite(masks)):
             raise InvalidParameterError(f"{path}: masks must be bool or finite numbers")
         masks = masks > 0
     if not masks.any():

@@ -150,6 +150,8 @@ def load_calibration(path: str | Path) -> Calibration:
         raise InvalidParameterError(f"{path}: calibration file not found") from None
     except json.JSONDecodeError as exc:
         raise InvalidParameterError(f"{path}:{exc.lineno}: not valid JSON: {exc.msg}") from None
+    except ValueError as exc:  # bad UTF-8, a number of thousands of digits
+        raise InvalidParameterError(f"{path}: not valid JSON: {exc}") from None
     return parse_calibration(doc, path)
 
 
