@@ -521,6 +521,9 @@ def render_views(
                 for result in pool.map(_render_task, tasks, chunksize=len(rig)):
                     yield result
                     bar.update()
+    except BaseException:
+        bar.leave = False  # the error's one line follows: no half-drawn bar above it
+        raise
     finally:
         bar.close()
         if client is not None:
