@@ -31,8 +31,6 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image
-
-sys.path.insert(0, str(Path(__file__).parent))
 from test_format_fuzz import AMC, ASF, BVH, ODD_TOKENS  # noqa: E402
 
 from eigmotion.cli.main import main  # noqa: E402
