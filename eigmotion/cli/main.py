@@ -71,6 +71,7 @@ def one_line(message: object) -> str:
     text = _LONG_VALUE.sub(lambda m: _cut(m.group(), MAX_VALUE_CHARS // 2), text)
     return text if len(text) <= MAX_ERROR_CHARS else _cut(text, MAX_ERROR_CHARS - 40)
 
+
 #: Libraries whose own log lines would reach stderr beside the command's one line (a
 #: damaged database is reported by the command, naming what to do).
 QUIET_LOGGERS = ("ZODB", "ZEO", "txn", "transaction", "persistent", "BTrees", "zc.lockfile")
