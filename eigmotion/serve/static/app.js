@@ -101,8 +101,8 @@ function timeline(answer) {
     el.style.width = `${(100 * (seg.end_frame - seg.start_frame)) / n}%`;
     el.style.background = COLOURS[i % COLOURS.length];
     el.textContent = seg.label;
-    // frames are numbered from 1 on the page, both ends included
-    const range = `frames ${seg.start_frame + 1}–${seg.end_frame}`;
+    // frames are numbered from 0, both ends included, as the command line and the replay say
+    const range = `frames ${seg.start_frame}–${seg.end_frame - 1}`;
     el.title = `${seg.label}: ${range}`;
     el.addEventListener('click', () => { $('clip-video').currentTime = seg.start_frame / answer.fps; });
     bar.append(el);
