@@ -1,10 +1,12 @@
-"""``eigmotion eval recognition``: the accuracy on the independent development set.
+"""``eigmotion eval recognition|tracking|pose``: the independent development set.
 
 Examples::
 
     eigmotion eval recognition                       # ../shared/eval/dev, default database
     eigmotion eval recognition --dev DIR --db my.fs --modes bg nobg --json-out dev.json
     eigmotion eval recognition --only walk_ wave_
+    eigmotion eval tracking --json-out tracking.json # two cameras: MPJPE, swaps, speed
+    eigmotion eval pose --db my.fs                   # one camera: PA-MPJPE
 
 Every clip is answered in this process exactly as ``eigmotion query CLIP --json``
 answers it (:mod:`eigmotion.evaluation.devset`), in each mode asked: ``bg`` (the video
@@ -12,6 +14,13 @@ with its empty-scene image), ``nobg`` (the video alone), ``masks`` (the true mas
 an ``.npz``: the representation's ceiling), ``real`` (the real clips).  The tables
 (:mod:`eigmotion.evaluation.devset_report`) are printed as Markdown; ``--json-out``
 keeps every clip's answer and the summaries.
+
+``tracking`` tracks every two-camera set as ``eigmotion track`` does (default
+dictionary and settings) and ``pose`` asks every retrieval clip with its background
+for its pose as ``eigmotion query --pose-out`` does
+(:mod:`eigmotion.evaluation.devset_joints`): MPJPE per joint and set, the root's error,
+left/right swaps and heading flips, estimates per second of CPU time; PA-MPJPE per frame
+and per clip.
 """
 
 from __future__ import annotations
@@ -22,6 +31,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from tqdm import tqdm
+
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.devset import (
     MODE_KIND,
@@ -30,15 +41,28 @@ from eigmotion.evaluation.devset import (
     find_dev_set,
     load_dev_clips,
 )
+from eigmotion.evaluation.devset_joints import (
+    format_pose,
+    format_tracking,
+    load_tracking_sets,
+    pose_clip,
+    summarise_pose,
+    summarise_tracking,
+    track_set,
+)
 from eigmotion.evaluation.devset_report import format_mode, format_overview, summarise
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.segmentation.learned import SEGMENTERS
+from eigmotion.tracking.pipeline import dictionary_from_specs
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "what", choices=["recognition"], help="what to evaluate: recognition (query)"
+        "what",
+        choices=["recognition", "tracking", "pose"],
+        help="what to evaluate: recognition (query), tracking (track, two cameras), "
+        "pose (query --pose-out, one camera)",
     )
     parser.add_argument(
         "--dev",
@@ -52,16 +76,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         choices=MODES,
         default=list(MODES),
-        help="bg: video and empty-scene image; nobg: video alone; masks: true masks; "
-        "real: real clips (default all four)",
+        help="recognition: bg: video and empty-scene image; nobg: video alone; masks: true "
+        "masks; real: real clips (default all four)",
     )
     parser.add_argument(
         "--segmenter",
         choices=SEGMENTERS,
         default="auto",
-        help="the query's front end for video, as for eigmotion query (default auto: "
-        "subtraction with the background image, learned without; learned in the bg mode "
-        "asks the video without its background image)",
+        help="recognition: the query's front end for video, as for eigmotion query "
+        "(default auto: subtraction with the background image, learned without; learned in "
+        "the bg mode asks the video without its background image)",
     )
     parser.add_argument(
         "--only", nargs="+", metavar="SUBSTR", help="clips whose id contains any of these"
@@ -77,6 +101,10 @@ def run(args: argparse.Namespace) -> int:
             f"{args.json_out}: folder {args.json_out.parent} does not exist"
         )
     dev = find_dev_set(args.dev)
+    if args.what == "tracking":
+        return _run_tracking(args, dev)
+    if args.what == "pose":
+        return _run_pose(args, dev)
     modes = list(dict.fromkeys(args.modes))
     clips = {kind: load_dev_clips(dev, kind, args.only) for kind in set(MODE_KIND.values())}
     if not any(clips[MODE_KIND[mode]] for mode in modes):
@@ -105,4 +133,50 @@ def run(args: argparse.Namespace) -> int:
     if args.json_out is not None:
         args.json_out.write_text(json.dumps(report, indent=1))
         print(f"wrote {args.json_out}", file=sys.stderr)
+    return 0
+
+
+def _write_json(path: Path | None, report: dict) -> None:
+    if path is not None:
+        path.write_text(json.dumps(report, indent=1))
+        print(f"wrote {path}", file=sys.stderr)
+
+
+def _run_tracking(args: argparse.Namespace, dev: Path) -> int:
+    sets = load_tracking_sets(dev, args.only)
+    if not sets:
+        raise InvalidParameterError(f"{dev}: no tracking sets (tracking/<id>/cams.json)")
+    print("building the default posture dictionary", file=sys.stderr, flush=True)
+    dictionary = dictionary_from_specs()
+    tracked = [
+        track_set(folder, dictionary)
+        for folder in tqdm(sets, desc="tracking", unit="set", leave=False)
+    ]
+    print(format_tracking(tracked))
+    print(f"\ndevelopment set {dev}, dictionary of {len(dictionary)} postures")
+    report = {
+        "dev": str(dev),
+        "summary": summarise_tracking(tracked),
+        "sets": [s.to_json() for s in tracked],
+    }
+    _write_json(args.json_out, report)
+    return 0
+
+
+def _run_pose(args: argparse.Namespace, dev: Path) -> int:
+    clips = load_dev_clips(dev, "retrieval", args.only)
+    if not clips:
+        raise InvalidParameterError(f"{dev}: no retrieval clips for the --only asked")
+    uri = args.db or DEFAULT_DB_PATH
+    with MotionDatabase.open(uri) as db:
+        posed = [pose_clip(db, clip) for clip in tqdm(clips, desc="pose", unit="clip", leave=False)]
+    print(format_pose(posed))
+    print(f"\ndevelopment set {dev}, database {uri}")
+    report = {
+        "dev": str(dev),
+        "db": str(uri),
+        "summary": summarise_pose(posed),
+        "clips": [c.to_json() for c in posed],
+    }
+    _write_json(args.json_out, report)
     return 0

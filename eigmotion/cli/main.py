@@ -44,7 +44,7 @@ COMMANDS = {
     "show": "render a motion on the avatar: a contact sheet (.png) or a replay (.gif, .mp4)",
     "render": "render a motion's silhouettes and motion images from every camera of a rig",
     "serve": "a web page on this machine: upload a clip, see the answer, replay and 3D motion",
-    "eval": "score recognition on the independent development set (accuracy, IoU, time)",
+    "eval": "score recognition, tracking or pose on the independent development set",
     "check": "check a database file: readable or not, what is damaged, what is intact",
     "repair": "copy every intact motion of a damaged database file into a new file",
 }

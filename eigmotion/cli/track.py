@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -29,24 +28,24 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
-from eigmotion.mocap.library import find_motion
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.calibration import load_calibration
-from eigmotion.tracking.dictionary import PostureDictionary, build_dictionary, posture_sequence
+from eigmotion.tracking.dictionary import posture_sequence
 from eigmotion.tracking.generation import (
     playback_motion,
     smooth_headings_deg,
     variable_speed_playback,
 )
 from eigmotion.tracking.overlay import draw_outline
+from eigmotion.tracking.pipeline import (
+    DEFAULT_DICTIONARY,
+    DEFAULT_HEADING_STEP_DEG,
+    dictionary_from_specs,
+    read_motion,
+    track_clip,
+)
 from eigmotion.tracking.postures import heading_deg, posture_vectors
 from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
-
-#: Motions of the default dictionary (library names): CMU walks and both turns.
-DEFAULT_DICTIONARY = ("walk_02_01", "walk_16_15", "turn_16_17", "turn_16_19")
-
-#: Turns of the default dictionary's postures about the vertical, degrees.
-DEFAULT_HEADING_STEP_DEG = 15.0
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -135,28 +134,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dictionary-out", type=Path, help="save the dictionary (.npz)")
 
 
-def _read_motion(spec: str, asf: Path | None):
-    """A motion from a ``.bvh`` / ``.amc`` file or a library name."""
-    if Path(spec).suffix.lower() in (".bvh", ".amc") and not Path(spec).is_file():
-        raise InvalidParameterError(f"{spec}: motion file not found")
-    return find_motion(spec, asf)
-
-
 def load_dictionary(args: argparse.Namespace):
     """The posture dictionary the command line asks for."""
-    specs = args.dictionary or list(DEFAULT_DICTIONARY)
-    if len(specs) == 1 and specs[0].lower().endswith(".npz"):
-        return PostureDictionary.load(specs[0])
-    if any(s.lower().endswith(".npz") for s in specs):
-        raise InvalidParameterError("a saved dictionary (.npz) must be given on its own")
-    step = args.heading_step_deg
-    if not (np.isfinite(step) and 0 <= step <= 180):
-        raise InvalidParameterError(f"--heading-step-deg must be in [0, 180], got {step}")
-    headings = (0.0,) if step == 0 else tuple(np.arange(-180.0, 180.0, step))
-    motions = [_read_motion(s, args.asf) for s in specs]
-    return build_dictionary(
-        motions, threshold_deg=args.prune_deg, headings_deg=headings, face_forward=step > 0
-    )
+    return dictionary_from_specs(args.dictionary, args.asf, args.heading_step_deg, args.prune_deg)
 
 
 def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], float]:
@@ -233,19 +213,11 @@ def run(args: argparse.Namespace) -> int:
     tracker = SilhouetteTracker(
         dictionary, calibration.cameras, config=config, pairs=calibration.pairs
     )
-    step = max(1, int(round(fps / args.estimate_fps)))
-    started = time.perf_counter()
-    result = tracker.track(masks, frame_step=step, frame_time_s=1.0 / fps)
-    elapsed = time.perf_counter() - started
-    if not np.any(result.found):
-        raise InvalidParameterError("no person was found in any frame of the videos")
-    first = int(np.argmax(result.entries >= 0))
-    entries = result.entries.copy()
-    entries[:first] = entries[first]
-    positions = result.positions_m.copy()
-    positions[:first] = positions[first]
+    tracked = track_clip(tracker, masks, fps, args.estimate_fps)
+    result, step = tracked.result, tracked.frame_step
+    entries, positions = tracked.entries, tracked.positions_m
     if args.reference:
-        sequence = posture_sequence(_read_motion(args.reference, args.asf))
+        sequence = posture_sequence(read_motion(args.reference, args.asf))
         joint_ids = [dictionary.joint_names.index(n) for n in dictionary.vector_joints]
         reference = posture_vectors(sequence.local_rotations(), joint_ids)
         window = max(1, int(round(args.playback_window_s / sequence.frame_time_s)))
@@ -262,8 +234,7 @@ def run(args: argparse.Namespace) -> int:
         motion = dictionary.to_motion(
             entries, positions, result.frame_time_s, scale=tracker.body_scale_
         )
-        joints = result.joint_positions_m.copy()
-        joints[:first] = joints[first]
+        joints = tracked.joints_m
         names = dictionary.joint_names
     if args.bvh_out:
         write_bvh(motion, args.bvh_out)
@@ -279,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
         write_video(_overlay_frames(args, tracker, result, masks), args.overlay_out, fps / step)
     print(
         f"tracked {result.n_estimates} frames of {len(masks[0])} ({fps:g} fps, every {step}): "
-        f"{result.n_estimates / elapsed:.1f} estimates/s, "
+        f"{result.n_estimates / tracked.wall_s:.1f} estimates/s, "
         f"{result.n_evaluations[1:].mean() if result.n_estimates > 1 else 0:.1f} "
         f"postures scored per frame, dictionary of {len(dictionary)} postures",
         file=sys.stdout,

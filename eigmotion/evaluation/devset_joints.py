@@ -1,0 +1,322 @@
+"""The development set's 3D benchmarks, run in-process as the commands run them.
+
+* Two cameras (:func:`track_set`): each ``tracking/<id>/`` set (``cams.json``,
+  ``cam0.mp4``, ``cam1.mp4``, ``background0.png``, ``background1.png``, ``joints.npy``,
+  ``joints.json``) tracked as ``eigmotion track --calib cams.json cam0.mp4 cam1.mp4
+  --background background0.png background1.png --joints-out J.npz`` tracks it
+  (:func:`eigmotion.tracking.pipeline.track_clip`, the default dictionary and tracker
+  settings), scored by :func:`eigmotion.evaluation.joint_errors.tracking_errors`, with
+  the estimates per second of this process's CPU time (:func:`time.process_time`
+  around the tracking).
+* One camera (:func:`pose_clip`): each ``retrieval/<id>/`` clip asked with its
+  background as ``eigmotion query video.mp4 --background background.png --pose-out
+  P.npz`` asks it (:meth:`~eigmotion.retrieval.database.MotionDatabase.query_clip` for
+  every frame, then :func:`eigmotion.pose.continuous_pose.continuous_pose`), scored by
+  PA-MPJPE per frame and per clip over the 12 limb joints.
+
+The figures are those of ``shared/eval/score.py tracking`` and ``pose``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.evaluation.devset import DevClip
+from eigmotion.evaluation.joint_errors import (
+    LIMB_JOINTS,
+    TrackingErrors,
+    match_joints,
+    pa_mpjpe_per_clip,
+    pa_mpjpe_per_frame,
+    tracking_errors,
+)
+from eigmotion.evaluation.query_clips import TOP_K
+from eigmotion.evaluation.statistics import markdown_table
+from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.segmentation.video import load_clip_masks
+from eigmotion.tracking.calibration import load_calibration
+from eigmotion.tracking.dictionary import PostureDictionary
+from eigmotion.tracking.pipeline import track_clip
+from eigmotion.tracking.tracker import SilhouetteTracker
+
+
+def load_truth(folder: Path) -> tuple[tuple[str, ...], np.ndarray]:
+    """A clip's true joints: names (``joints.json``) and (F, 21, 3) positions, metres.
+
+    Raises
+    ------
+    InvalidParameterError
+        ``joints.npy`` or ``joints.json`` missing.
+    """
+    for name in ("joints.npy", "joints.json"):
+        if not (folder / name).is_file():
+            raise InvalidParameterError(f"{folder}: no {name}")
+    names = json.loads((folder / "joints.json").read_text())
+    names = names["names"] if isinstance(names, dict) else names
+    return tuple(str(n) for n in names), np.load(folder / "joints.npy").astype(np.float64)
+
+
+def load_tracking_sets(dev: Path, only: Sequence[str] | None = None) -> list[Path]:
+    """The folders of ``dev/tracking/`` with a ``cams.json``, sorted by id; those whose
+    id contains any of ``only`` if given."""
+    root = Path(dev) / "tracking"
+    if not root.is_dir():
+        return []
+    return [
+        folder
+        for folder in sorted(root.iterdir())
+        if (folder / "cams.json").is_file() and (not only or any(o in folder.name for o in only))
+    ]
+
+
+@dataclass(frozen=True)
+class TrackedSet:
+    """One two-camera set, tracked and scored.
+
+    Attributes
+    ----------
+    set_id : str
+    errors : TrackingErrors or None
+        None when the tracking raised.
+    estimates : int
+    cpu_s, wall_s : float
+        Time of the tracking itself (not reading the videos or building the
+        dictionary), seconds.
+    error : str or None
+        The message of the :class:`~eigmotion.errors.EigmotionError` raised.
+    """
+
+    set_id: str
+    errors: TrackingErrors | None
+    estimates: int
+    cpu_s: float
+    wall_s: float
+    error: str | None = None
+
+    @property
+    def estimates_per_cpu_s(self) -> float:
+        return self.estimates / self.cpu_s if self.cpu_s > 0 else float("nan")
+
+    def to_json(self) -> dict:
+        return {
+            "id": self.set_id,
+            **(self.errors.to_json() if self.errors else {}),
+            "estimates": self.estimates,
+            "cpu_s": round(self.cpu_s, 3),
+            "wall_s": round(self.wall_s, 3),
+            "estimates_per_cpu_s": round(self.estimates_per_cpu_s, 2) if self.cpu_s else None,
+            "error": self.error,
+        }
+
+
+def track_set(folder: Path, dictionary: PostureDictionary) -> TrackedSet:
+    """Track one set as ``eigmotion track`` does with its default settings, and score it."""
+    folder = Path(folder)
+    try:
+        calibration = load_calibration(folder / "cams.json")
+        masks, fps = [], None
+        for c, camera in enumerate(calibration.cameras):
+            clip = load_clip_masks(folder / f"cam{c}.mp4", folder / f"background{c}.png")
+            if clip.masks.shape[1:] != (camera.height, camera.width):
+                raise InvalidParameterError(
+                    f"{folder}/cam{c}.mp4: frames do not match camera {camera.name!r}"
+                )
+            masks.append(clip.masks)
+            fps = fps or clip.fps
+        tracker = SilhouetteTracker(dictionary, calibration.cameras, pairs=calibration.pairs)
+        tracked = track_clip(tracker, masks, fps)
+        true_names, truth = load_truth(folder)
+        frames = tracked.result.frames
+        keep = frames < len(truth)
+        errors = tracking_errors(
+            tracked.result.joint_names, tracked.joints_m[keep], true_names, truth[frames[keep]]
+        )
+    except EigmotionError as exc:
+        return TrackedSet(folder.name, None, 0, 0.0, 0.0, " ".join(str(exc).split()))
+    return TrackedSet(
+        folder.name, errors, tracked.result.n_estimates, tracked.cpu_s, tracked.wall_s
+    )
+
+
+@dataclass(frozen=True)
+class PosedClip:
+    """One single-camera clip's pose, scored.
+
+    Attributes
+    ----------
+    clip_id, label : str
+    per_frame_mm : float
+        Mean over frames of the PA-MPJPE with one alignment per frame, mm.
+    per_clip_mm : float
+        PA-MPJPE with one alignment for the whole clip, mm.
+    frames : int
+    seconds : float
+        Wall time of the query and the pose, seconds.
+    error : str or None
+    """
+
+    clip_id: str
+    label: str
+    per_frame_mm: float
+    per_clip_mm: float
+    frames: int
+    seconds: float
+    error: str | None = None
+
+    def to_json(self) -> dict:
+        ok = self.error is None
+        return {
+            "id": self.clip_id,
+            "label": self.label,
+            "pa_mpjpe_frame_mm": round(self.per_frame_mm, 2) if ok else None,
+            "pa_mpjpe_clip_mm": round(self.per_clip_mm, 2) if ok else None,
+            "frames": self.frames,
+            "seconds": round(self.seconds, 3),
+            "error": self.error,
+        }
+
+
+def pose_clip(db: MotionDatabase, clip: DevClip) -> PosedClip:
+    """Ask one clip with its background for its pose, as ``eigmotion query CLIP
+    --background B --pose-out P.npz`` does, and score it over :data:`LIMB_JOINTS`."""
+    # Lazy, as in the query command: the 3D answer loads retargeting and scipy.spatial.
+    from eigmotion.pose.continuous_pose import continuous_pose
+
+    started = time.perf_counter()
+    try:
+        result, cut = db.query_clip(clip.video, clip.background, TOP_K, every_frame=True)
+        pose = continuous_pose(db, result, cut.masks, cut.fps)
+        true_names, truth = load_truth(clip.folder)
+        est, true, _ = match_joints(pose.names, pose.positions, true_names, truth, LIMB_JOINTS)
+    except EigmotionError as exc:
+        message = " ".join(str(exc).split())
+        return PosedClip(clip.clip_id, clip.label, np.nan, np.nan, 0, 0.0, message)
+    seconds = time.perf_counter() - started
+    return PosedClip(
+        clip.clip_id,
+        clip.label,
+        float(pa_mpjpe_per_frame(est, true).mean()),
+        pa_mpjpe_per_clip(est, true),
+        len(est),
+        seconds,
+    )
+
+
+def _mean(values) -> float:
+    values = [v for v in values if np.isfinite(v)]
+    return float(np.mean(values)) if values else float("nan")
+
+
+def summarise_tracking(sets: Sequence[TrackedSet]) -> dict:
+    """The figures over every set tracked: mean MPJPE (the mean of the sets' MPJPE),
+    the worst set, mean root error, swaps and heading flips over all frames, and the
+    estimates per second of CPU time over all sets."""
+    scored = [s for s in sets if s.errors is not None]
+    cpu = sum(s.cpu_s for s in scored)
+    return {
+        "sets": len(sets),
+        "failed": len(sets) - len(scored),
+        "mpjpe_mm": _mean([s.errors.mpjpe_mm for s in scored]),
+        "worst_set_mm": max((s.errors.mpjpe_mm for s in scored), default=float("nan")),
+        "root_mm": _mean([s.errors.root_mm for s in scored if s.errors.root_mm is not None]),
+        "swaps": sum(s.errors.swaps for s in scored),
+        "heading_flips": sum(s.errors.heading_flips for s in scored),
+        "frames": sum(s.errors.frames for s in scored),
+        "estimates_per_cpu_s": sum(s.estimates for s in scored) / cpu if cpu else float("nan"),
+    }
+
+
+def format_tracking(sets: Sequence[TrackedSet]) -> str:
+    """The sets as Markdown: one row per set, then MPJPE per joint and set."""
+    scored = [s for s in sets if s.errors is not None]
+    rows = [
+        [
+            s.set_id,
+            f"{s.errors.mpjpe_mm:.0f}",
+            "—" if s.errors.root_mm is None else f"{s.errors.root_mm:.0f}",
+            f"{s.errors.swaps}/{s.errors.frames}",
+            f"{s.errors.heading_flips}/{s.errors.frames}",
+            f"{s.estimates_per_cpu_s:.1f}",
+        ]
+        for s in scored
+    ]
+    total = summarise_tracking(sets)
+    if scored:
+        rows.append(
+            [
+                "mean",
+                f"{total['mpjpe_mm']:.0f}",
+                f"{total['root_mm']:.0f}",
+                f"{total['swaps']}/{total['frames']}",
+                f"{total['heading_flips']}/{total['frames']}",
+                f"{total['estimates_per_cpu_s']:.1f}",
+            ]
+        )
+    header = ["set", "MPJPE mm", "root mm", "left/right swapped", "heading off > 90°",
+              "estimates / CPU s"]  # fmt: skip
+    lines = ["## tracking: two cameras, 13 joints", "", *markdown_table(header, rows)]
+    if scored:
+        joints = scored[0].errors.joints
+        per_joint = [
+            [j, *(f"{s.errors.per_joint_mm[k]:.0f}" for s in scored)] for k, j in enumerate(joints)
+        ]
+        lines += ["", "MPJPE per joint, mm:", ""]
+        lines += markdown_table(["joint", *(s.set_id for s in scored)], per_joint)
+    failed = [s for s in sets if s.errors is None]
+    if failed:
+        lines += ["", f"failed ({len(failed)}):", *(f"- {s.set_id}: {s.error}" for s in failed)]
+    return "\n".join(lines)
+
+
+def summarise_pose(clips: Sequence[PosedClip]) -> dict:
+    """Mean PA-MPJPE per frame and per clip over the clips scored, and per label."""
+    scored = [c for c in clips if c.error is None]
+    labels = sorted({c.label for c in scored})
+    return {
+        "clips": len(clips),
+        "failed": len(clips) - len(scored),
+        "pa_mpjpe_frame_mm": _mean([c.per_frame_mm for c in scored]),
+        "pa_mpjpe_clip_mm": _mean([c.per_clip_mm for c in scored]),
+        "per_label": {
+            label: {
+                "n": sum(c.label == label for c in scored),
+                "pa_mpjpe_frame_mm": _mean([c.per_frame_mm for c in scored if c.label == label]),
+                "pa_mpjpe_clip_mm": _mean([c.per_clip_mm for c in scored if c.label == label]),
+            }
+            for label in labels
+        },
+        "median_s": float(np.median([c.seconds for c in scored])) if scored else float("nan"),
+    }
+
+
+def format_pose(clips: Sequence[PosedClip]) -> str:
+    """The clips as Markdown: PA-MPJPE per label and overall, then the failures."""
+    total = summarise_pose(clips)
+    rows = [
+        [label, v["n"], f"{v['pa_mpjpe_frame_mm']:.0f}", f"{v['pa_mpjpe_clip_mm']:.0f}"]
+        for label, v in total["per_label"].items()
+    ]
+    n = total["clips"] - total["failed"]
+    if n:
+        rows.append(
+            ["all", n, f"{total['pa_mpjpe_frame_mm']:.0f}", f"{total['pa_mpjpe_clip_mm']:.0f}"]
+        )
+    header = ["label", "clips", "PA-MPJPE per frame mm", "PA-MPJPE per clip mm"]
+    lines = [
+        "## pose: one camera with its background, 12 limb joints",
+        "",
+        *markdown_table(header, rows),
+        "",
+        f"median time per clip (query and pose): {total['median_s']:.2f} s",
+    ]
+    failed = [c for c in clips if c.error is not None]
+    if failed:
+        lines += ["", f"failed ({len(failed)}):", *(f"- {c.clip_id}: {c.error}" for c in failed)]
+    return "\n".join(lines)
