@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import tempfile
 from pathlib import Path
@@ -130,15 +131,25 @@ def run(args: argparse.Namespace) -> int:
             }
     print("## all modes\n\n" + format_overview(summaries))
     print(f"\ndevelopment set {dev}, database {uri}, segmenter {args.segmenter}")
-    if args.json_out is not None:
-        args.json_out.write_text(json.dumps(report, indent=1))
-        print(f"wrote {args.json_out}", file=sys.stderr)
+    _write_json(args.json_out, report)
     return 0
+
+
+def _finite(value):
+    """``value`` with every NaN or infinity (a clip that got no answer) made ``None``,
+    so the file is strict JSON."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    return value
 
 
 def _write_json(path: Path | None, report: dict) -> None:
     if path is not None:
-        path.write_text(json.dumps(report, indent=1))
+        path.write_text(json.dumps(_finite(report), indent=1, allow_nan=False))
         print(f"wrote {path}", file=sys.stderr)
 
 
