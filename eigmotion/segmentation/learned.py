@@ -252,12 +252,15 @@ def learned_masks(
         All False in a frame where no blob covers ``min_person_frac`` of the image, or
         where the person covers more than :data:`OUTLIER_AREA` times the clip's median.
     people : (F,) int64
-        Blobs per frame large enough to be a person (:data:`PERSON_SHARE`).
+        Blobs per frame large enough to be a person (:data:`PERSON_SHARE`): the more
+        of the two passes' counts (the square may leave out a person beside).
     """
     h, w = size
     frame_size = frames.shape[1:3]
     first = person_probabilities(np.stack([model_input(f) for f in frames]))
     probabilities = np.stack([cv2.resize(p, (w, h), interpolation=cv2.INTER_LINEAR) for p in first])
+    # people are counted on the whole frame too: a square may leave out a person beside
+    whole_frame_people = [person_in_frame(p > PERSON_PROBABILITY, config)[1] for p in probabilities]
     boxes = _person_boxes(probabilities, config, frame_size)
     longest = max(frame_size)
     for i, box in enumerate(boxes):
@@ -274,6 +277,7 @@ def learned_masks(
     people = np.zeros(len(probabilities), np.int64)
     for i, p in enumerate(probabilities):
         masks[i], people[i] = person_in_frame(p > PERSON_PROBABILITY, config)
+        people[i] = max(people[i], whole_frame_people[i])
     area = masks.sum(axis=(1, 2))
     if area.any():
         outliers = area > OUTLIER_AREA * np.median(area[area > 0])
