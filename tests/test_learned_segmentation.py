@@ -24,6 +24,8 @@ from eigmotion.segmentation import learned
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.learned import (
     MODEL_PATH,
+    crop_input,
+    crop_probabilities_back,
     model_input,
     people_in_view,
     person_in_frame,
@@ -55,11 +57,7 @@ def test_the_network_ships_with_its_licence():
     assert "Apache License" in licence and "Version 2.0" in licence
 
 
-def test_learned_masks_find_the_person_the_background_image_shows():
-    """The kick sample: the avatar fills half the frame's height.  The network takes
-    the rendered floor for the person in some frames (and in ``walk_3s``, where the
-    avatar walks away to a quarter of the height, loses it: docs/segmentation.md)."""
-    clip = "kick"
+def _cut_and_reference(clip: str):
     video = SAMPLES / f"{clip}.mp4"
     background = SAMPLES / f"{clip}_background.png"
     cut = load_clip_masks(video, None, QUERY_CONFIG, 15.0, segmenter="learned")
@@ -68,9 +66,49 @@ def test_learned_masks_find_the_person_the_background_image_shows():
     assert cut.masks.shape == reference.masks.shape
     np.testing.assert_array_equal(cut.frame_indices, reference.frame_indices)
     overlap = np.array([_iou(a, b) for a, b in zip(cut.masks, reference.masks, strict=True)])
-    assert np.median(overlap) >= 0.6, f"median IoU {np.median(overlap):.3f}"
-    assert (overlap > 0.05).all(), f"worst frame IoU {overlap.min():.3f}"
+    return cut, overlap
+
+
+def test_learned_masks_find_the_person_the_background_image_shows():
+    """The kick sample: the avatar fills half the frame's height.  In its first frames
+    the network takes much of the rendered floor for the person: those frames' masks,
+    over three times the clip's median area, are left empty."""
+    cut, overlap = _cut_and_reference("kick")
+    found = cut.masks.any(axis=(1, 2))
+    assert np.count_nonzero(~found) <= 6 and not found[:3].any()
+    assert np.median(overlap[found]) >= 0.7, f"median IoU {np.median(overlap[found]):.3f}"
+    assert np.mean(overlap[found] >= 0.6) >= 0.9, np.round(overlap, 2)
     assert cut.people == 1
+
+
+def test_the_second_pass_finds_a_distant_person():
+    """The walk sample: the avatar walks away to a quarter of the frame's height.  The
+    whole frame at 256×256 loses it in 19 of the 46 frames; the second pass, on a
+    square around it, finds it in nearly all of them."""
+    cut, overlap = _cut_and_reference("walk_3s")
+    found = cut.masks.any(axis=(1, 2))
+    assert np.count_nonzero(found) >= 42, f"{np.count_nonzero(found)} of {len(found)} frames"
+    assert np.median(overlap) >= 0.75, f"median IoU {np.median(overlap):.3f}"
+    assert np.median(overlap[-15:]) >= 0.75  # the last frames, where it is smallest
+
+
+def test_a_crop_goes_back_where_it_was_cut():
+    """:func:`crop_input` and :func:`crop_probabilities_back` are inverse maps: a
+    bright square in a frame, cut out, taken as probabilities and put back on the
+    working size, lands on the square shrunk to that size, and nothing outside the
+    cut square is set."""
+    frame = np.zeros((240, 320, 3), np.uint8)
+    frame[100:160, 200:240] = 255
+    view, matrix = crop_input(frame, (220.0, 130.0, 128.0))
+    assert view.shape == (256, 256, 3) and view.dtype == np.uint8
+    assert view[..., 0].mean() > 0.1 * 255  # zoomed twice: the square fills a good part
+    back = crop_probabilities_back(
+        view[..., 0].astype(np.float32) / 255.0, matrix, frame.shape[:2], (120, 160)
+    )
+    expected = np.zeros((120, 160), bool)
+    expected[50:80, 100:120] = True
+    assert _iou(back > 0.5, expected) > 0.9
+    assert back[:, :75].max() == 0 and back[:, 146:].max() == 0  # outside the cut square
 
 
 def test_probabilities_lie_in_0_1_and_a_blank_frame_has_no_person():
@@ -136,15 +174,18 @@ def test_resolve_segmenter():
         resolve_segmenter("grabcut", False)
 
 
-def test_learned_masks_of_every_frame_hold_the_sampled_ones(db_path):
-    """The network cuts each frame on its own: the 3D answer's masks of every frame are
-    the answer's masks where the frames are the same."""
+def test_learned_masks_of_every_frame_match_the_sampled_ones(db_path):
+    """The 3D answer's masks of every frame are cut as the answer's are: where the
+    frames are the same, the masks overlap (the second pass's boxes and the outlier
+    rule see the neighbouring frames, which differ)."""
     kick = SAMPLES / "kick.mp4"
     with MotionDatabase.open(db_path) as db:
         sampled, clip = db.query_clip(kick)
         every, whole = db.query_clip(kick, every_frame=True)
     assert clip.segmenter == whole.segmenter == "learned"
-    np.testing.assert_array_equal(whole.masks[clip.frame_indices], clip.masks)
+    pairs = zip(whole.masks[clip.frame_indices], clip.masks, strict=True)
+    overlap = np.array([_iou(a, b) for a, b in pairs if a.any() and b.any()])
+    assert len(overlap) >= 0.7 * len(clip.masks) and np.median(overlap) >= 0.9
     assert sampled.best.entry_id == every.best.entry_id and sampled.warnings == ()
 
 

@@ -10,12 +10,23 @@ downloaded.  It runs on the CPU through the LiteRT interpreter when the optional
 else through OpenCV's DNN module, which reads the same file and gives the same
 probabilities, several times slower (``docs/segmentation.md`` has the measurements).
 
-Each frame is resized whole to the network's input (no cropping), its probabilities
-resized back to the working size of the classical path
-(:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
-:data:`PERSON_PROBABILITY`; then, as in the classical path, the largest blob and the
-big pieces beside it are the person (:func:`person_in_frame`).  The masks go on to the
-motion image exactly as the classical masks do.
+Each frame goes through the network twice.  First whole, resized to the network's
+input (no cropping); its probabilities, resized back to the working size of the
+classical path (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`)
+and cut at :data:`PERSON_PROBABILITY`, give a box around the person.  Then a square
+around that box (:data:`CROP_MARGIN` times its longer side, at least
+:data:`CROP_MIN_SIDE_PX` pixels so the network never sees the frame enlarged more than
+twice) is cut out and given to the network again, and its probabilities, put back in
+place, replace the first ones: a small or distant person fills the network's input
+instead of a few of its pixels.  A frame with no box takes the box of its neighbours
+(the median of those within :data:`BOX_NEIGHBOURS` frames, else the nearest frame's);
+a first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched again at
+:data:`SEED_PROBABILITY`.  A square as large as the frame is not cut: the first
+pass stands.  Then, as in the classical path, the largest blob and the big pieces
+beside it are the person (:func:`person_in_frame`), and a frame whose person covers
+more than :data:`OUTLIER_AREA` times the clip's median area is left empty: the network
+has taken part of the scene (a rendered floor) for the person there.  The masks go on
+to the motion image exactly as the classical masks do.
 
 Every blob beside the largest one and at least :data:`PERSON_SHARE` of its area is
 counted as one more person in view (:func:`people_in_view`): a clip with two people side by side is
@@ -51,6 +62,28 @@ MODEL_SIDE_PX = 256
 
 #: A pixel whose probability of being the person is above this is the person.
 PERSON_PROBABILITY = 0.5
+
+#: Where the first pass finds no one above :data:`PERSON_PROBABILITY`, its largest
+#: blob above this gives the box for the second pass.
+SEED_PROBABILITY = 0.1
+
+#: The second pass's square is this many times the person's box's longer side ...
+CROP_MARGIN = 1.5
+
+#: ... and at least this many pixels of the (stored) frame, and a fifth of its longer
+#: side: the network's 256-pixel input never enlarges the frame more than twice.
+CROP_MIN_SIDE_PX = MODEL_SIDE_PX // 2
+
+#: A frame without a box of its own takes the median box of those this many frames
+#: before and after it.
+BOX_NEIGHBOURS = 2
+
+#: A frame whose person covers more than this many times the clip's median person area
+#: is left empty (the network took part of the scene for the person).
+OUTLIER_AREA = 3.0
+
+#: Frames are kept for the network at most this many pixels on their longer side.
+STORE_MAX_SIDE_PX = 640
 
 #: A blob counts as a person in view when its area is at least this share of the
 #: frame's largest blob (and at least the smallest person's area).
@@ -104,6 +137,63 @@ def model_input(frame: np.ndarray) -> np.ndarray:
     return cv2.resize(frame, (MODEL_SIDE_PX, MODEL_SIDE_PX), interpolation=interpolation)
 
 
+def stored_frame(frame: np.ndarray) -> np.ndarray:
+    """One RGB frame (H, W, 3) uint8 as it is kept for the network: shrunk by a whole
+    factor (area averaging) to at most :data:`STORE_MAX_SIDE_PX` on its longer side."""
+    h, w = frame.shape[:2]
+    factor = max(1, math.ceil(max(h, w) / STORE_MAX_SIDE_PX))
+    if factor == 1:
+        return frame
+    return cv2.resize(frame, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
+
+
+def crop_input(frame: np.ndarray, box: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The square ``box`` of a frame resized to the network's input.
+
+    Parameters
+    ----------
+    frame : (H, W, 3) uint8
+        RGB.
+    box : (float, float, float)
+        Centre x, centre y and side of the square, pixels of ``frame``; what lies
+        outside the frame is black.
+
+    Returns
+    -------
+    input : (256, 256, 3) uint8
+    matrix : (2, 3) float64
+        The affine map from ``frame``'s pixel coordinates to the input's.
+    """
+    cx, cy, side = box
+    scale = MODEL_SIDE_PX / side
+    matrix = np.array(
+        [[scale, 0.0, MODEL_SIDE_PX / 2 - scale * cx], [0.0, scale, MODEL_SIDE_PX / 2 - scale * cy]]
+    )
+    if scale < 1:  # blurred before it is shrunk
+        frame = cv2.GaussianBlur(frame, (0, 0), 0.5 / scale)
+    view = cv2.warpAffine(
+        frame, matrix, (MODEL_SIDE_PX, MODEL_SIDE_PX), flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+    )  # fmt: skip
+    return view, matrix
+
+
+def crop_probabilities_back(
+    probabilities: np.ndarray, matrix: np.ndarray, frame_size: tuple[int, int],
+    size: tuple[int, int],
+) -> np.ndarray:  # fmt: skip
+    """The network's (256, 256) probabilities for :func:`crop_input`'s square put back
+    in place on the working size ``size`` (H', W') of a frame of ``frame_size`` (H, W)
+    pixels; 0 outside the square.  (H', W') float32."""
+    h, w = size
+    ay, ax = frame_size[0] / h, frame_size[1] / w
+    to_frame = np.array([[ax, 0, 0.5 * ax - 0.5], [0, ay, 0.5 * ay - 0.5], [0, 0, 1.0]])
+    return cv2.warpAffine(
+        probabilities, matrix @ to_frame, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+    )  # fmt: skip
+
+
 def working_size(height: int, width: int, config: SilhouetteConfig) -> tuple[int, int]:
     """(H', W') of a frame of ``height`` × ``width`` pixels at the working size, as
     :func:`~eigmotion.segmentation.evidence.shrink` shrinks it."""
@@ -142,14 +232,15 @@ def person_probabilities(inputs: np.ndarray) -> np.ndarray:
 
 
 def learned_masks(
-    inputs: np.ndarray, size: tuple[int, int], config: SilhouetteConfig
+    frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The person in each frame, and the people in view.
+    """The person in each frame, and the people in view (two passes of the network:
+    the module's description).
 
     Parameters
     ----------
-    inputs : (F, 256, 256, 3) uint8
-        Frames made by :func:`model_input`, RGB.
+    frames : (F, H, W, 3) uint8
+        The clip's frames (:func:`stored_frame`), RGB.
     size : (int, int)
         (H', W') of the masks wanted: the frames' working size (:func:`working_size`).
     config : SilhouetteConfig
@@ -158,18 +249,84 @@ def learned_masks(
     Returns
     -------
     masks : (F, H', W') bool
-        All False in a frame where no blob covers ``min_person_frac`` of the image.
+        All False in a frame where no blob covers ``min_person_frac`` of the image, or
+        where the person covers more than :data:`OUTLIER_AREA` times the clip's median.
     people : (F,) int64
-        Blobs per frame large enough to be a person (:data:`PERSON_SHARE`).
+        Blobs per frame large enough to be a person (:data:`PERSON_SHARE`): the more
+        of the two passes' counts (the square may leave out a person beside).
     """
     h, w = size
-    probabilities = person_probabilities(inputs)
+    frame_size = frames.shape[1:3]
+    first = person_probabilities(np.stack([model_input(f) for f in frames]))
+    probabilities = np.stack([cv2.resize(p, (w, h), interpolation=cv2.INTER_LINEAR) for p in first])
+    # people are counted on the whole frame too: a square may leave out a person beside
+    whole_frame_people = [person_in_frame(p > PERSON_PROBABILITY, config)[1] for p in probabilities]
+    boxes = _person_boxes(probabilities, config, frame_size)
+    longest = max(frame_size)
+    for i, box in enumerate(boxes):
+        if box is None:
+            continue
+        x0, y0, x1, y1 = box
+        side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
+        if side >= longest:
+            continue
+        view, matrix = crop_input(frames[i], ((x0 + x1) / 2, (y0 + y1) / 2, side))
+        second = person_probabilities(view[None])[0]
+        probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
     masks = np.zeros((len(probabilities), h, w), bool)
     people = np.zeros(len(probabilities), np.int64)
     for i, p in enumerate(probabilities):
-        p = cv2.resize(p, (w, h), interpolation=cv2.INTER_LINEAR)
         masks[i], people[i] = person_in_frame(p > PERSON_PROBABILITY, config)
+        people[i] = max(people[i], whole_frame_people[i])
+    area = masks.sum(axis=(1, 2))
+    if area.any():
+        outliers = area > OUTLIER_AREA * np.median(area[area > 0])
+        masks[outliers], people[outliers] = False, 0
     return masks, people
+
+
+def _person_boxes(
+    probabilities: np.ndarray, config: SilhouetteConfig, frame_size: tuple[int, int]
+) -> list[tuple[float, float, float, float] | None]:
+    """The box (x0, y0, x1, y1), pixels of frames of ``frame_size`` (H, W), around the
+    person of each frame of the first pass's (F, H', W') probabilities; a frame without
+    one takes its neighbours' (the module's description); all None when no frame has
+    one."""
+    h, w = probabilities.shape[1:]
+    ay, ax = frame_size[0] / h, frame_size[1] / w
+    own = np.full((len(probabilities), 4), np.nan)
+    for i, p in enumerate(probabilities):
+        person, _ = person_in_frame(p > PERSON_PROBABILITY, config)
+        if not person.any():
+            person = _largest_blob(p > PERSON_PROBABILITY)
+        if not person.any():
+            person = _largest_blob(p > SEED_PROBABILITY)
+        if person.any():
+            ys, xs = np.nonzero(person)
+            own[i] = xs.min() * ax, ys.min() * ay, (xs.max() + 1) * ax, (ys.max() + 1) * ay
+    found = np.flatnonzero(~np.isnan(own[:, 0]))
+    boxes: list[tuple[float, float, float, float] | None] = []
+    for i in range(len(own)):
+        if len(found) == 0:
+            boxes.append(None)
+            continue
+        if i in found:
+            box = own[i]
+        else:
+            near = found[np.abs(found - i) <= BOX_NEIGHBOURS]
+            if len(near) == 0:
+                near = found[[np.argmin(np.abs(found - i))]]
+            box = np.median(own[near], axis=0)
+        boxes.append(tuple(float(v) for v in box))
+    return boxes
+
+
+def _largest_blob(mask: np.ndarray) -> np.ndarray:
+    """The largest 8-connected blob of a (H, W) bool mask (all False when it has none)."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), 8)
+    if count <= 1:
+        return np.zeros(mask.shape, bool)
+    return labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
 
 
 def person_in_frame(mask: np.ndarray, config: SilhouetteConfig) -> tuple[np.ndarray, int]:

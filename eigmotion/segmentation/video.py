@@ -34,9 +34,9 @@ from eigmotion.segmentation.evidence import check_frames, shrink
 from eigmotion.segmentation.learned import (
     count_people,
     learned_masks,
-    model_input,
     people_in_view,
     resolve_segmenter,
+    stored_frame,
     working_size,
 )
 from eigmotion.segmentation.subtraction import CHUNK_FRAMES, frame_chunks, segment_chunks
@@ -273,15 +273,17 @@ def _learned_clip_masks(
     path: Path, config: SilhouetteConfig, sample_fps: float | None, progress: bool
 ) -> ClipMasks:
     """:func:`load_clip_masks` of a video through the learned segmenter: each frame is
-    resized to the network's input as soon as it is decoded."""
+    kept at most :data:`~eigmotion.segmentation.learned.STORE_MAX_SIDE_PX` on its longer
+    side as soon as it is decoded, and cut out once the clip is read (the network's
+    second pass and its outlier rule look at the neighbouring frames)."""
     sizes = []
 
-    def to_model_input(frame: np.ndarray) -> np.ndarray:
+    def keep_frame(frame: np.ndarray) -> np.ndarray:
         if not sizes:
             sizes.append(frame.shape[:2])
-        return model_input(frame)
+        return stored_frame(frame)
 
-    stream = FrameSampleStream(path, sample_fps, progress=progress, transform=to_model_input)
+    stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
     masks, people = learned_masks(inputs, working_size(*sizes[0], config), config)
     if not masks.any():
