@@ -148,12 +148,13 @@ def test_track_end_to_end(scene, tracked, capsys, tmp_path):
     assert frames.shape[1:3] == (240, 640)
     yellow = (frames[..., 0] > 200) & (frames[..., 1] > 180) & (frames[..., 2] < 80)
     assert yellow.sum(axis=(1, 2)).min() > 50  # the outline is drawn in every frame
-    # the saved dictionary is reused, and a reference motion is replayed
+    # the saved dictionary is reused, and a reference motion is replayed; the
+    # direction-of-travel prior off, the body's height measured from the top
     code, out, err = run_cli(
         [
             "--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz",
             "--reference", "walk_02_01", "--bvh-out", tmp_path / "ref.bvh",
-            "--joints-out", tmp_path / "ref.npz",
+            "--joints-out", tmp_path / "ref.npz", "--no-travel-prior", "--scale-from-top",
         ],
         capsys,
     )  # fmt: skip

@@ -128,12 +128,18 @@ def track(tracker: SilhouetteTracker, masks: list[np.ndarray]) -> tuple:
     work it is the single-core cost, where wall time also counts waiting for a core.
     """
     tracker.reset()
+    frames = np.arange(len(masks[0]))
+    c0, w0 = time.process_time(), time.perf_counter()
+    travel = tracker.travel_directions(masks, frames, 1.0 / ESTIMATE_FPS)
+    # the direction of travel (all frames at once) counts in every frame's cost
+    travel_cpu = (time.process_time() - c0) / len(frames)
+    travel_wall = (time.perf_counter() - w0) / len(frames)
     estimates, cpu, wall = [], [], []
-    for f in range(len(masks[0])):
+    for f in frames:
         c0, w0 = time.process_time(), time.perf_counter()
-        estimates.append(tracker.step([m[f] for m in masks]))
-        cpu.append(time.process_time() - c0)
-        wall.append(time.perf_counter() - w0)
+        estimates.append(tracker.step([m[f] for m in masks], travel[f]))
+        cpu.append(time.process_time() - c0 + travel_cpu)
+        wall.append(time.perf_counter() - w0 + travel_wall)
     result = tracker.result(estimates, np.arange(len(estimates)), 1.0 / ESTIMATE_FPS)
     return result, cpu[0], np.asarray(cpu[1:]), np.asarray(wall[1:])
 
@@ -150,6 +156,9 @@ def main() -> None:
     )
     parser.add_argument(
         "--no-recovery", action="store_true", help="no whole-dictionary search on poor scores"
+    )
+    parser.add_argument(
+        "--no-travel", action="store_true", help="no direction-of-travel prior on the heading"
     )
     args = parser.parse_args()
 
@@ -194,6 +203,7 @@ def main() -> None:
                 exhaustive=mode == "exhaustive",
                 body_scale=args.body_scale,
                 recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
+                travel_tolerance_deg=None if args.no_travel else TrackerConfig.travel_tolerance_deg,
             )
             tracker = SilhouetteTracker(dictionary, cams, bodies, config)
             result, first_s, later_s, later_wall_s = track(tracker, masks)

@@ -119,6 +119,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="never search the whole dictionary again when the match gets poor",
     )
     parser.add_argument(
+        "--no-travel-prior",
+        action="store_true",
+        help="do not expect the person to face where they walk (e.g. walking backwards)",
+    )
+    parser.add_argument(
+        "--scale-from-top",
+        action="store_true",
+        help="measure the person's height from the top of the silhouettes down to where "
+        "the estimate stands (when background subtraction loses the feet)",
+    )
+    parser.add_argument(
         "--reference",
         help="reference motion replayed at variable speed for --bvh-out/--joints-out",
     )
@@ -205,6 +216,8 @@ def run(args: argparse.Namespace) -> int:
         exhaustive=args.exhaustive,
         body_scale=args.body_scale,
         recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
+        travel_tolerance_deg=None if args.no_travel_prior else TrackerConfig.travel_tolerance_deg,
+        scale_from_top=args.scale_from_top,
     )
     masks, fps = _load_masks(args, calibration.cameras)
     dictionary = load_dictionary(args)

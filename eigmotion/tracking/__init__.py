@@ -4,10 +4,12 @@ Offline, a posture dictionary is built from mocap (:mod:`.dictionary`) and the b
 model is posed in every posture (:mod:`.body`).  Online, per set of views: the
 person's 3D position from the silhouettes' centroids (:mod:`.position`), candidate
 postures near the previous one, their silhouettes scored against the observed ones
-(:mod:`.similarity`) through the 2-layer search tree (:mod:`.search`), all driven by
-:class:`~.tracker.SilhouetteTracker`.  Smooth output motion comes from variable-speed
-playback of a reference sequence (:mod:`.generation`).  Cameras come from a
-calibration file or from checkerboard images (:mod:`.calibration`).
+(:mod:`.similarity`, :mod:`.frame_scoring`; postures facing away from the direction
+of travel penalised, :mod:`.heading`) through the 2-layer search tree
+(:mod:`.search`), all driven by :class:`~.tracker.SilhouetteTracker`.  Smooth output
+motion comes from variable-speed playback of a reference sequence
+(:mod:`.generation`).  Cameras come from a calibration file or from checkerboard
+images (:mod:`.calibration`).
 
 The tracker stands beside the retrieval stages and does not use the motion database.
 """
@@ -36,6 +38,7 @@ from eigmotion.tracking.generation import (
     playback_motion,
     variable_speed_playback,
 )
+from eigmotion.tracking.heading import facing_deg, travel_headings
 from eigmotion.tracking.position import intersect_plane_lines, locate, mask_centroid, select_pair
 from eigmotion.tracking.postures import d1_distance, d2_distance
 from eigmotion.tracking.search import (
@@ -71,6 +74,7 @@ __all__ = [
     "dictionary_from_motion",
     "dictionary_from_sequences",
     "exhaustive_search",
+    "facing_deg",
     "intersect_plane_lines",
     "load_calibration",
     "load_cameras",
@@ -84,6 +88,7 @@ __all__ = [
     "select_candidates",
     "select_pair",
     "similarity",
+    "travel_headings",
     "two_layer_search",
     "variable_speed_playback",
 ]

@@ -29,12 +29,20 @@ from typing import ClassVar
 
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import Camera
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.tracking.body import PostureBodies, avatar_bodies
 from eigmotion.tracking.calibration import CameraPair
 from eigmotion.tracking.dictionary import PostureDictionary, closeness_matrix, select_candidates
+from eigmotion.tracking.frame_scoring import FrameScorer
+from eigmotion.tracking.heading import (
+    FACING_PAIRS,
+    facing_deg,
+    heading_penalty,
+    rough_positions,
+    travel_headings,
+)
 from eigmotion.tracking.position import intersect_plane_lines, mask_centroid, select_pair
 from eigmotion.tracking.postures import d1_distance
 from eigmotion.tracking.search import (
@@ -46,8 +54,7 @@ from eigmotion.tracking.search import (
     exhaustive_search,
     two_layer_search,
 )
-from eigmotion.tracking.similarity import ViewWindow, score_masks, view_window
-from eigmotion.validation import Interval, SequenceOf, validate_params
+from eigmotion.validation import Interval, Options, SequenceOf, validate_params
 
 RenderMasks = Callable[[np.ndarray, np.ndarray, Camera], np.ndarray]
 
@@ -94,6 +101,10 @@ class TrackerConfig:
         Bounds of the measured body scale.
     body_scale_estimates : int
         Number of first estimates the body scale is measured on (it is then kept).
+    scale_from_top : bool
+        Measure the observed height from the top of the silhouette down to where the
+        estimate's feet stand (True) rather than to the silhouette's lowest row:
+        feet lost to background subtraction then do not shrink the body.
     exhaustive : bool
         Score every candidate instead of searching the tree (the reference).
     init_branching, init_beam : int
@@ -111,6 +122,20 @@ class TrackerConfig:
         Estimates whose median score is the reference of ``recovery_ratio``.
     min_silhouette_px : int
         A view whose silhouette has fewer pixels is ignored.
+    travel_tolerance_deg : float or None
+        Direction-of-travel prior (:mod:`~eigmotion.tracking.heading`): while the
+        body centre moves at ``travel_min_speed_mps`` or faster, postures facing more
+        than this many degrees away from its direction of travel lose
+        ``travel_weight`` of score per 90° beyond it.  ``None``: off (the paper's
+        tracker).  Needs two cameras or more and whole clips
+        (:meth:`~SilhouetteTracker.track`), or the direction given to
+        :meth:`~SilhouetteTracker.step`.
+    travel_weight : float
+        Score taken off per 90° beyond the tolerance (one camera's score is ≤ 1).
+    travel_window_s : float
+        Seconds over which the direction of travel is measured (centred).
+    travel_min_speed_mps : float
+        Slower than this, metres per second, the direction of travel is not used.
     """
 
     layer_step: int = 3
@@ -125,6 +150,7 @@ class TrackerConfig:
     body_scale: float | None = None
     body_scale_range: tuple[float, float] = (0.8, 1.25)
     body_scale_estimates: int = 8
+    scale_from_top: bool = True
     exhaustive: bool = False
     init_branching: int = 24
     init_beam: int = 5
@@ -132,6 +158,10 @@ class TrackerConfig:
     recovery_ratio: float | None = 0.93
     recovery_window: int = 15
     min_silhouette_px: int = 30
+    travel_tolerance_deg: float | None = 60.0
+    travel_weight: float = 1.0
+    travel_window_s: float = 0.5
+    travel_min_speed_mps: float = 0.3
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: order of ``body_scale_range`` is checked after.
@@ -151,8 +181,13 @@ class TrackerConfig:
         "max_d2_m": _POSITIVE,
         "max_heading_deg": [None, _POSITIVE],
         "scales": SCALE_FACTORS,
+        "scale_from_top": Options(bool, [True, False]),
         "recovery_ratio": [None, Interval(Real, 0.0, 1.0, closed="right", noun="")],
         "body_scale": [None, Interval(Real, 0.3, 3.0, noun="a factor")],
+        "travel_tolerance_deg": [None, Interval(Real, 0.0, 180.0, noun="degrees")],
+        "travel_weight": Interval(Real, 0.0, None, noun=""),
+        "travel_window_s": _POSITIVE,
+        "travel_min_speed_mps": Interval(Real, 0.0, None, noun=""),
     }
 
     def __post_init__(self):
@@ -243,94 +278,23 @@ class TrackResult:
         return len(self.entries)
 
 
-def _row_extent(mask: np.ndarray) -> int:
-    """Number of rows from the top to the bottom of a silhouette (0 if empty)."""
-    rows = np.flatnonzero(np.asarray(mask).any(axis=1))
-    return int(rows[-1] - rows[0] + 1) if rows.size else 0
+def _height_ratio(observed: np.ndarray, rendered: np.ndarray, from_top: bool) -> float:
+    """The observed silhouette's height over the rendered one's (NaN if either is empty).
+
+    ``from_top``: both measured from the rendered silhouette's lowest row (the feet on
+    the floor where the body stands) up to each one's top row, so that feet missing
+    from the observed silhouette (cut out with the floor) do not shorten it.
+    """
+    rows_o = np.flatnonzero(np.asarray(observed).any(axis=1))
+    rows_r = np.flatnonzero(np.asarray(rendered).any(axis=1))
+    if not (rows_o.size and rows_r.size):
+        return float("nan")
+    bottom_o = rows_r[-1] if from_top else rows_o[-1]
+    return float(bottom_o - rows_o[0] + 1) / float(rows_r[-1] - rows_r[0] + 1)
 
 
 def _default_renderer() -> RenderMasks:
     return render_masks
-
-
-class _FrameScorer:
-    """Scores of dictionary entries against one frame's silhouettes.
-
-    Holds the rectangles ``R(c)`` (fitted to a pool of candidate entries at the
-    tracker's current body scale) and the observed silhouettes sampled in them.
-    Calling it with (M,) entries returns their (M,) scores (the search functions'
-    interface) and records each entry's best shifts in :attr:`detail`.
-    """
-
-    def __init__(self, tracker, masks, used, position, pool):
-        cfg = tracker.config
-        self.tracker = tracker
-        self.used = list(used)
-        self.position = np.asarray(position, dtype=np.float64)
-        self.body_scale = float(tracker.body_scale_)
-        self.detail: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        heights = tracker.dictionary.body_height_m
-        root = np.zeros((len(pool), 1, 3))
-        root[:, 0, [0, 2]] = self.position[[0, 2]]
-        root[:, 0, 1] = self.body_scale * heights[pool]
-        corners = tracker.bodies.box_corners(pool, np.zeros(3), self.body_scale) + root
-        corners = corners.reshape(-1, 3)
-        self.windows: list[ViewWindow] = []
-        self.observed: list[np.ndarray] = []
-        self.centers: list[np.ndarray] = []
-        for c in self.used:
-            cam = tracker.cameras[c]
-            px, depth = cam.project(corners)
-            center, _ = cam.project(self.position[None])
-            pts = px[depth > 0]
-            if len(pts) == 0:
-                raise VideoError(f"camera {cam.name!r}: the person's position is behind it")
-            pts = np.concatenate([center + s * (pts - center) for s in cfg.scales])
-            window = view_window(cam, pts, cfg.shift_radius_px + 1, cfg.downsample)
-            self.windows.append(window)
-            self.observed.append(window.crop(masks[c]))
-            self.centers.append(center[0])
-        self.radius = -(-cfg.shift_radius_px // cfg.downsample)
-
-    def root_positions(self, entries: np.ndarray, body_scale: float) -> np.ndarray:
-        """(M, 3): each entry's body centre: at G horizontally, its own height."""
-        root = np.repeat(self.position[None], len(entries), axis=0)
-        root[:, 1] = body_scale * self.tracker.dictionary.body_height_m[entries]
-        return root
-
-    def __call__(self, entries: np.ndarray) -> np.ndarray:
-        """(M,) float64 similarity ``s(m)`` of entries."""
-        tracker, cfg = self.tracker, self.tracker.config
-        body_scale = self.body_scale
-        entries = np.asarray(entries, dtype=np.int64)
-        verts = tracker.bodies.vertices(entries, np.zeros(3), body_scale)
-        verts += self.root_positions(entries, body_scale)[:, None, :].astype(np.float32)
-        total = np.zeros(len(entries))
-        shifts = np.zeros((len(entries), len(self.used), 2))
-        scales = np.ones((len(entries), len(self.used)))
-        views = zip(self.windows, self.observed, self.centers, strict=True)
-        for k, (window, obs, center) in enumerate(views):
-            best = np.full(len(entries), -np.inf)
-            for s in cfg.scales:
-                rendered = tracker.render_masks(
-                    verts, tracker.bodies.faces, window.window_camera(s, center)
-                )
-                sc, sh = score_masks(obs, rendered, self.radius)
-                better = sc > best
-                best[better] = sc[better]
-                shifts[better, k] = sh[better] * cfg.downsample
-                scales[better, k] = s
-            total += best
-        for i, e in enumerate(entries.tolist()):
-            self.detail[e] = (shifts[i], scales[i])
-        return total
-
-    def refined_position(self, entry: int, shifts_px: np.ndarray) -> np.ndarray:
-        """(3,) the body centre moved by the best shifts: new rays, new intersection."""
-        root = self.root_positions(np.array([entry]), self.body_scale)[0]
-        cams = [self.tracker.cameras[c] for c in self.used]
-        pixels = np.stack([cam.project(root[None])[0][0] for cam in cams]) + shifts_px
-        return intersect_plane_lines(cams, pixels, float(root[1]), root)
 
 
 class SilhouetteTracker:
@@ -390,6 +354,10 @@ class SilhouetteTracker:
         self.render_masks = render_masks if render_masks is not None else _default_renderer()
         self._default_height_m = float(np.median(dictionary.body_height_m))
         self._cluster_tree: tuple[ClusterNode, ...] | None = None
+        names = dictionary.joint_names
+        has_pairs = all(a in names and b in names for a, b in FACING_PAIRS)
+        self.facing_deg = facing_deg(dictionary.joint_positions, names) if has_pairs else None
+        self.travel_deg_ = float("nan")
         self.reset()
 
     # -- state ---------------------------------------------------------------------
@@ -448,7 +416,44 @@ class SilhouetteTracker:
         chosen = [c for c in pair.cameras if c in visible]
         return chosen or visible
 
-    def step(self, masks: Sequence[np.ndarray]) -> Estimate:
+    def travel_penalty(self, entries: np.ndarray) -> np.ndarray:
+        """(M,) score taken off entries for facing away from the direction of travel
+        given to the current :meth:`step` (zeros when it is unknown or the prior off)."""
+        tolerance = self.config.travel_tolerance_deg
+        if tolerance is None or self.facing_deg is None or not np.isfinite(self.travel_deg_):
+            return np.zeros(len(entries))
+        return heading_penalty(
+            self.facing_deg[entries], self.travel_deg_, tolerance, self.config.travel_weight
+        )
+
+    def travel_directions(
+        self, masks: Sequence[np.ndarray], frames: np.ndarray, frame_time_s: float
+    ) -> np.ndarray:
+        """(F,) degrees: the direction of travel at each of ``frames``
+        (:func:`~eigmotion.tracking.heading.travel_headings` of the centroids' positions,
+        :func:`~eigmotion.tracking.heading.rough_positions`), the ``travel_deg`` of
+        :meth:`step`; all NaN with the prior off or fewer than two cameras.
+
+        Parameters
+        ----------
+        masks : sequence of C (F', H_c, W_c) bool
+        frames : (F,) int
+            Frames of the clip to be estimated.
+        frame_time_s : float
+            Seconds per input frame.
+        """
+        cfg = self.config
+        frames = np.asarray(frames, dtype=np.int64)
+        if cfg.travel_tolerance_deg is None or len(self.cameras) < 2:
+            return np.full(len(frames), np.nan)
+        positions = rough_positions(
+            self.cameras, masks, frames, self._default_height_m, cfg.min_silhouette_px
+        )
+        return travel_headings(
+            positions, frames * frame_time_s, cfg.travel_window_s, cfg.travel_min_speed_mps
+        )
+
+    def step(self, masks: Sequence[np.ndarray], travel_deg: float = float("nan")) -> Estimate:
         """Estimate the posture from one silhouette per camera.
 
         Parameters
@@ -456,6 +461,10 @@ class SilhouetteTracker:
         masks : sequence of (H_c, W_c) bool
             Observed silhouettes (background subtraction), one per camera, each of its
             camera's image size.
+        travel_deg : float
+            The body centre's direction of travel at this frame, degrees (0 = +Z, 90 =
+            +X); NaN when unknown or too slow.  With ``travel_tolerance_deg`` set,
+            postures facing away from it are penalised.
 
         Returns
         -------
@@ -463,6 +472,7 @@ class SilhouetteTracker:
         """
         cfg = self.config
         masks = self._check_masks(masks)
+        self.travel_deg_ = float(travel_deg)
         visible = [i for i, m in enumerate(masks) if m.sum() >= cfg.min_silhouette_px]
         prev = self.previous_
         if not visible:
@@ -512,11 +522,11 @@ class SilhouetteTracker:
         used: list[int],
         position: np.ndarray,
         pool: np.ndarray,
-    ) -> _FrameScorer:
+    ) -> FrameScorer:
         """Scoring of entries of ``pool`` in this frame (windows fitted to the pool)."""
-        return _FrameScorer(self, masks, used, position, np.asarray(pool))
+        return FrameScorer(self, masks, used, position, np.asarray(pool))
 
-    def _finish(self, result: SearchResult, scorer: _FrameScorer) -> Estimate:
+    def _finish(self, result: SearchResult, scorer: FrameScorer) -> Estimate:
         shifts, scales = scorer.detail[result.best]
         return Estimate(
             result.best,
@@ -618,11 +628,9 @@ class SilhouetteTracker:
         ratio so far (times the scale it was measured at) becomes the body scale."""
         cfg = self.config
         for c in estimate.cameras:
-            rendered = self.silhouette(estimate, c)
-            observed = _row_extent(masks[c])
-            expected = _row_extent(rendered)
-            if observed > 0 and expected > 0:
-                self._scale_samples.append(estimate.body_scale * observed / expected)
+            ratio = _height_ratio(masks[c], self.silhouette(estimate, c), cfg.scale_from_top)
+            if ratio > 0:
+                self._scale_samples.append(estimate.body_scale * ratio)
         self._n_scale_estimates += 1
         if not self._scale_samples:
             return estimate
@@ -670,9 +678,10 @@ class SilhouetteTracker:
         n_frames = lengths.pop()
         frames = np.arange(0, n_frames, int(frame_step), dtype=np.int64)
         self.reset()
+        travel = self.travel_directions(masks, frames, frame_time_s)
         estimates = []
         for i, f in enumerate(frames):
-            estimates.append(self.step([m[f] for m in masks]))
+            estimates.append(self.step([m[f] for m in masks], travel[i]))
             if progress is not None:
                 progress(i + 1, len(frames))
         return self.result(estimates, frames, frame_time_s * frame_step)
