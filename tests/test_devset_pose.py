@@ -226,6 +226,22 @@ def test_eval_tracking_scores_what_track_writes(dev_set, tmp_path, capsys):
     assert (scored["swaps"], scored["heading_flips"]) == (errors.swaps, errors.heading_flips)
     # a library walk the dictionary holds, on a body near the model: tracked closely
     assert scored["mpjpe_mm"] < 60 and scored["root_mm"] < 60
+    # other tracker settings: as `track --no-travel-prior --scale-from-top` gives
+    settings = ["travel_tolerance_deg=null", "scale_from_top=true"]
+    other = tmp_path / "other.json"
+    args_eval = ["eval", "tracking", "--dev", str(dev_set), "--json-out", str(other),
+                 "--tracker-config", *settings]  # fmt: skip
+    assert main(args_eval) == 0
+    report = json.loads(other.read_text())
+    assert report["tracker_config"]["travel_tolerance_deg"] is None
+    assert report["tracker_config"]["scale_from_top"] is True
+    assert main([str(a) for a in [*args, "--no-travel-prior", "--scale-from-top"]]) == 0
+    written = np.load(joints)
+    errors = tracking_errors(
+        [str(n) for n in written["names"]], written["positions"], truth_names,
+        np.load(folder / "joints.npy"),
+    )  # fmt: skip
+    assert report["sets"][0]["mpjpe_mm"] == pytest.approx(errors.mpjpe_mm, abs=0.01)
 
 
 def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, capsys):
@@ -264,5 +280,15 @@ def test_eval_tracking_and_pose_bad_input_is_one_line(dev_set, tmp_path, capsys)
     assert err.count("\n") == 0 and "no tracking sets" in err
     assert main(["eval", "pose", "--dev", str(empty)]) == 2
     assert "no retrieval clips" in capsys.readouterr().err
+    for setting, message in [
+        ("nonsense=1", "'nonsense' is no tracker setting"),
+        ("travel_weight", "expected NAME=VALUE"),
+        ("travel_weight=abc", "the value is not JSON"),
+        ("travel_weight=-1", "travel_weight must be"),
+    ]:
+        args = ["eval", "tracking", "--dev", str(dev_set), "--tracker-config", setting]
+        assert main(args) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and message in err, err
     assert main(["eval", "pose", "--dev", str(dev_set), "--db", str(tmp_path / "x.fs")]) == 2
     assert "no such database file" in capsys.readouterr().err

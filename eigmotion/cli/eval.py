@@ -6,6 +6,7 @@ Examples::
     eigmotion eval recognition --dev DIR --db my.fs --modes bg nobg --json-out dev.json
     eigmotion eval recognition --only walk_ wave_
     eigmotion eval tracking --json-out tracking.json # two cameras: MPJPE, swaps, speed
+    eigmotion eval tracking --tracker-config travel_tolerance_deg=null   # a setting off
     eigmotion eval pose --db my.fs                   # one camera: PA-MPJPE
 
 Every clip is answered in this process exactly as ``eigmotion query CLIP --json``
@@ -26,6 +27,7 @@ and per clip.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -56,6 +58,7 @@ from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.segmentation.learned import SEGMENTERS
 from eigmotion.tracking.pipeline import dictionary_from_specs
+from eigmotion.tracking.tracker import TrackerConfig
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,6 +96,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--json-out", type=Path, help="write every clip's answer and the summaries as JSON"
+    )
+    parser.add_argument(
+        "--tracker-config",
+        nargs="+",
+        default=[],
+        metavar="NAME=VALUE",
+        help="tracking: tracker settings other than the defaults (TrackerConfig fields, "
+        "values as JSON), e.g. travel_tolerance_deg=null scale_from_top=true",
     )
 
 
@@ -153,20 +164,56 @@ def _write_json(path: Path | None, report: dict) -> None:
         print(f"wrote {path}", file=sys.stderr)
 
 
+def tracker_config(items: list[str]) -> TrackerConfig:
+    """The :class:`~eigmotion.tracking.tracker.TrackerConfig` of ``NAME=VALUE`` items
+    (values as JSON: numbers, ``null``, ``true``, lists).
+
+    Raises
+    ------
+    InvalidParameterError
+        An item without ``=``, a name that is no setting, a value that is not JSON or
+        not valid for its setting.
+    """
+    known = {f.name for f in dataclasses.fields(TrackerConfig)}
+    settings = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep:
+            raise InvalidParameterError(f"--tracker-config {item!r}: expected NAME=VALUE")
+        if name not in known:
+            raise InvalidParameterError(
+                f"--tracker-config {item!r}: {name!r} is no tracker setting "
+                f"(one of {', '.join(sorted(known))})"
+            )
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            raise InvalidParameterError(
+                f"--tracker-config {item!r}: the value is not JSON (a number, null, true, "
+                "false, a list)"
+            ) from None
+        settings[name] = tuple(value) if isinstance(value, list) else value
+    return TrackerConfig(**settings)
+
+
 def _run_tracking(args: argparse.Namespace, dev: Path) -> int:
+    config = tracker_config(args.tracker_config)
     sets = load_tracking_sets(dev, args.only)
     if not sets:
         raise InvalidParameterError(f"{dev}: no tracking sets (tracking/<id>/cams.json)")
     print("building the default posture dictionary", file=sys.stderr, flush=True)
     dictionary = dictionary_from_specs()
     tracked = [
-        track_set(folder, dictionary)
+        track_set(folder, dictionary, config)
         for folder in tqdm(sets, desc="tracking", unit="set", leave=False)
     ]
     print(format_tracking(tracked))
     print(f"\ndevelopment set {dev}, dictionary of {len(dictionary)} postures")
+    if args.tracker_config:
+        print(f"tracker settings: {' '.join(args.tracker_config)}")
     report = {
         "dev": str(dev),
+        "tracker_config": dataclasses.asdict(config),
         "summary": summarise_tracking(tracked),
         "sets": [s.to_json() for s in tracked],
     }

@@ -44,7 +44,7 @@ from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.calibration import load_calibration
 from eigmotion.tracking.dictionary import PostureDictionary
 from eigmotion.tracking.pipeline import track_clip
-from eigmotion.tracking.tracker import SilhouetteTracker
+from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
 
 
 def load_truth(folder: Path) -> tuple[tuple[str, ...], np.ndarray]:
@@ -116,8 +116,11 @@ class TrackedSet:
         }
 
 
-def track_set(folder: Path, dictionary: PostureDictionary) -> TrackedSet:
-    """Track one set as ``eigmotion track`` does with its default settings, and score it."""
+def track_set(
+    folder: Path, dictionary: PostureDictionary, config: TrackerConfig | None = None
+) -> TrackedSet:
+    """Track one set as ``eigmotion track`` does (with its default settings, or
+    ``config``), and score it."""
     folder = Path(folder)
     try:
         calibration = load_calibration(folder / "cams.json")
@@ -130,7 +133,9 @@ def track_set(folder: Path, dictionary: PostureDictionary) -> TrackedSet:
                 )
             masks.append(clip.masks)
             fps = fps or clip.fps
-        tracker = SilhouetteTracker(dictionary, calibration.cameras, pairs=calibration.pairs)
+        tracker = SilhouetteTracker(
+            dictionary, calibration.cameras, config=config, pairs=calibration.pairs
+        )
         tracked = track_clip(tracker, masks, fps)
         true_names, truth = load_truth(folder)
         frames = tracked.result.frames

@@ -150,7 +150,7 @@ class TrackerConfig:
     body_scale: float | None = None
     body_scale_range: tuple[float, float] = (0.8, 1.25)
     body_scale_estimates: int = 8
-    scale_from_top: bool = True
+    scale_from_top: bool = False
     exhaustive: bool = False
     init_branching: int = 24
     init_beam: int = 5
