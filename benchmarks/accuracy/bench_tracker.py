@@ -22,6 +22,7 @@ Run from the repository root::
     python benchmarks/accuracy/bench_tracker.py            # clean silhouettes
     python benchmarks/accuracy/bench_tracker.py --video    # through background subtraction
     python benchmarks/accuracy/bench_tracker.py --body-scale 1 --no-recovery   # the paper's tracker
+    python benchmarks/accuracy/bench_tracker.py --front --garment long_coat    # front/back
 """
 
 from __future__ import annotations
@@ -54,8 +55,18 @@ WIDTH, HEIGHT, YFOV_DEG = 320, 240, 45.0
 ESTIMATE_FPS = 25.0
 
 
-def walkway_cameras() -> list:
+def walkway_cameras(front: bool = False) -> list:
+    """Both sides of the walkway, or (``front``) 1.5 m high at ±60° from the walking
+    direction (+X), both ahead of the person, 6 m from the path's centre."""
     K = intrinsics(WIDTH, HEIGHT, YFOV_DEG)
+    if front:
+        target = np.array([0.6, 0.9, 0.0])
+        a = np.deg2rad(60.0)
+        return [
+            look_at(target + [6 * np.cos(a), 0.6, side * 6 * np.sin(a)], target, K, WIDTH,
+                    HEIGHT, name=name)
+            for name, side in (("left_front", -1.0), ("right_front", 1.0))
+        ]  # fmt: skip
     return [
         look_at([-2.5, 1.6, -3.5], [0.6, 0.9, 0.0], K, WIDTH, HEIGHT, name="left"),
         look_at([-2.5, 1.6, 3.5], [0.6, 0.9, 0.0], K, WIDTH, HEIGHT, name="right"),
@@ -160,6 +171,15 @@ def main() -> None:
     parser.add_argument(
         "--no-travel", action="store_true", help="no direction-of-travel prior on the heading"
     )
+    parser.add_argument(
+        "--scale-from-top", action="store_true", help="body height from the silhouettes' top"
+    )
+    parser.add_argument(
+        "--front", action="store_true", help="both cameras ahead of the person, at ±60°"
+    )
+    parser.add_argument(
+        "--garment", help="the person wears this garment (eigmotion.body.garments, e.g. long_coat)"
+    )
     args = parser.parse_args()
 
     t0 = time.perf_counter()
@@ -175,14 +195,20 @@ def main() -> None:
         f"headings = {len(dictionary)} entries; body model {bodies.n_vertices} vertices, "
         f"{len(bodies.faces)} faces; built in {build_s:.1f} s"
     )
-    subject = avatar.with_shape(**SUBJECT)
+    dressed = avatar
+    if args.garment:
+        from eigmotion.body.garments import dress
+
+        dressed = dress(avatar, [args.garment])
+    subject = dressed.with_shape(**SUBJECT)
     print(
         f"subject: height {subject.height_m:.2f} m, girth {SUBJECT['girth']} "
+        f"{'in ' + args.garment + ' ' if args.garment else ''}"
         f"(dictionary body {avatar.height_m:.2f} m, girth 1.0); cameras {WIDTH}x{HEIGHT}, "
-        f"both sides of the walkway; silhouettes from "
+        f"{'ahead at ±60°' if args.front else 'both sides of the walkway'}; silhouettes from "
         f"{'background subtraction of composed video' if args.video else 'the renderer'}"
     )
-    cams = walkway_cameras()
+    cams = walkway_cameras(args.front)
     body_joints = [i for i, n in enumerate(avatar.joint_names) if not n.endswith(("1", "Thumb"))]
     names = [avatar.joint_names[i] for i in body_joints]
     rows, per_joint = [], {"tree": [], "exhaustive": []}
@@ -204,6 +230,7 @@ def main() -> None:
                 body_scale=args.body_scale,
                 recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
                 travel_tolerance_deg=None if args.no_travel else TrackerConfig.travel_tolerance_deg,
+                scale_from_top=args.scale_from_top,
             )
             tracker = SilhouetteTracker(dictionary, cams, bodies, config)
             result, first_s, later_s, later_wall_s = track(tracker, masks)

@@ -98,6 +98,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--json-out", type=Path, help="write every clip's answer and the summaries as JSON"
     )
     parser.add_argument(
+        "--dictionary",
+        nargs="+",
+        metavar="MOTION",
+        help="tracking: the posture dictionary's motions (library names, .bvh, or one saved "
+        ".npz), as eigmotion track --dictionary; default the command's",
+    )
+    parser.add_argument(
         "--tracker-config",
         nargs="+",
         default=[],
@@ -201,8 +208,8 @@ def _run_tracking(args: argparse.Namespace, dev: Path) -> int:
     sets = load_tracking_sets(dev, args.only)
     if not sets:
         raise InvalidParameterError(f"{dev}: no tracking sets (tracking/<id>/cams.json)")
-    print("building the default posture dictionary", file=sys.stderr, flush=True)
-    dictionary = dictionary_from_specs()
+    print("building the posture dictionary", file=sys.stderr, flush=True)
+    dictionary = dictionary_from_specs(args.dictionary)
     tracked = [
         track_set(folder, dictionary, config)
         for folder in tqdm(sets, desc="tracking", unit="set", leave=False)
