@@ -158,7 +158,7 @@ class TrackerConfig:
     recovery_ratio: float | None = 0.93
     recovery_window: int = 15
     min_silhouette_px: int = 30
-    travel_tolerance_deg: float | None = 60.0
+    travel_tolerance_deg: float | None = 50.0
     travel_weight: float = 1.0
     travel_window_s: float = 0.5
     travel_min_speed_mps: float = 0.3
