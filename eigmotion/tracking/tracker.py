@@ -323,6 +323,11 @@ class SilhouetteTracker:
         The last estimate with a person, after :meth:`step`.
     body_scale_ : float
         The body model's current scale (chosen over the first estimates).
+    facing_deg : (N,) float64 or None
+        The way each dictionary entry faces, degrees (0 = +Z, 90 = +X); None for a
+        skeleton without the hips and shoulders of the canonical one (no prior then).
+    travel_deg_ : float
+        The direction of travel given to the last :meth:`step` (NaN: none).
     """
 
     def __init__(
