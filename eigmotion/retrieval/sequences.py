@@ -148,49 +148,57 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
     )
 
 
-def _compiled_warp():
-    from numba import njit
+def _warp(
+    dots: np.ndarray, query_norms: np.ndarray, frame_norms: np.ndarray, starts: np.ndarray,
+    band: float, out: np.ndarray,
+) -> None:  # fmt: skip
+    """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
+    cheapest monotone alignment of the query's frames with its frames, summed frame
+    distances over ``n + m``.
 
-    @njit(cache=True, nogil=True)
-    def warp(dots, query_norms, frame_norms, starts, band, out):
-        """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
-        cheapest monotone alignment of the query's frames with its frames, summed
-        frame distances over ``n + m``.  A frame distance is ``sqrt(max(‖a‖² + ‖b‖² −
-        2 a·b, 0))`` in float32, from ``dots`` (n, M) float32 ``a·b`` and the squared
-        norms (n,) and (M,).  Query frame ``i`` is aligned only with frames ``j``
-        (1-based) within ``band · max(n, m)`` of ``(i + ½) · m / n + ½``; inf when
-        no path keeps to that band."""
-        n = dots.shape[0]
-        minus_two = np.float32(-2.0)
-        zero = np.float32(0.0)
-        for r in range(len(starts) - 1):
-            lo, m = starts[r], starts[r + 1] - starts[r]
-            previous = np.full(m + 1, np.inf)
-            current = np.full(m + 1, np.inf)
-            previous[0] = 0.0
-            reach = band * max(n, m)
-            for i in range(n):
-                first, last = 1, m
-                if band < 1.0:
-                    centre = (i + 0.5) * m / n + 0.5
-                    first = max(1, int(np.ceil(centre - reach)))
-                    last = min(m, int(np.floor(centre + reach)))
-                for j in range(0, first):
-                    current[j] = np.inf
-                for j in range(first, last + 1):
-                    cost = dots[i, lo + j - 1] * minus_two + query_norms[i]
-                    cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
-                    step = min(previous[j], current[j - 1], previous[j - 1])
-                    current[j] = cost + step
-                for j in range(last + 1, m + 1):
-                    current[j] = np.inf
-                previous, current = current, previous
-            out[r] = previous[m] / (n + m)
+    A frame distance is ``sqrt(max(‖a‖² + ‖b‖² − 2 a·b, 0))`` in float32, from
+    ``dots`` (n, M) float32 ``a·b`` and the squared norms (n,) and (M,).  Query frame
+    ``i`` is aligned only with frames ``j`` (1-based) within ``band · max(n, m)`` of
+    ``(i + ½) · m / n + ½``; inf when no path keeps to that band.
 
-    return warp
-
-
-_WARP = None
+    The cumulative costs (float64) are filled one anti-diagonal ``i + j`` at a time,
+    for every sequence at once: each cell needs only the two diagonals before its own,
+    and gets the same sum, ``cost + min(left, up, diagonal)``, as a loop over the cells.
+    """
+    n = dots.shape[0]
+    lengths = np.diff(starts)
+    count, longest = len(lengths), int(lengths.max())
+    column = np.arange(longest)[:, None]
+    # (n, m_max, R) frame distances, inf outside each sequence and its band.
+    frame = starts[None, :-1] + np.minimum(column, lengths[None, :] - 1)
+    cost = dots[:, frame] * np.float32(-2.0) + query_norms[:, None, None]
+    cost = np.sqrt(np.maximum(cost + frame_norms[frame], np.float32(0.0)))
+    outside = column >= lengths[None, :]
+    if band < 1.0:
+        row = np.arange(n)[:, None]
+        m = lengths[None, :]
+        centre = (row + 0.5) * m / n + 0.5
+        reach = band * np.maximum(n, m)
+        first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)[:, None]
+        last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)[:, None]
+        outside = outside | (column < first - 1) | (column >= last)
+    np.copyto(cost, np.float32(np.inf), where=outside)
+    # A diagonal's cells by their row i (0 … n), each a row of the R sequences.
+    before = np.full((n + 1, count), np.inf)  # diagonal d − 2
+    before[0] = 0.0  # the path's start, cell (0, 0)
+    last_diagonal = np.full((n + 1, count), np.inf)  # diagonal d − 1
+    ends = n + lengths  # the diagonal of each sequence's last cell (n, m)
+    for diagonal in range(2, n + longest + 1):
+        lo, hi = max(1, diagonal - longest), min(n, diagonal - 1)
+        rows = np.arange(lo, hi + 1)
+        current = np.full((n + 1, count), np.inf)
+        step = np.minimum(last_diagonal[lo - 1 : hi], last_diagonal[lo : hi + 1])
+        np.minimum(step, before[lo - 1 : hi], out=step)
+        np.add(cost[rows - 1, diagonal - rows - 1], step, out=current[lo : hi + 1])
+        done = ends == diagonal
+        if done.any():
+            out[done] = current[n, done] / ends[done]
+        before, last_diagonal = last_diagonal, current
 
 
 def sequence_distances(
@@ -212,8 +220,8 @@ def sequence_distances(
         Frames of each of those R sequences, summing to ``M``; each >= 1.
     workers : Executor, optional
         Threads to warp the later half of the sequences on (its matrix product
-        included) while the calling thread warps the first (BLAS and the compiled
-        loop release the GIL); the distances are the same either way.  Not to be
+        included) while the calling thread warps the first (BLAS and NumPy release
+        the GIL); the distances are the same either way.  Not to be
         called from one of those threads.
     band : float, optional
         Half-width of the band around the diagonal the path keeps to, a share of the
@@ -228,9 +236,6 @@ def sequence_distances(
     band = float(WARP_BAND if band is None else band)
     if not band > 0.0:
         raise InvalidParameterError(f"band must be > 0, got {band}")
-    global _WARP
-    if _WARP is None:
-        _WARP = _compiled_warp()
     query = np.ascontiguousarray(query, dtype=np.float32)
     frames = np.ascontiguousarray(frames, dtype=np.float32)
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
@@ -245,7 +250,7 @@ def sequence_distances(
         dots = query @ part.T
         norms = np.einsum("ij,ij->i", part, part)
         bounds = starts[first : stop + 1] - starts[first]
-        _WARP(dots, query_norms, norms, bounds, band, out[first:stop])
+        _warp(dots, query_norms, norms, bounds, band, out[first:stop])
 
     # Always the same two halves, whether or not the later one runs on a worker: the
     # distances do not depend on the threads.
