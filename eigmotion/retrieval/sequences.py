@@ -168,21 +168,33 @@ def _warp(
     n = dots.shape[0]
     lengths = np.diff(starts)
     count, longest = len(lengths), int(lengths.max())
-    column = np.arange(longest)[:, None]
-    # (n, m_max, R) frame distances, inf outside each sequence and its band.
-    frame = starts[None, :-1] + np.minimum(column, lengths[None, :] - 1)
-    cost = dots[:, frame] * np.float32(-2.0) + query_norms[:, None, None]
-    cost = np.sqrt(np.maximum(cost + frame_norms[frame], np.float32(0.0)))
-    outside = column >= lengths[None, :]
+    # (n, M + 1) frame distances, inf outside each sequence's band and in the last column.
+    cost = np.empty((n, dots.shape[1] + 1), np.float32)
+    np.multiply(dots, np.float32(-2.0), out=cost[:, :-1])
+    cost[:, :-1] += query_norms[:, None]
+    cost[:, :-1] += frame_norms[None, :]
+    np.maximum(cost, np.float32(0.0), out=cost)
+    np.sqrt(cost, out=cost)
+    cost[:, -1] = np.inf
     if band < 1.0:
+        # Per query frame, each sequence's frames [first, last] (1-based) in its band,
+        # marked by +1 at its first and −1 after its last frame, summed along the row.
         row = np.arange(n)[:, None]
         m = lengths[None, :]
         centre = (row + 0.5) * m / n + 0.5
         reach = band * np.maximum(n, m)
-        first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)[:, None]
-        last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)[:, None]
-        outside = outside | (column < first - 1) | (column >= last)
-    np.copyto(cost, np.float32(np.inf), where=outside)
+        first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)
+        last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)
+        marks = np.zeros((n, dots.shape[1] + 1), np.int32)
+        rows = np.broadcast_to(row, first.shape)
+        keep = first <= last
+        np.add.at(marks, (rows[keep], (starts[:-1] + first - 1)[keep]), 1)
+        np.add.at(marks, (rows[keep], (starts[:-1] + last)[keep]), -1)
+        np.copyto(cost, np.float32(np.inf), where=np.cumsum(marks, axis=1) == 0)
+    # (n, m_max, R): sequence r's frame j at [:, j, r]; inf beyond its end.
+    column = np.arange(longest)[:, None]
+    frame = np.where(column < lengths[None, :], starts[None, :-1] + column, dots.shape[1])
+    cost = np.take(cost, frame, axis=1)
     # A diagonal's cells by their row i (0 … n), each a row of the R sequences.
     before = np.full((n + 1, count), np.inf)  # diagonal d − 2
     before[0] = 0.0  # the path's start, cell (0, 0)
