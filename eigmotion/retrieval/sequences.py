@@ -173,8 +173,8 @@ def _warp(
     np.multiply(dots, np.float32(-2.0), out=cost[:, :-1])
     cost[:, :-1] += query_norms[:, None]
     cost[:, :-1] += frame_norms[None, :]
-    np.maximum(cost, np.float32(0.0), out=cost)
-    np.sqrt(cost, out=cost)
+    np.maximum(cost[:, :-1], np.float32(0.0), out=cost[:, :-1])
+    np.sqrt(cost[:, :-1], out=cost[:, :-1])
     cost[:, -1] = np.inf
     if band < 1.0:
         # Per query frame, each sequence's frames [first, last] (1-based) in its band,
