@@ -72,7 +72,7 @@ def test_components_boxes_and_seeds():
     np.testing.assert_array_equal(boxes[0], 0)
     strong = np.zeros_like(mask, bool)
     strong[6, 6] = strong[8, 11] = True
-    kept = seeded_components(labels, boxes[:, 0], strong, 2)
+    kept = seeded_components(labels, count, strong, 2)
     np.testing.assert_array_equal(kept, (labels == labels[6, 6]).astype(np.uint8))
 
 

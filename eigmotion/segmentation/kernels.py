@@ -161,12 +161,13 @@ def labelled_components(mask: np.ndarray, connectivity: int) -> tuple[int, np.nd
 
 
 def seeded_components(
-    labels: np.ndarray, area: np.ndarray, strong: np.ndarray, min_area: int
+    labels: np.ndarray, count: int, strong: np.ndarray, min_area: int
 ) -> np.ndarray:
-    """(H, W) uint8: 1 on the components of ``labels`` (H, W) int32 (> 0; ``area`` (C,)
-    pixels each) that hold a ``strong`` (H, W) bool pixel and at least ``min_area``
-    pixels, 0 elsewhere."""
-    seeded = np.bincount(labels[strong], minlength=len(area)) > 0
+    """(H, W) uint8: 1 on the components of ``labels`` (H, W) int32 (> 0, ``count``
+    labels with the background's) that hold a ``strong`` (H, W) bool pixel and at
+    least ``min_area`` pixels, 0 elsewhere."""
+    area = np.bincount(labels.ravel(), minlength=count)
+    seeded = np.bincount(labels[strong], minlength=count) > 0
     keep = seeded & (area >= min_area)
     keep[0] = False
     return np.take(keep.view(np.uint8), labels)

@@ -47,9 +47,11 @@ def person_components(
     # The thresholds compared in float64, as Python numbers are.
     weak = (evidence.smoothed > np.float64(levels.low)) & ~shadow
     strong = weak & (evidence.smoothed > np.float64(levels.high))
-    _, labels, weak_boxes = labelled_components(weak.view(np.uint8), 8)
+    count, labels = cv2.connectedComponentsWithAlgorithm(
+        weak.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
+    )
     speck = max(2, int(round(min_area * 0.05)))
-    mask = seeded_components(labels, weak_boxes[:, 0], strong, speck)
+    mask = seeded_components(labels, count, strong, speck)
     if scene.close_d > 1:
         closing = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (scene.close_d, scene.close_d))
         mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing)
