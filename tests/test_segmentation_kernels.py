@@ -44,7 +44,12 @@ def test_cast_shadows_equal_the_test_at_every_pixel(seed):
     args = (bg, (1.0 / norm2).astype(np.float32), np.sqrt(norm2), (0.35, 0.92), 0.1, 3.0)
     expected = _shadow_reference(soft, *args)
     assert expected.any() and not expected.all()
-    np.testing.assert_array_equal(cast_shadows(soft, *args), expected)
+    sep, tile = 2, h + 2  # the frames stacked, empty rows between them
+    stack = np.zeros((sep + 3 * tile, w, 3), np.uint8)
+    stack[sep:].reshape(3, tile, w, 3)[:, :h] = soft
+    found = cast_shadows(stack, *args, sep, tile)
+    np.testing.assert_array_equal(found[sep:].reshape(3, tile, w)[:, :h], expected)
+    assert not found[:sep].any() and not found[sep:].reshape(3, tile, w)[:, h:].any()
 
 
 def test_lab_differences_in_cie_units():

@@ -73,7 +73,7 @@ _SQUARES = np.square(np.arange(256, dtype=np.float32))[None]
 
 def cast_shadows(
     soft: np.ndarray, bg_soft: np.ndarray, inv_norm2: np.ndarray, bg_bright: np.ndarray,
-    ratio: tuple[float, float], chroma_frac: float, rgb_noise: float,
+    ratio: tuple[float, float], chroma_frac: float, rgb_noise: float, sep: int, tile: int,
 ) -> np.ndarray:  # fmt: skip
     """The pixels explained as the background in a cast shadow (Horprasert et al. 1999).
 
@@ -89,8 +89,9 @@ def cast_shadows(
 
     Parameters
     ----------
-    soft : (F, H, W, 3) uint8
-        The frames' lightly smoothed colours, RGB levels.
+    soft : (S, W, 3) uint8
+        The frames' lightly smoothed colours, RGB levels, stacked: frames ``tile``
+        rows apart, the first from row ``sep``, each ``H`` rows and empty rows below.
     bg_soft : (H, W, 3) float32
         The background's.
     inv_norm2, bg_bright : (H, W) float32
@@ -100,27 +101,34 @@ def cast_shadows(
     chroma_frac, rgb_noise : float
         Allowed chromaticity distortion: a share of the brightness (>= 0) and RGB
         levels (>= 0).
+    sep, tile : int
 
     Returns
     -------
-    (F, H, W) bool
+    (S, W) bool
+        False in the empty rows.
     """
     f32 = np.float32
     lo, hi = f32(ratio[0]), f32(ratio[1])
+    h = bg_soft.shape[0]
+    n = (soft.shape[0] - sep) // tile
     # The bound on |soft|², where |bg_soft| is the brightness (elsewhere, a black
     # background, every pixel is tested).
     bright = np.sqrt(np.einsum("ijk,ijk->ij", bg_soft, bg_soft))
     bound = np.square(hi * bright) + np.square(f32(chroma_frac) * hi * bright + f32(rgb_noise))
     bound = bound * f32(1.001) + f32(1.0)
     bound[bright < f32(1.0)] = np.inf
-    shadow = np.zeros(soft.shape[:3], bool)
-    for frame, out in zip(soft, shadow, strict=True):
-        norm2 = cv2.transform(cv2.LUT(frame, _SQUARES), _SUM_OF_THREE)
-        ys, xs = np.nonzero(norm2 <= bound)
-        out[ys, xs] = _shadow_test(
-            frame[ys, xs], bg_soft[ys, xs], inv_norm2[ys, xs], bg_bright[ys, xs], (lo, hi),
-            f32(chroma_frac), f32(rgb_noise),
-        )  # fmt: skip
+    norm2 = cv2.transform(cv2.LUT(soft, _SQUARES), _SUM_OF_THREE)
+    candidates = np.zeros(soft.shape[:2], bool)
+    frames = candidates[sep:].reshape(n, tile, -1)[:, :h]
+    np.less_equal(norm2[sep:].reshape(n, tile, -1)[:, :h], bound, out=frames)
+    ys, xs = np.nonzero(candidates)
+    rows = (ys - sep) % tile
+    shadow = np.zeros(soft.shape[:2], bool)
+    shadow[ys, xs] = _shadow_test(
+        soft[ys, xs], bg_soft[rows, xs], inv_norm2[rows, xs], bg_bright[rows, xs], (lo, hi),
+        f32(chroma_frac), f32(rgb_noise),
+    )  # fmt: skip
     return shadow
 
 
@@ -230,19 +238,26 @@ def refine_rim(
         ``mask`` with the dropped pixels cleared.
     """
     out = mask.copy()
-    ys, xs = np.nonzero((mask != 0) & (inside == 0))
-    if ys.size == 0:
+    points = cv2.findNonZero(cv2.bitwise_and(mask, cv2.bitwise_not(inside)))
+    if points is None:
         return out
-    size = (2 * RIM_REACH_PX + 1,) * 2
-    # Sums of whole RGB levels over at most 49 pixels: exact in float32, whatever order
-    # the box filter adds them in.
-    box = dict(ksize=size, normalize=False, borderType=cv2.BORDER_CONSTANT)
-    count = cv2.boxFilter(core, cv2.CV_32F, **box)[ys, xs].astype(np.float64)
-    sums = cv2.boxFilter(rgb * core[..., None], cv2.CV_32F, **box)[ys, xs]
+    xs, ys = points.reshape(-1, 2).T
+    # Window sums from integral images, exact in integers; the window is cut at the
+    # stack's edges.
+    h, w = mask.shape
+    y0, y1 = np.maximum(ys - RIM_REACH_PX, 0), np.minimum(ys + RIM_REACH_PX + 1, h)
+    x0, x1 = np.maximum(xs - RIM_REACH_PX, 0), np.minimum(xs + RIM_REACH_PX + 1, w)
+
+    def window_sums(image: np.ndarray) -> np.ndarray:
+        total = cv2.integral(image, sdepth=cv2.CV_32S)
+        return total[y1, x1] - total[y0, x1] - total[y1, x0] + total[y0, x0]
+
+    count = window_sums(core)
+    sums = window_sums(cv2.bitwise_and(rgb, rgb, mask=core))
     some = count > 0
     ys, xs, count, sums = ys[some], xs[some], count[some], sums[some]
     background = bg[(ys - sep) % tile, xs]
-    body = sums.astype(np.float64) / count[:, None] - background
+    body = sums / count[:, None].astype(np.float64) - background
     contrast2 = np.einsum("ij,ij->i", body, body)
     pixel = rgb[ys, xs].astype(np.float32) - background
     along = np.einsum("ij,ij->i", pixel.astype(np.float64), body)

@@ -140,10 +140,9 @@ def _chunk_masks(
     segmented.
     """
     n, (h, w) = evidence.n, scene.shape
-    shadow = np.zeros(evidence.raw.shape, np.bool_)
-    frames_of(shadow, scene, n)[:, :h] = cast_shadows(
-        frames_of(evidence.soft, scene, n)[:, :h], scene.soft, scene.inv_norm2, scene.bright,
-        config.shadow_ratio, config.shadow_chroma, levels.rgb_noise,
+    shadow = cast_shadows(
+        evidence.soft, scene.soft, scene.inv_norm2, scene.bright, config.shadow_ratio,
+        config.shadow_chroma, levels.rgb_noise, scene.sep, scene.tile,
     )  # fmt: skip
     region = _person_region(evidence, scene, levels, shadow)
     if region is None:  # no pixel strong enough to seed a person
