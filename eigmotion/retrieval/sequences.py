@@ -23,10 +23,12 @@ of two frames' pose coordinates, summed over the path and divided by the two len
 so the pace of a performance does not count against it.  The path keeps to a band
 around the diagonal, :data:`WARP_BAND` of the longer sequence wide on each side (a
 Sakoe–Chiba band): on the holdout clips it answers as well as a free path, for less
-work.  A query compares its sequence only with the renderings of each
-candidate motion seen from within :data:`VIEW_REACH_DEG` of azimuth of the view the
-motion's nearest entry came from: the motion image already found the viewing
-direction.
+work.  The warping is NumPy over the anti-diagonals of every compared sequence at once
+(:func:`_warp`), or numba's compiled loop once numba is loaded in the process anyway
+(:func:`_warper`); both give the same distances to the bit.  A query compares its
+sequence only with the renderings of each candidate motion seen from within
+:data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from: the
+motion image already found the viewing direction.
 
 Time warping forgives any difference of pace, so a jog matches a walk as well as a
 run.  Each sequence's pose speed (:func:`pose_speeds`: the mean step between its
