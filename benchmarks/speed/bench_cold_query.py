@@ -6,7 +6,10 @@ run, interleaved run by run: the package as it was at ``--previous`` (a git revi
 by default the last one whose segmentation and time warping were compiled by numba),
 taken out of the repository into a temporary folder.  The ratio is previous / ours.
 Both copies are byte-compiled first, as an installed package is.  Beside them, the
-floor: the interpreter with NumPy and OpenCV alone, and with ZODB too.  Then, in one
+floor: the interpreter with NumPy and OpenCV alone, with ZODB too, and with NumPy and
+numba's first cached loop (what the tree search's compiled walk costs a new process).
+Wall and CPU time (user + system, every thread) are printed: on a busy machine the CPU
+time moves less.  Then, in one
 more process per run and copy, where the time goes: the command's imports, opening
 the database, the query's own stages (its ``timing_ms``), and whether numba was
 imported.  The machine's load average is printed with the figures.
@@ -19,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -54,6 +58,11 @@ print(json.dumps(stages))
 FLOORS = {
     "python + numpy + cv2": "import numpy, cv2",
     "python + numpy + cv2 + ZODB": "import numpy, cv2, ZODB.FileStorage, BTrees.LOBTree",
+    # what the tree search's compiled walk costs a new process before its first query
+    "python + numpy + numba's first cached loop": (
+        "import numpy as np\nfrom eigmotion.retrieval.neighbours import pair_sq_distances\n"
+        "pair_sq_distances(np.zeros((1, 1), np.float32), np.zeros(1, np.float32))"
+    ),
 }
 
 
@@ -68,15 +77,21 @@ def previous_package(revision: str, into: Path) -> Path:
     return into
 
 
-def run_s(command: list[str], path: Path) -> tuple[float, str]:
-    """Wall seconds of ``command`` with ``path`` first on PYTHONPATH, and its stdout."""
+def _children_cpu_s() -> float:
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
+def run_s(command: list[str], path: Path) -> tuple[float, float, str]:
+    """Wall and CPU seconds (user + system) of ``command`` with ``path`` first on
+    PYTHONPATH, and its stdout."""
     env = dict(os.environ, PYTHONPATH=str(path))
-    t0 = time.perf_counter()
+    cpu0, t0 = _children_cpu_s(), time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True, cwd=REPO, env=env)
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, _children_cpu_s() - cpu0
     if done.returncode:
         raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
-    return seconds, done.stdout
+    return seconds, cpu, done.stdout
 
 
 def main() -> int:
@@ -99,24 +114,32 @@ def main() -> int:
             run_s(command, path)  # numba's disk cache and the OS file cache filled
         load_before = os.getloadavg()
         times: dict[str, list[float]] = {name: [] for name in [*copies, *FLOORS]}
+        cpu: dict[str, list[float]] = {name: [] for name in times}
         stages: dict[str, list[dict]] = {name: [] for name in copies}
         for _ in range(args.repeat):
+            runs = [(name, command, path) for name, path in copies.items()]
+            runs += [(name, [sys.executable, "-c", code], REPO) for name, code in FLOORS.items()]
+            for name, what, path in runs:
+                wall, used, _ = run_s(what, path)
+                times[name].append(wall)
+                cpu[name].append(used)
             for name, path in copies.items():
-                times[name].append(run_s(command, path)[0])
-            for name, code in FLOORS.items():
-                times[name].append(run_s([sys.executable, "-c", code], REPO)[0])
-            for name, path in copies.items():
-                stages[name].append(json.loads(run_s(staged, path)[1]))
+                stages[name].append(json.loads(run_s(staged, path)[2]))
         load_after = os.getloadavg()
     median = {name: 1e3 * statistics.median(values) for name, values in times.items()}
-    print(f"cold `eigmotion {' '.join(query)}`, median of {args.repeat} runs (wall ms)")
+    cpu_median = {name: 1e3 * statistics.median(values) for name, values in cpu.items()}
+    print(f"cold `eigmotion {' '.join(query)}`, median of {args.repeat} runs")
     print(f"load average before {load_before[0]:.2f}, after {load_after[0]:.2f} (1 min)")
-    print("| start-up path | wall ms | runs |\n| --- | --- | --- |")
+    print("| start-up path | wall ms | CPU ms (user + system) | wall ms of each run |")
+    print("| --- | --- | --- | --- |")
     for name, values in times.items():
         runs = " ".join(f"{1e3 * v:.0f}" for v in values)
         label = f"previous ({args.previous})" if name == "previous" else name
-        print(f"| {label} | {median[name]:.0f} | {runs} |")
-    print(f"previous / ours: {median['previous'] / median['ours']:.2f}×")
+        print(f"| {label} | {median[name]:.0f} | {cpu_median[name]:.0f} | {runs} |")
+    print(
+        f"previous / ours: {median['previous'] / median['ours']:.2f}× wall, "
+        f"{cpu_median['previous'] / cpu_median['ours']:.2f}× CPU"
+    )
     print("\nwhere a cold query's time goes (median ms, one process per run):")
     print(f"  {'stage':<28} {'ours':>8} {'previous':>9} {'ratio':>6}")
     for stage in stages["ours"][0]:
