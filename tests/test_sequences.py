@@ -17,6 +17,8 @@ from eigmotion.retrieval.sequences import (
     SEQUENCE_SIZE,
     SEQUENCE_WEIGHT,
     VIEW_REACH_DEG,
+    _compiled_warp_loop,
+    _warp,
     fit_pose_space,
     fused_scores,
     pace_factors,
@@ -261,3 +263,20 @@ def test_pace_factors_grow_with_the_ratio_of_pose_speeds_from_one():
     assert factors[3] > factors[0] > factors[1]  # the farther the pace, the dearer
     # speeds under the floor, mostly the jitter of a still body, count for little
     assert pace_factors(0.05, np.array([0.0]))[0] < 1.0 + 0.15 * PACE_WEIGHT
+
+
+@pytest.mark.parametrize("band", [1.0, 0.3, 0.05])
+def test_the_compiled_and_the_numpy_warping_give_the_same_distances_to_the_bit(band):
+    rng = np.random.default_rng(5)
+    query = rng.standard_normal((17, 6)).astype(np.float32)
+    lengths = rng.integers(1, 50, size=40)
+    frames = rng.standard_normal((int(lengths.sum()), 6)).astype(np.float32)
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    dots = query @ frames.T
+    query_norms = np.einsum("ij,ij->i", query, query)
+    frame_norms = np.einsum("ij,ij->i", frames, frames)
+    compiled, vectorised = np.empty(len(lengths)), np.empty(len(lengths))
+    _compiled_warp_loop()(dots, query_norms, frame_norms, starts, band, compiled)
+    _warp(dots, query_norms, frame_norms, starts, band, vectorised)
+    assert np.isfinite(vectorised).any()
+    np.testing.assert_array_equal(vectorised, compiled)

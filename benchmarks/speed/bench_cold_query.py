@@ -1,14 +1,18 @@
 """Cold start of ``eigmotion query``: a new process per run, as a user runs it.
 
 Runs ``python -m eigmotion query CLIP --background IMAGE --db DB --json`` ``--repeat``
-times and prints the median wall time beside the previous start-up path's, measured in
-the same run, interleaved run by run: the same command with the modules the query
-command used to import at its top whatever was asked (the 3D output's
-``eigmotion.pose.continuous_pose`` and ``eigmotion.pose.replay``, which load retargeting
-and scipy.spatial) imported first.  The ratio is previous / ours.  Then, in one more
-process each, where the time goes: the interpreter with numpy alone, the command's
-imports, opening the database, and the query's own stages (its ``timing_ms``), medians
-over the runs.
+times and prints the median wall time beside the previous code's, measured in the same
+run, interleaved run by run: the package as it was at ``--previous`` (a git revision,
+by default the last one whose segmentation and time warping were compiled by numba),
+taken out of the repository into a temporary folder.  The ratio is previous / ours.
+Both copies are byte-compiled first, as an installed package is.  Beside them, the
+floor: the interpreter with NumPy and OpenCV alone, with ZODB too, and with NumPy and
+numba's first cached loop (what the tree search's compiled walk costs a new process).
+Wall and CPU time (user + system, every thread) are printed: on a busy machine the CPU
+time moves less.  Then, in one
+more process per run and copy, where the time goes: the command's imports, opening
+the database, the query's own stages (its ``timing_ms``), and whether numba was
+imported.  The machine's load average is printed with the figures.
 
     python benchmarks/speed/bench_cold_query.py [--db database/eigmotion.fs] [--repeat 5]
 """
@@ -17,20 +21,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import statistics
 import subprocess
 import sys
+import tarfile
+import tempfile
 import time
+from io import BytesIO
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLES = REPO / "database" / "samples"
 
-#: The modules ``eigmotion.cli.query`` imported at its top before they were moved into
-#: the function that writes the 3D output.
-PREVIOUS_TOP_IMPORTS = ("eigmotion.pose.continuous_pose", "eigmotion.pose.replay")
-
-_RUN_MAIN = "import sys\nfrom eigmotion.cli.main import main\nsys.exit(main(sys.argv[1:]))"
+#: The last revision whose query segmented and warped time with numba's compiled loops.
+PREVIOUS_REVISION = "f762e63"
 
 _STAGES = """
 import json, sys, time
@@ -45,17 +51,47 @@ with MotionDatabase.open(sys.argv[1]) as db:
 stages = {"imports": t1 - t0, "open database": t2 - t1, "query": t3 - t2}
 stages = {name: 1e3 * seconds for name, seconds in stages.items()}
 stages.update({f"  query: {k}": v for k, v in result.timing_ms.items() if k != "total"})
+stages["numba imported (0/1)"] = float("numba" in sys.modules)
 print(json.dumps(stages))
 """
 
+FLOORS = {
+    "python + numpy + cv2": "import numpy, cv2",
+    "python + numpy + cv2 + ZODB": "import numpy, cv2, ZODB.FileStorage, BTrees.LOBTree",
+    # what the tree search's compiled walk costs a new process before its first query
+    "python + numpy + numba's first cached loop": (
+        "import numpy as np\nfrom eigmotion.retrieval.neighbours import pair_sq_distances\n"
+        "pair_sq_distances(np.zeros((1, 1), np.float32), np.zeros(1, np.float32))"
+    ),
+}
 
-def wall_s(command: list[str]) -> float:
-    t0 = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, cwd=REPO)
-    seconds = time.perf_counter() - t0
+
+def previous_package(revision: str, into: Path) -> Path:
+    """The ``eigmotion`` package as it was at ``revision``, written under ``into``."""
+    archive = subprocess.run(
+        ["git", "archive", "--format=tar", revision, "eigmotion"],
+        cwd=REPO, capture_output=True, check=True,
+    ).stdout  # fmt: skip
+    with tarfile.open(fileobj=BytesIO(archive)) as tar:
+        tar.extractall(into, filter="data")
+    return into
+
+
+def _children_cpu_s() -> float:
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
+
+
+def run_s(command: list[str], path: Path) -> tuple[float, float, str]:
+    """Wall and CPU seconds (user + system) of ``command`` with ``path`` first on
+    PYTHONPATH, and its stdout."""
+    env = dict(os.environ, PYTHONPATH=str(path))
+    cpu0, t0 = _children_cpu_s(), time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True, cwd=REPO, env=env)
+    seconds, cpu = time.perf_counter() - t0, _children_cpu_s() - cpu0
     if done.returncode:
         raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
-    return seconds
+    return seconds, cpu, done.stdout
 
 
 def main() -> int:
@@ -63,33 +99,54 @@ def main() -> int:
     parser.add_argument("--db", default=str(REPO / "database" / "eigmotion.fs"))
     parser.add_argument("--clip", type=Path, default=SAMPLES / "walk_3s.mp4")
     parser.add_argument("--background", type=Path, default=SAMPLES / "walk_3s_background.png")
+    parser.add_argument("--previous", default=PREVIOUS_REVISION, help="git revision")
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     query = ["query", str(args.clip), "--background", str(args.background)]
     query += ["--db", args.db, "--json"]
-    ours = [sys.executable, "-m", "eigmotion", *query]
-    previous_code = "".join(f"import {name}\n" for name in PREVIOUS_TOP_IMPORTS) + _RUN_MAIN
-    previous = [sys.executable, "-c", previous_code, *query]
-    wall_s(ours)  # the numba cache and the OS file cache filled: every run below is "cold"
-    times: dict[str, list[float]] = {"ours": [], "previous": [], "python + numpy": []}
-    stages: list[dict] = []
-    for _ in range(args.repeat):
-        times["ours"].append(wall_s(ours))
-        times["previous"].append(wall_s(previous))
-        times["python + numpy"].append(wall_s([sys.executable, "-c", "import numpy"]))
-        staged = [sys.executable, "-c", _STAGES, args.db, str(args.clip), str(args.background)]
-        out = subprocess.run(staged, capture_output=True, text=True, cwd=REPO, check=True)
-        stages.append(json.loads(out.stdout))
-    median = {name: statistics.median(values) for name, values in times.items()}
-    print(f"cold `eigmotion {' '.join(query)}`, median of {args.repeat} runs (wall ms):")
-    print("| start-up path | wall ms | runs |\n| --- | --- | --- |")
+    command = [sys.executable, "-m", "eigmotion", *query]
+    staged = [sys.executable, "-c", _STAGES, args.db, str(args.clip), str(args.background)]
+    with tempfile.TemporaryDirectory(prefix="eigmotion-previous-") as tmp:
+        copies = {"ours": REPO, "previous": previous_package(args.previous, Path(tmp))}
+        for path in copies.values():
+            compile_all = [sys.executable, "-m", "compileall", "-q", str(path / "eigmotion")]
+            subprocess.run(compile_all, check=True, capture_output=True)
+            run_s(command, path)  # numba's disk cache and the OS file cache filled
+        load_before = os.getloadavg()
+        times: dict[str, list[float]] = {name: [] for name in [*copies, *FLOORS]}
+        cpu: dict[str, list[float]] = {name: [] for name in times}
+        stages: dict[str, list[dict]] = {name: [] for name in copies}
+        for _ in range(args.repeat):
+            runs = [(name, command, path) for name, path in copies.items()]
+            runs += [(name, [sys.executable, "-c", code], REPO) for name, code in FLOORS.items()]
+            for name, what, path in runs:
+                wall, used, _ = run_s(what, path)
+                times[name].append(wall)
+                cpu[name].append(used)
+            for name, path in copies.items():
+                stages[name].append(json.loads(run_s(staged, path)[2]))
+        load_after = os.getloadavg()
+    median = {name: 1e3 * statistics.median(values) for name, values in times.items()}
+    cpu_median = {name: 1e3 * statistics.median(values) for name, values in cpu.items()}
+    print(f"cold `eigmotion {' '.join(query)}`, median of {args.repeat} runs")
+    print(f"load average before {load_before[0]:.2f}, after {load_after[0]:.2f} (1 min)")
+    print("| start-up path | wall ms | CPU ms (user + system) | wall ms of each run |")
+    print("| --- | --- | --- | --- |")
     for name, values in times.items():
         runs = " ".join(f"{1e3 * v:.0f}" for v in values)
-        print(f"| {name} | {1e3 * median[name]:.0f} | {runs} |")
-    print(f"previous / ours: {median['previous'] / median['ours']:.2f}×")
+        label = f"previous ({args.previous})" if name == "previous" else name
+        print(f"| {label} | {median[name]:.0f} | {cpu_median[name]:.0f} | {runs} |")
+    print(
+        f"previous / ours: {median['previous'] / median['ours']:.2f}× wall, "
+        f"{cpu_median['previous'] / cpu_median['ours']:.2f}× CPU"
+    )
     print("\nwhere a cold query's time goes (median ms, one process per run):")
-    for name in stages[0]:
-        print(f"  {name:<28} {statistics.median(s[name] for s in stages):8.1f}")
+    print(f"  {'stage':<28} {'ours':>8} {'previous':>9} {'ratio':>6}")
+    for stage in stages["ours"][0]:
+        ours = statistics.median(s[stage] for s in stages["ours"])
+        previous = statistics.median(s.get(stage, float("nan")) for s in stages["previous"])
+        ratio = previous / ours if ours else float("nan")
+        print(f"  {stage:<28} {ours:8.1f} {previous:9.1f} {ratio:6.2f}")
     return 0
 
 

@@ -23,10 +23,12 @@ of two frames' pose coordinates, summed over the path and divided by the two len
 so the pace of a performance does not count against it.  The path keeps to a band
 around the diagonal, :data:`WARP_BAND` of the longer sequence wide on each side (a
 Sakoe–Chiba band): on the holdout clips it answers as well as a free path, for less
-work.  A query compares its sequence only with the renderings of each
-candidate motion seen from within :data:`VIEW_REACH_DEG` of azimuth of the view the
-motion's nearest entry came from: the motion image already found the viewing
-direction.
+work.  The warping is NumPy over the anti-diagonals of every compared sequence at once
+(:func:`_warp`), or numba's compiled loop once numba is loaded in the process anyway
+(:func:`_warper`); both give the same distances to the bit.  A query compares its
+sequence only with the renderings of each candidate motion seen from within
+:data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from: the
+motion image already found the viewing direction.
 
 Time warping forgives any difference of pace, so a jog matches a walk as well as a
 run.  Each sequence's pose speed (:func:`pose_speeds`: the mean step between its
@@ -54,7 +56,9 @@ another seed).
 
 from __future__ import annotations
 
+import sys
 from concurrent.futures import Executor
+from functools import lru_cache
 
 import numpy as np
 
@@ -148,49 +152,116 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
     )
 
 
-def _compiled_warp():
+def _warp_loop(dots, query_norms, frame_norms, starts, band, out):  # pragma: no cover - JIT
+    """:func:`_warp` as a loop over the cells, for numba: the same sums in the same
+    order (no fast-math), so the same distances to the bit."""
+    n = dots.shape[0]
+    minus_two = np.float32(-2.0)
+    zero = np.float32(0.0)
+    for r in range(len(starts) - 1):
+        lo, m = starts[r], starts[r + 1] - starts[r]
+        previous = np.full(m + 1, np.inf)
+        current = np.full(m + 1, np.inf)
+        previous[0] = 0.0
+        reach = band * max(n, m)
+        for i in range(n):
+            first, last = 1, m
+            if band < 1.0:
+                centre = (i + 0.5) * m / n + 0.5
+                first = max(1, int(np.ceil(centre - reach)))
+                last = min(m, int(np.floor(centre + reach)))
+            for j in range(0, first):
+                current[j] = np.inf
+            for j in range(first, last + 1):
+                cost = dots[i, lo + j - 1] * minus_two + query_norms[i]
+                cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
+                step = min(previous[j], current[j - 1], previous[j - 1])
+                current[j] = cost + step
+            for j in range(last + 1, m + 1):
+                current[j] = np.inf
+            previous, current = current, previous
+        out[r] = previous[m] / (n + m)
+
+
+@lru_cache(maxsize=1)
+def _compiled_warp_loop():
+    """:func:`_warp_loop` compiled (numba's disk cache: a few ms once numba is loaded)."""
     from numba import njit
 
-    @njit(cache=True, nogil=True)
-    def warp(dots, query_norms, frame_norms, starts, band, out):
-        """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
-        cheapest monotone alignment of the query's frames with its frames, summed
-        frame distances over ``n + m``.  A frame distance is ``sqrt(max(‖a‖² + ‖b‖² −
-        2 a·b, 0))`` in float32, from ``dots`` (n, M) float32 ``a·b`` and the squared
-        norms (n,) and (M,).  Query frame ``i`` is aligned only with frames ``j``
-        (1-based) within ``band · max(n, m)`` of ``(i + ½) · m / n + ½``; inf when
-        no path keeps to that band."""
-        n = dots.shape[0]
-        minus_two = np.float32(-2.0)
-        zero = np.float32(0.0)
-        for r in range(len(starts) - 1):
-            lo, m = starts[r], starts[r + 1] - starts[r]
-            previous = np.full(m + 1, np.inf)
-            current = np.full(m + 1, np.inf)
-            previous[0] = 0.0
-            reach = band * max(n, m)
-            for i in range(n):
-                first, last = 1, m
-                if band < 1.0:
-                    centre = (i + 0.5) * m / n + 0.5
-                    first = max(1, int(np.ceil(centre - reach)))
-                    last = min(m, int(np.floor(centre + reach)))
-                for j in range(0, first):
-                    current[j] = np.inf
-                for j in range(first, last + 1):
-                    cost = dots[i, lo + j - 1] * minus_two + query_norms[i]
-                    cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
-                    step = min(previous[j], current[j - 1], previous[j - 1])
-                    current[j] = cost + step
-                for j in range(last + 1, m + 1):
-                    current[j] = np.inf
-                previous, current = current, previous
-            out[r] = previous[m] / (n + m)
-
-    return warp
+    return njit(cache=True, nogil=True)(_warp_loop)
 
 
-_WARP = None
+def _warper():
+    """The time warping to run: numba's compiled loop when numba is already loaded in
+    the process (the tree search loads it), as it is then the quicker; else the NumPy
+    one, which does not need numba's import and set-up (about 0.45 s of CPU in a new
+    process).  The distances are the same to the bit either way."""
+    return _compiled_warp_loop() if "numba" in sys.modules else _warp
+
+
+def _warp(
+    dots: np.ndarray, query_norms: np.ndarray, frame_norms: np.ndarray, starts: np.ndarray,
+    band: float, out: np.ndarray,
+) -> None:  # fmt: skip
+    """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
+    cheapest monotone alignment of the query's frames with its frames, summed frame
+    distances over ``n + m``.
+
+    A frame distance is ``sqrt(max(‖a‖² + ‖b‖² − 2 a·b, 0))`` in float32, from
+    ``dots`` (n, M) float32 ``a·b`` and the squared norms (n,) and (M,).  Query frame
+    ``i`` is aligned only with frames ``j`` (1-based) within ``band · max(n, m)`` of
+    ``(i + ½) · m / n + ½``; inf when no path keeps to that band.
+
+    The cumulative costs (float64) are filled one anti-diagonal ``i + j`` at a time,
+    for every sequence at once: each cell needs only the two diagonals before its own,
+    and gets the same sum, ``cost + min(left, up, diagonal)``, as a loop over the cells.
+    """
+    n = dots.shape[0]
+    lengths = np.diff(starts)
+    count, longest = len(lengths), int(lengths.max())
+    # (n, M + 1) frame distances, inf outside each sequence's band and in the last column.
+    cost = np.empty((n, dots.shape[1] + 1), np.float32)
+    np.multiply(dots, np.float32(-2.0), out=cost[:, :-1])
+    cost[:, :-1] += query_norms[:, None]
+    cost[:, :-1] += frame_norms[None, :]
+    np.maximum(cost[:, :-1], np.float32(0.0), out=cost[:, :-1])
+    np.sqrt(cost[:, :-1], out=cost[:, :-1])
+    cost[:, -1] = np.inf
+    if band < 1.0:
+        # Per query frame, each sequence's frames [first, last] (1-based) in its band,
+        # marked by +1 at its first and −1 after its last frame, summed along the row.
+        row = np.arange(n)[:, None]
+        m = lengths[None, :]
+        centre = (row + 0.5) * m / n + 0.5
+        reach = band * np.maximum(n, m)
+        first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)
+        last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)
+        marks = np.zeros((n, dots.shape[1] + 1), np.int32)
+        rows = np.broadcast_to(row, first.shape)
+        keep = first <= last
+        np.add.at(marks, (rows[keep], (starts[:-1] + first - 1)[keep]), 1)
+        np.add.at(marks, (rows[keep], (starts[:-1] + last)[keep]), -1)
+        np.copyto(cost, np.float32(np.inf), where=np.cumsum(marks, axis=1) == 0)
+    # (n, m_max, R): sequence r's frame j at [:, j, r]; inf beyond its end.
+    column = np.arange(longest)[:, None]
+    frame = np.where(column < lengths[None, :], starts[None, :-1] + column, dots.shape[1])
+    cost = np.take(cost, frame, axis=1)
+    # A diagonal's cells by their row i (0 … n), each a row of the R sequences.
+    before = np.full((n + 1, count), np.inf)  # diagonal d − 2
+    before[0] = 0.0  # the path's start, cell (0, 0)
+    last_diagonal = np.full((n + 1, count), np.inf)  # diagonal d − 1
+    ends = n + lengths  # the diagonal of each sequence's last cell (n, m)
+    for diagonal in range(2, n + longest + 1):
+        lo, hi = max(1, diagonal - longest), min(n, diagonal - 1)
+        rows = np.arange(lo, hi + 1)
+        current = np.full((n + 1, count), np.inf)
+        step = np.minimum(last_diagonal[lo - 1 : hi], last_diagonal[lo : hi + 1])
+        np.minimum(step, before[lo - 1 : hi], out=step)
+        np.add(cost[rows - 1, diagonal - rows - 1], step, out=current[lo : hi + 1])
+        done = ends == diagonal
+        if done.any():
+            out[done] = current[n, done] / ends[done]
+        before, last_diagonal = last_diagonal, current
 
 
 def sequence_distances(
@@ -212,8 +283,8 @@ def sequence_distances(
         Frames of each of those R sequences, summing to ``M``; each >= 1.
     workers : Executor, optional
         Threads to warp the later half of the sequences on (its matrix product
-        included) while the calling thread warps the first (BLAS and the compiled
-        loop release the GIL); the distances are the same either way.  Not to be
+        included) while the calling thread warps the first (BLAS and NumPy release
+        the GIL); the distances are the same either way.  Not to be
         called from one of those threads.
     band : float, optional
         Half-width of the band around the diagonal the path keeps to, a share of the
@@ -228,14 +299,12 @@ def sequence_distances(
     band = float(WARP_BAND if band is None else band)
     if not band > 0.0:
         raise InvalidParameterError(f"band must be > 0, got {band}")
-    global _WARP
-    if _WARP is None:
-        _WARP = _compiled_warp()
     query = np.ascontiguousarray(query, dtype=np.float32)
     frames = np.ascontiguousarray(frames, dtype=np.float32)
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     out = np.empty(len(lengths))
     query_norms = np.einsum("ij,ij->i", query, query)
+    warper = _warper()
 
     def warp(first: int, stop: int) -> None:  # sequences [first, stop)
         # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
@@ -245,7 +314,7 @@ def sequence_distances(
         dots = query @ part.T
         norms = np.einsum("ij,ij->i", part, part)
         bounds = starts[first : stop + 1] - starts[first]
-        _WARP(dots, query_norms, norms, bounds, band, out[first:stop])
+        warper(dots, query_norms, norms, bounds, band, out[first:stop])
 
     # Always the same two halves, whether or not the later one runs on a worker: the
     # distances do not depend on the threads.

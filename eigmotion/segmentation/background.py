@@ -64,7 +64,7 @@ import numpy as np
 from eigmotion.errors import InvalidParameterError
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import check_frames, grid_step
-from eigmotion.segmentation.kernels import compiled_kernels
+from eigmotion.segmentation.kernels import compiled_cluster_means
 from eigmotion.segmentation.subtraction import frame_chunks, segment_chunks
 from eigmotion.segmentation.workers import worker_shares, worker_threads
 
@@ -246,7 +246,7 @@ def _commonest_colours(sample: np.ndarray) -> np.ndarray:
     radius = np.int32(max(MIN_COLOUR_LEVELS, math.floor(COLOUR_PER_NOISE * np.median(step))))
     out = np.empty((h * w, 3), np.float32)
     pixels = np.ascontiguousarray(sample).reshape(f, h * w, 3)
-    kernel = compiled_kernels().largest_cluster_means
+    kernel = compiled_cluster_means()
     workers = worker_threads()
     jobs = [
         workers.submit(kernel, pixels[:, lo:hi], radius, out[lo:hi])

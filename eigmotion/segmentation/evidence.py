@@ -3,7 +3,7 @@
 The frames of a chunk are stacked one above the other in a single image, each with
 empty separator rows above and below it wider than any filter reaches (the layout a
 :class:`Scene` holds), so that a colour conversion or a blur is one OpenCV call and the
-per-pixel tests are compiled loops over the stack.  Per chunk (:func:`chunk_evidence`):
+per-pixel tests are whole-array operations over the stack.  Per chunk (:func:`chunk_evidence`):
 the exposure gains undone, the colour difference to the empty scene in CIE L*a*b*, raw
 and smoothed, and the lightly smoothed colours the shadow test reads; over the whole
 clip (:func:`clip_levels`): its noise levels and the hysteresis thresholds that follow
@@ -13,6 +13,7 @@ from them.
 from __future__ import annotations
 
 import math
+from concurrent.futures import Future
 from dataclasses import dataclass
 
 import cv2
@@ -20,7 +21,7 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.segmentation.config import SilhouetteConfig
-from eigmotion.segmentation.kernels import compiled_kernels
+from eigmotion.segmentation.kernels import lab_differences, vector_lengths
 from eigmotion.segmentation.workers import worker_threads
 
 #: Gaussian sigma, pixels, of the smoothing before the shadow test.
@@ -162,7 +163,6 @@ def frames_of(stack: np.ndarray, scene: Scene, n: int) -> np.ndarray:
 def chunk_evidence(chunk: np.ndarray, scene: Scene, config: SilhouetteConfig) -> Evidence:
     """The first pass over a chunk (k, H, W, 3) uint8 of frames: per pixel, the
     colour difference to the background, smoothed and not, and the smoothed colours."""
-    kernels = compiled_kernels()
     frames = shrink(chunk, config)
     n, h, w = frames.shape[:3]
     rows = scene.sep + n * scene.tile
@@ -181,9 +181,9 @@ def chunk_evidence(chunk: np.ndarray, scene: Scene, config: SilhouetteConfig) ->
     diff = np.zeros((rows, w, 3), np.float32)
     raw = np.zeros((rows, w), np.float32)
     lab = cv2.cvtColor(corrected, cv2.COLOR_RGB2Lab)
-    kernels.lab_differences(
-        frames_of(lab, scene, n).reshape(n, -1), scene.lab.ravel(),
-        frames_of(diff, scene, n).reshape(n, -1), frames_of(raw, scene, n).reshape(n, -1),
+    lab_differences(
+        frames_of(lab, scene, n)[:, :h], scene.lab, frames_of(diff, scene, n)[:, :h],
+        frames_of(raw, scene, n)[:, :h],
     )  # fmt: skip
     if config.smooth_sigma_px > 0.0:
         # Averaging the difference vector (not its length) cancels noise while a
@@ -191,7 +191,7 @@ def chunk_evidence(chunk: np.ndarray, scene: Scene, config: SilhouetteConfig) ->
         size = _gaussian_size(config.smooth_sigma_px)
         cv2.GaussianBlur(diff, size, config.smooth_sigma_px, dst=diff)
         smoothed = np.empty((rows, w), np.float32)
-        kernels.lengths(diff.ravel(), smoothed.ravel())
+        vector_lengths(diff, smoothed)
         smoothed[: scene.sep] = 0.0  # the blur spilled into the separators
         frames_of(smoothed, scene, n)[:, h:] = 0.0
     else:
@@ -322,6 +322,16 @@ def _lab(frames: np.ndarray) -> np.ndarray:
     n, h, w = frames.shape[:3]
     stacked = np.ascontiguousarray(frames).reshape(n * h, w, 3)
     return cv2.cvtColor(stacked, cv2.COLOR_RGB2Lab).reshape(n, h, w, 3)
+
+
+def start_colour_tables() -> Future:
+    """Have OpenCV build its 8-bit L*a*b* tables now, on a worker thread.
+
+    The first RGB → L*a*b* conversion in a process builds them (about 70 ms on an idle
+    machine, the GIL released); started before the database is opened or the video
+    decoded, they are built while that work goes on, on another core.
+    """
+    return worker_threads().submit(_lab, np.zeros((1, 1, 1, 3), np.uint8))
 
 
 def _gaussian_size(sigma_px: float) -> tuple[int, int]:

@@ -16,7 +16,12 @@ import numpy as np
 
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import Evidence, Levels, Scene
-from eigmotion.segmentation.kernels import compiled_kernels
+from eigmotion.segmentation.kernels import (
+    frame_boxes,
+    labelled_components,
+    refine_rim,
+    seeded_components,
+)
 
 
 def person_components(
@@ -36,27 +41,21 @@ def person_components(
     keep : (C,) bool
         The components that are the person (:func:`_person_components`).
     """
-    kernels = compiled_kernels()
-    n, w, sep, tile = evidence.n, scene.shape[1], scene.sep, scene.tile
-    rows = sep + n * tile
+    n, sep, tile = evidence.n, scene.sep, scene.tile
     # Hysteresis: weak pixels connected to strong ones, specks dropped.
     min_area = config.min_person_frac * scene.frame[0] * scene.frame[1]
-    weak = np.empty((rows, w), np.uint8)
-    strong = np.empty((rows, w), np.bool_)
-    kernels.seeds(
-        evidence.smoothed.ravel(), shadow.ravel(), levels.low, levels.high, weak.ravel(),
-        strong.ravel(),
-    )  # fmt: skip
-    count, labels = cv2.connectedComponentsWithAlgorithm(weak, 8, cv2.CV_32S, cv2.CCL_GRANA)
-    mask = np.empty((rows, w), np.uint8)
+    # The thresholds compared in float64, as Python numbers are.
+    weak = (evidence.smoothed > np.float64(levels.low)) & ~shadow
+    strong = weak & (evidence.smoothed > np.float64(levels.high))
+    count, labels = cv2.connectedComponentsWithAlgorithm(
+        weak.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
+    )
     speck = max(2, int(round(min_area * 0.05)))
-    kernels.seeded_components(labels.ravel(), count, strong.ravel(), speck, mask.ravel())
+    mask = seeded_components(labels, count, strong, speck)
     if scene.close_d > 1:
         closing = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (scene.close_d, scene.close_d))
         mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, closing)
-    count, labels = cv2.connectedComponentsWithAlgorithm(mask, 8, cv2.CV_32S, cv2.CCL_GRANA)
-    boxes = np.zeros((count, 5), np.int64)
-    kernels.component_boxes(labels.ravel(), w, boxes)
+    count, labels, boxes = labelled_components(mask, 8)
     boxes[1:, [2, 4]] -= sep  # rows of the frames' view, frame f from row f·tile
     return labels, boxes, _person_components(boxes, tile, n, min_area, config.keep_piece_frac)
 
@@ -69,10 +68,8 @@ def person_mask(
     :func:`person_components` returns them): holes that are clothing
     filled, the rim the smoothing added kept only where it differs by itself, and the
     boundary refined."""
-    kernels = compiled_kernels()
     sep = scene.sep
-    person = np.empty(labels.shape, np.bool_)
-    kernels.chosen(labels.ravel(), keep, person.ravel())
+    person = np.take(keep, labels)
     reach = scene.reach
     _fill_holes(
         person[sep:], boxes[keep], (evidence.smoothed[sep:], levels.low, evidence.raw[sep:],
@@ -87,10 +84,9 @@ def person_mask(
     cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
     inside = cv2.erode(person8, cross)
     core = cv2.erode(inside, cross)
-    out = person8.copy()
-    kernels.refine_rim(
+    out = refine_rim(
         person8, inside, core, evidence.corrected, scene.rgb, sep, scene.tile,
-        np.float32((4.0 * levels.rgb_noise) ** 2), out,
+        (4.0 * levels.rgb_noise) ** 2,
     )  # fmt: skip
     return out.view(bool)
 
@@ -186,11 +182,7 @@ def _fill_holes(
             y0[f] : y1[f] + 1, x0[f] : x1[f] + 1
         ]
     # The empty rings of all crops touch one another: one component, the outside.
-    count, labels = cv2.connectedComponentsWithAlgorithm(
-        (~crops).reshape(-1, crop_w).view(np.uint8), 4, cv2.CV_32S, cv2.CCL_GRANA
-    )
-    boxes = np.zeros((count, 5), np.int64)
-    compiled_kernels().component_boxes(labels.ravel(), crop_w, boxes)
+    count, labels, boxes = labelled_components((~crops).reshape(-1, crop_w).view(np.uint8), 4)
     crop_of = boxes[:, 2] // crop_h
     hole = np.ones(count, bool)
     hole[[0, labels[0, 0]]] = False  # the person, the outside
@@ -305,6 +297,4 @@ def per_frame_boxes(boxes: np.ndarray, tile: int, n_frames: int) -> tuple[np.nda
     area, x0, y0, x1, y1 : (F,) int64
         Total area (0: no component; the box is then meaningless) and the union box.
     """
-    out = np.empty((n_frames, 5), np.int64)
-    compiled_kernels().frame_boxes(np.ascontiguousarray(boxes), tile, out)
-    return tuple(out.T)
+    return tuple(frame_boxes(boxes, tile, n_frames).T)

@@ -31,11 +31,12 @@ Each stage runs over chunks of :data:`CHUNK_FRAMES` frames, not frame by frame: 
 frames of a chunk are stacked one above the other in a single image, each with empty
 separator rows above and below it wider than any filter reaches, so a colour
 conversion, a blur, a connected-component labelling or a morphology is one OpenCV call
-and the per-pixel tests are compiled loops (numba, :mod:`eigmotion.segmentation.kernels`)
-over the stack; holes are looked for only inside each frame's person box.  The chunks
-are worked on by one thread per CPU (:mod:`eigmotion.segmentation.workers`), and a
-video read by :func:`eigmotion.segmentation.video.load_clip_masks` with a background is
-segmented chunk by chunk while it is still being decoded.
+and the per-pixel tests are whole-array NumPy and OpenCV operations
+(:mod:`eigmotion.segmentation.kernels`) over the stack; holes are looked for only inside
+each frame's person box.  The chunks are worked on by one thread per CPU
+(:mod:`eigmotion.segmentation.workers`), and a video read by
+:func:`eigmotion.segmentation.video.load_clip_masks` with a background is segmented
+chunk by chunk while it is still being decoded.
 
 The first pass over a chunk is :mod:`eigmotion.segmentation.evidence`, the making of
 the masks :mod:`eigmotion.segmentation.person_mask`; this module runs the two passes
@@ -60,7 +61,7 @@ from eigmotion.segmentation.evidence import (
     frames_of,
     prepare_scene,
 )
-from eigmotion.segmentation.kernels import compiled_kernels
+from eigmotion.segmentation.kernels import cast_shadows
 from eigmotion.segmentation.person_mask import per_frame_boxes, person_components, person_mask
 from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_threads
 
@@ -108,20 +109,15 @@ def segment_chunks(
 
     The frames of a chunk are stacked one above the other in a single image, each
     with empty separator rows above and below it, wider than any filter reaches:
-    every stage is one OpenCV call or one compiled loop over the stack, and a frame's
+    every stage is one OpenCV call or one whole-array operation over the stack, and a frame's
     mask does not depend on the chunk it is in.  Two passes over the chunks, in
-    worker threads (OpenCV and the compiled loops release the GIL): the per-pixel
+    worker threads (OpenCV and NumPy release the GIL): the per-pixel
     evidence (:func:`~eigmotion.segmentation.evidence.chunk_evidence`), then — with
     the clip's noise level, taken over all of its frames — the masks
     (:func:`_chunk_masks`).
     """
     workers = worker_threads()
-    # The first L*a*b* conversion in a process builds OpenCV's tables (about 0.2 s,
-    # the GIL released): the scene is prepared on a worker while this thread imports
-    # numba and loads the compiled loops (the GIL held), before any worker calls them.
-    scene_job = workers.submit(prepare_scene, background, config)
-    compiled_kernels()
-    scene = scene_job.result()
+    scene = prepare_scene(background, config)
     with opencv_in_calling_threads():
         pending = [workers.submit(chunk_evidence, chunk, scene, config) for chunk in chunks]
         evidence = [job.result() for job in pending]
@@ -143,14 +139,10 @@ def _chunk_masks(
     the region is most of the frame (:data:`MAX_REGION_FRAC`), the whole frames are
     segmented.
     """
-    kernels = compiled_kernels()
     n, (h, w) = evidence.n, scene.shape
-    shadow = np.zeros(evidence.raw.shape, np.bool_)
-    kernels.cast_shadows(
-        frames_of(evidence.soft, scene, n).reshape(n, -1), scene.soft.ravel(),
-        scene.inv_norm2.ravel(), scene.bright.ravel(), *np.float32(config.shadow_ratio),
-        np.float32(config.shadow_chroma), np.float32(levels.rgb_noise),
-        frames_of(shadow, scene, n).reshape(n, -1),
+    shadow = cast_shadows(
+        evidence.soft, scene.soft, scene.inv_norm2, scene.bright, config.shadow_ratio,
+        config.shadow_chroma, levels.rgb_noise, scene.sep, scene.tile,
     )  # fmt: skip
     region = _person_region(evidence, scene, levels, shadow)
     if region is None:  # no pixel strong enough to seed a person
@@ -214,7 +206,7 @@ def _person_region(
 
     Every component of a mask holds a seed: a pixel whose smoothed difference exceeds
     the high threshold and that is not in a cast shadow (``shadow`` (S, W) bool, as
-    the stack; :func:`eigmotion.segmentation.kernels._seeds`).  The region is the box
+    the stack; :func:`eigmotion.segmentation.person_mask.person_components`).  The region is the box
     of the chunk's seeds, grown on each side by :data:`REGION_MARGIN_FRAC` of its
     longer side (at least twice :func:`_guard_px`), clipped to the frame.  None when
     there is no seed.

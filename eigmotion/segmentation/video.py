@@ -30,7 +30,7 @@ from eigmotion.imaging.media import (
 from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
-from eigmotion.segmentation.evidence import check_frames, shrink
+from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_tables
 from eigmotion.segmentation.learned import (
     count_people,
     learned_masks,
@@ -238,6 +238,7 @@ def load_clip_masks(
         return ClipMasks(masks, indices, n_frames, min(rate, clip_fps), clip_fps, people, "masks")
     if segmenter == "learned":
         return _learned_clip_masks(path, config, sample_fps, progress)
+    start_colour_tables()  # while the video opens
 
     def to_working_size(frame: np.ndarray) -> np.ndarray:
         """Each frame shrunk as soon as it is decoded (as the segmentation would shrink
