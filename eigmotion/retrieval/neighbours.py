@@ -82,6 +82,12 @@ def _row_box_bound(lo, hi, query):  # pragma: no cover - JIT
     return total
 
 
+#: Entries measured together by :func:`_measure_leaf`.
+_BLOCK = 64
+#: Axes summed for every entry or box before the ones already too far are dropped.
+_HEAD = 16
+
+
 def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
     """``out`` (m,) float32: :func:`_row_sq_distance` of each row of ``points`` (m, k)
     to the same row of ``queries`` (m, k), or to its one row (1, k)."""
@@ -90,16 +96,142 @@ def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
         out[i] = _row_sq_distance(points[i], queries[0] if one else queries[i])
 
 
+def _measure_leaf(
+    tiles, ids, start, stop, query, scratch, keep, sq_row, id_row
+):  # pragma: no cover - JIT
+    """Offer the entries ``start … stop-1`` of one leaf to the running best.
+
+    The leaf's points are one tile stored by coordinate (``tiles[start·k + a·m + j]``,
+    ``m`` entries), so each entry's :func:`_row_sq_distance` is taken axis by axis over
+    the leaf: the loop over entries runs in vector registers while every entry's own
+    sum keeps its order.  After the first ``_HEAD`` axes (the eigenspace's widest)
+    only the entries whose partial sum does not exceed the k-th best are summed on:
+    the terms are >= 0, so the others cannot enter.  ``scratch`` and ``keep`` hold at
+    least ``_BLOCK`` items.
+    """
+    n_dims = query.shape[0]
+    head = min(_HEAD, n_dims)
+    last = sq_row.shape[0] - 1
+    m_all = stop - start
+    base = start * n_dims
+    for first in range(0, m_all, _BLOCK):
+        n = min(_BLOCK, m_all - first)
+        for j in range(n):
+            scratch[j] = np.float32(0.0)
+        for a in range(head):
+            qa = query[a]
+            row = base + a * m_all + first
+            for j in range(n):
+                d = tiles[row + j] - qa
+                scratch[j] += d * d
+        worst = sq_row[last]
+        m = 0
+        for j in range(n):
+            if scratch[j] <= worst:
+                keep[m] = j
+                m += 1
+        if m == 0:
+            continue
+        for a in range(head, n_dims):
+            qa = query[a]
+            row = base + a * m_all + first
+            for s in range(m):
+                j = keep[s]
+                d = tiles[row + j] - qa
+                scratch[j] += d * d
+        for s in range(m):
+            j = keep[s]
+            if scratch[j] <= sq_row[last]:
+                _offer(scratch[j], ids[start + first + j], sq_row, id_row)
+
+
+def _block_box_bounds(
+    lo_tiles, hi_tiles, first, n, query, cutoff, out, keep
+):  # pragma: no cover - JIT
+    """:func:`_row_box_bound` of a node's ``n`` children, at ``first …`` of the child
+    list, that do not exceed ``cutoff``: returns their number ``m``, their positions in
+    ``keep[:m]`` and their bounds in ``out``.
+
+    The children's boxes are one tile stored by coordinate (as :func:`_measure_leaf`'s
+    points), bounded axis by axis over the children, so the loop runs in vector
+    registers while every box's own sum keeps its order; after the first ``_HEAD`` axes
+    only the boxes whose partial sum is within ``cutoff`` are summed on.
+    """
+    n_dims = query.shape[0]
+    head = min(_HEAD, n_dims)
+    base = first * n_dims
+    for c in range(n):
+        out[c] = np.float32(0.0)
+    for a in range(head):
+        qa = query[a]
+        row = base + a * n
+        for c in range(n):
+            near = min(max(lo_tiles[row + c], qa), hi_tiles[row + c])
+            d = near - qa
+            out[c] += d * d
+    m = 0
+    for c in range(n):
+        if out[c] <= cutoff:
+            keep[m] = c
+            m += 1
+    for a in range(head, n_dims):
+        qa = query[a]
+        row = base + a * n
+        for s in range(m):
+            c = keep[s]
+            near = min(max(lo_tiles[row + c], qa), hi_tiles[row + c])
+            d = near - qa
+            out[c] += d * d
+    return m
+
+
+def _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf, base_first,
+               base_count, lo, hi):  # fmt: skip  # pragma: no cover - JIT
+    """A small node near ``query``, measured first for a first k-th best.
+
+    The query's own key (the patent's lookup: its section on each key axis, digit by
+    digit) finds the deepest occupied key prefix holding >= ``top_k`` entries; below it
+    the child with the smallest bound is followed while the node holds more than
+    ``budget`` entries.  ``digits`` / ``nodes`` list each level's key prefixes and their
+    nodes, level ``d`` in ``level_first[d] … level_first[d+1]-1``.
+    """
+    current = 0
+    prefix = 0
+    for depth in range(level_first.shape[0] - 1):
+        section = np.searchsorted(edges[depth], query[depth], side="right")
+        prefix = prefix * (edges.shape[1] + 1) + section
+        first, stop = level_first[depth], level_first[depth + 1]
+        if stop > first:
+            pos = first + np.searchsorted(digits[first:stop], prefix)
+            pos = min(pos, stop - 1)
+            if digits[pos] == prefix and size[nodes[pos]] >= top_k:
+                current = nodes[pos]
+    while not is_leaf[current]:
+        chosen = -1
+        chosen_bound = np.inf
+        for kid in range(base_first[current], base_first[current] + base_count[current]):
+            if size[kid] < top_k:
+                continue
+            kid_bound = _row_box_bound(lo[kid], hi[kid], query)
+            if kid_bound < chosen_bound:
+                chosen, chosen_bound = kid, kid_bound
+        if chosen < 0:
+            break
+        current = chosen
+    return current
+
+
 def _best_first(
-    points, ids, lo, hi, first, count, children, is_leaf, start, end, queries, starts_at,
-    slack, best_sq, best_ids, examined,
+    tiles, ids, lo, hi, child_lo, child_hi, first, count, children, is_leaf, start, end,
+    queries, edges, digits, nodes, level_first, size, base_first, base_count, slack,
+    best_sq, best_ids, examined,
 ):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query, nearest lower bound first.
 
     ``best_sq`` (Q, k) float64 and ``best_ids`` (Q, k) int64 hold each query's running
     best, nearest first (empty slots: the cutoff and ``_SENTINEL``); ``examined`` (Q,)
-    int64 gets the entries measured.  Each query first measures the entries of its
-    node ``starts_at`` (the key lookup's), then pops nodes from a heap ordered by
+    int64 gets the entries measured.  Each query first measures the entries of the
+    node its key leads to (:func:`_key_start`), then pops nodes from a heap ordered by
     lower bound, skipping what that node held, and stops when the nearest bound left
     exceeds its k-th best.  An entry enters the best when its (squared distance, id)
     is smaller than the k-th best's.
@@ -108,27 +240,36 @@ def _best_first(
     top_k = best_sq.shape[1]
     heap_bound = np.empty(n_nodes, np.float32)
     heap_node = np.empty(n_nodes, np.int64)
+    scratch = np.empty(_BLOCK, np.float32)
+    widest = max(1, count.max()) if count.size else 1
+    bounds = np.empty(widest, np.float32)
+    kids = np.empty(widest, np.int64)
+    keep = np.empty(_BLOCK, np.int64)
     for qi in range(queries.shape[0]):
         query = queries[qi]
         sq_row, id_row = best_sq[qi], best_ids[qi]
-        g = starts_at[qi]
+        g = _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf,
+                       base_first, base_count, lo, hi)  # fmt: skip
         g_start, g_end = start[g], end[g]
-        for e in range(g_start, g_end):
-            _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
-        measured = g_end - g_start
+        measured = 0
+        if is_leaf[g]:
+            _measure_leaf(tiles, ids, g_start, g_end, query, scratch, keep, sq_row, id_row)
+            measured = g_end - g_start
+        else:  # no leaf of >= top_k entries: nothing measured first
+            g_start, g_end = 0, 0
         heap_bound[0], heap_node[0] = np.float32(0.0), 0  # the root
-        size = 1
-        while size > 0:
+        size_heap = 1
+        while size_heap > 0:
             bound, node = heap_bound[0], heap_node[0]
-            size -= 1
-            if size > 0:  # the last item sifts down from the top
-                last_bound, last_node = heap_bound[size], heap_node[size]
+            size_heap -= 1
+            if size_heap > 0:  # the last item sifts down from the top
+                last_bound, last_node = heap_bound[size_heap], heap_node[size_heap]
                 i = 0
                 while True:
                     child = 2 * i + 1
-                    if child >= size:
+                    if child >= size_heap:
                         break
-                    if child + 1 < size and heap_bound[child + 1] < heap_bound[child]:
+                    if child + 1 < size_heap and heap_bound[child + 1] < heap_bound[child]:
                         child += 1
                     if heap_bound[child] >= last_bound:
                         break
@@ -140,19 +281,24 @@ def _best_first(
             if is_leaf[node]:
                 if start[node] >= g_start and end[node] <= g_end:
                     continue  # measured first
-                for e in range(start[node], end[node]):
-                    _offer(_row_sq_distance(points[e], query), ids[e], sq_row, id_row)
+                _measure_leaf(tiles, ids, start[node], end[node], query, scratch, keep,
+                               sq_row, id_row)  # fmt: skip
                 measured += end[node] - start[node]
                 continue
-            for c in range(first[node], first[node] + count[node]):
-                kid = children[c]
+            c_first = first[node]
+            cutoff = sq_row[top_k - 1] * slack
+            m = _block_box_bounds(child_lo, child_hi, c_first, count[node], query, cutoff,
+                                  bounds, kids)  # fmt: skip
+            for s in range(m):
+                c = kids[s]
+                kid = children[c_first + c]
                 if start[kid] >= g_start and end[kid] <= g_end:
                     continue
-                kid_bound = _row_box_bound(lo[kid], hi[kid], query)
-                if kid_bound > sq_row[top_k - 1] * slack:
+                kid_bound = bounds[c]
+                if kid_bound > cutoff:
                     continue
-                i = size  # sift up
-                size += 1
+                i = size_heap  # sift up
+                size_heap += 1
                 while i > 0:
                     parent = (i - 1) // 2
                     if heap_bound[parent] <= kid_bound:
@@ -193,11 +339,15 @@ def _compiled_kernels():
     taken in order, the same in brute force and in the tree."""
     from numba import njit
 
-    global _row_sq_distance, _row_box_bound, _offer
+    global _row_sq_distance, _row_box_bound, _offer, _measure_leaf, _key_start
+    global _block_box_bounds
     jit = njit(cache=True, nogil=True)
     _row_sq_distance = jit(_row_sq_distance)
     _row_box_bound = jit(_row_box_bound)
     _offer = jit(_offer)
+    _measure_leaf = jit(_measure_leaf)
+    _key_start = jit(_key_start)
+    _block_box_bounds = jit(_block_box_bounds)
     return SimpleNamespace(
         pair_sq_distances=jit(_pair_sq_distances_kernel), best_first=jit(_best_first)
     )
