@@ -117,12 +117,21 @@ def cutoff_note(max_distance) -> str:
 
 
 class Tree(Method):
+    """The key tree; ``walk``: through the tree for every batch (``TreeIndex.walk``),
+    else as ``TreeIndex.search`` chooses (large batches over small sets scanned)."""
+
     def __init__(
-        self, n_axes=4, n_sections=8, method="quantile", leaf_size=16, max_distance=np.inf
-    ):
+        self, n_axes=4, n_sections=8, method="quantile", leaf_size=16, max_distance=np.inf,
+        walk=False,
+    ):  # fmt: skip
         self.params = (n_axes, n_sections, method, leaf_size)
         self.max_distance = max_distance
-        self.name = f"tree R={n_sections} K={n_axes} {method}" + cutoff_note(max_distance)
+        self.walk = walk
+        self.name = (
+            f"tree R={n_sections} K={n_axes} {method}"
+            + (", walk" if walk else "")
+            + cutoff_note(max_distance)
+        )
 
     def build(self, points, ids):
         n_axes, n_sections, method, leaf_size = self.params
@@ -131,7 +140,8 @@ class Tree(Method):
         self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
 
     def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
-        r: NearestEntries = self.index.search(queries, max_distance=self.max_distance)
+        find = self.index.walk if self.walk else self.index.search
+        r: NearestEntries = find(queries, max_distance=self.max_distance)
         return r.ids[:, 0], r.examined
 
 
@@ -414,7 +424,7 @@ def bench_real(uri: str, target: int, n_queries: int, n_single: int, faiss_ok: b
     )
     for points in (base, resampled):
         n, ids = len(points), np.arange(len(points))
-        trees = [Tree(4, 8), Tree(10, 4)]
+        trees = [Tree(4, 8), Tree(4, 8, walk=True), Tree(10, 4, walk=True)]
         methods = [Brute(), *trees, SkKDTree()] + ([FaissFlat(), FaissHNSW()] if faiss_ok else [])
         for method in methods:
             method.build_s = cpu(method.build, points, ids)[1]
@@ -427,7 +437,7 @@ def bench_real(uri: str, target: int, n_queries: int, n_single: int, faiss_ok: b
                 base_row = base_row or row
                 print(fmt_row(n, method.name, row, base_row), flush=True)
             for tree in trees:
-                same = tree.index.search(queries)
+                same = tree.index.walk(queries)
                 assert np.array_equal(same.ids, reference.ids), "tree differs from brute force"
                 assert np.array_equal(same.distances, reference.distances)
             print()
