@@ -97,17 +97,16 @@ def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
 
 
 def _measure_leaf(
-    tiles, ids, start, stop, query, scratch, keep, sq_row, id_row
+    tiles, ids, start, stop, query, scratch, sq_row, id_row
 ):  # pragma: no cover - JIT
     """Offer the entries ``start … stop-1`` of one leaf to the running best.
 
     The leaf's points are one tile stored by coordinate (``tiles[start·k + a·m + j]``,
     ``m`` entries), so each entry's :func:`_row_sq_distance` is taken axis by axis over
     the leaf: the loop over entries runs in vector registers while every entry's own
-    sum keeps its order.  After the first ``_HEAD`` axes (the eigenspace's widest)
-    only the entries whose partial sum does not exceed the k-th best are summed on:
-    the terms are >= 0, so the others cannot enter.  ``scratch`` and ``keep`` hold at
-    least ``_BLOCK`` items.
+    sum keeps its order.  When after the first ``_HEAD`` axes (the eigenspace's
+    widest) every partial sum exceeds the k-th best, the rest is skipped: the terms
+    are >= 0, so none can enter.  ``scratch`` holds at least ``_BLOCK`` float32.
     """
     n_dims = query.shape[0]
     head = min(_HEAD, n_dims)
@@ -116,73 +115,66 @@ def _measure_leaf(
     base = start * n_dims
     for first in range(0, m_all, _BLOCK):
         n = min(_BLOCK, m_all - first)
-        for j in range(n):
-            scratch[j] = np.float32(0.0)
-        for a in range(head):
-            qa = query[a]
-            row = base + a * m_all + first
-            for j in range(n):
-                d = tiles[row + j] - qa
-                scratch[j] += d * d
+        acc = scratch[:n]
+        acc[:] = np.float32(0.0)
+        _add_sq_terms(tiles, base + first, m_all, n, query, 0, head, acc)
         worst = sq_row[last]
-        m = 0
+        near = False
         for j in range(n):
-            if scratch[j] <= worst:
-                keep[m] = j
-                m += 1
-        if m == 0:
+            near |= acc[j] <= worst
+        if not near:
             continue
-        for a in range(head, n_dims):
-            qa = query[a]
-            row = base + a * m_all + first
-            for s in range(m):
-                j = keep[s]
-                d = tiles[row + j] - qa
-                scratch[j] += d * d
-        for s in range(m):
-            j = keep[s]
-            if scratch[j] <= sq_row[last]:
-                _offer(scratch[j], ids[start + first + j], sq_row, id_row)
+        _add_sq_terms(tiles, base + first, m_all, n, query, head, n_dims, acc)
+        for j in range(n):
+            if acc[j] <= sq_row[last]:
+                _offer(acc[j], ids[start + first + j], sq_row, id_row)
 
 
-def _block_box_bounds(
-    lo_tiles, hi_tiles, first, n, query, cutoff, out, keep
+def _add_sq_terms(tiles, offset, stride, n, query, a_first, a_stop, acc):  # pragma: no cover - JIT
+    """``acc[j] += (tiles[offset + a·stride + j] − query[a])²`` for axes ``a_first …
+    a_stop-1`` in order, each axis over the ``n`` entries at once."""
+    for a in range(a_first, a_stop):
+        qa = query[a]
+        row = tiles[offset + a * stride : offset + a * stride + n]
+        for j in range(n):
+            d = row[j] - qa
+            acc[j] += d * d
+
+
+def _add_box_terms(
+    lo_tiles, hi_tiles, offset, n, query, a_first, a_stop, acc
 ):  # pragma: no cover - JIT
-    """:func:`_row_box_bound` of a node's ``n`` children, at ``first …`` of the child
-    list, that do not exceed ``cutoff``: returns their number ``m``, their positions in
-    ``keep[:m]`` and their bounds in ``out``.
+    """:func:`_add_sq_terms` for boxes: the term of the box's coordinate nearest the
+    query's, for ``n`` boxes stored as a tile (stride ``n``)."""
+    for a in range(a_first, a_stop):
+        qa = query[a]
+        low = lo_tiles[offset + a * n : offset + a * n + n]
+        high = hi_tiles[offset + a * n : offset + a * n + n]
+        for c in range(n):
+            d = min(max(low[c], qa), high[c]) - qa
+            acc[c] += d * d
+
+
+def _block_box_bounds(lo_tiles, hi_tiles, first, n, query, cutoff, out):  # pragma: no cover - JIT
+    """``out[:n]``: lower bounds of the squared distance from ``query`` to a node's
+    ``n`` children, at ``first …`` of the child list.
 
     The children's boxes are one tile stored by coordinate (as :func:`_measure_leaf`'s
     points), bounded axis by axis over the children, so the loop runs in vector
-    registers while every box's own sum keeps its order; after the first ``_HEAD`` axes
-    only the boxes whose partial sum is within ``cutoff`` are summed on.
+    registers while every box's own sum (:func:`_row_box_bound`'s terms) keeps its
+    order.  When after the first ``_HEAD`` axes every partial sum exceeds ``cutoff``
+    the rest is skipped (the partial sums are lower bounds too).
     """
     n_dims = query.shape[0]
     head = min(_HEAD, n_dims)
-    base = first * n_dims
+    acc = out[:n]
+    acc[:] = np.float32(0.0)
+    _add_box_terms(lo_tiles, hi_tiles, first * n_dims, n, query, 0, head, acc)
+    near = False
     for c in range(n):
-        out[c] = np.float32(0.0)
-    for a in range(head):
-        qa = query[a]
-        row = base + a * n
-        for c in range(n):
-            near = min(max(lo_tiles[row + c], qa), hi_tiles[row + c])
-            d = near - qa
-            out[c] += d * d
-    m = 0
-    for c in range(n):
-        if out[c] <= cutoff:
-            keep[m] = c
-            m += 1
-    for a in range(head, n_dims):
-        qa = query[a]
-        row = base + a * n
-        for s in range(m):
-            c = keep[s]
-            near = min(max(lo_tiles[row + c], qa), hi_tiles[row + c])
-            d = near - qa
-            out[c] += d * d
-    return m
+        near |= acc[c] <= cutoff
+    if near:
+        _add_box_terms(lo_tiles, hi_tiles, first * n_dims, n, query, head, n_dims, acc)
 
 
 def _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf, base_first,
@@ -224,36 +216,39 @@ def _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf, b
 def _best_first(
     tiles, ids, lo, hi, child_lo, child_hi, first, count, children, is_leaf, start, end,
     queries, edges, digits, nodes, level_first, size, base_first, base_count, slack,
-    best_sq, best_ids, examined,
+    max_sq, out_ids, out_distances, examined,
 ):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query, nearest lower bound first.
 
-    ``best_sq`` (Q, k) float64 and ``best_ids`` (Q, k) int64 hold each query's running
-    best, nearest first (empty slots: the cutoff and ``_SENTINEL``); ``examined`` (Q,)
-    int64 gets the entries measured.  Each query first measures the entries of the
+    Fills ``out_ids`` (Q, k) int64 and ``out_distances`` (Q, k) float64 as
+    :meth:`RunningBest.result` does (nearest first; ``NO_ENTRY`` and inf in slots left
+    empty by the squared cutoff ``max_sq``) and ``examined`` (Q,) int64 with the
+    entries measured.  A query's running best starts as ``top_k`` empty slots (the
+    cutoff and ``_SENTINEL``).  Each query first measures the entries of the
     node its key leads to (:func:`_key_start`), then pops nodes from a heap ordered by
     lower bound, skipping what that node held, and stops when the nearest bound left
     exceeds its k-th best.  An entry enters the best when its (squared distance, id)
     is smaller than the k-th best's.
     """
     n_nodes = lo.shape[0]
-    top_k = best_sq.shape[1]
+    top_k = out_ids.shape[1]
+    sq_row = np.empty(top_k, np.float64)
+    id_row = np.empty(top_k, np.int64)
     heap_bound = np.empty(n_nodes, np.float32)
     heap_node = np.empty(n_nodes, np.int64)
     scratch = np.empty(_BLOCK, np.float32)
     widest = max(1, count.max()) if count.size else 1
     bounds = np.empty(widest, np.float32)
-    kids = np.empty(widest, np.int64)
-    keep = np.empty(_BLOCK, np.int64)
     for qi in range(queries.shape[0]):
         query = queries[qi]
-        sq_row, id_row = best_sq[qi], best_ids[qi]
+        sq_row[:] = max_sq
+        id_row[:] = _SENTINEL
         g = _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf,
                        base_first, base_count, lo, hi)  # fmt: skip
         g_start, g_end = start[g], end[g]
         measured = 0
         if is_leaf[g]:
-            _measure_leaf(tiles, ids, g_start, g_end, query, scratch, keep, sq_row, id_row)
+            _measure_leaf(tiles, ids, g_start, g_end, query, scratch, sq_row, id_row)
             measured = g_end - g_start
         else:  # no leaf of >= top_k entries: nothing measured first
             g_start, g_end = 0, 0
@@ -281,16 +276,13 @@ def _best_first(
             if is_leaf[node]:
                 if start[node] >= g_start and end[node] <= g_end:
                     continue  # measured first
-                _measure_leaf(tiles, ids, start[node], end[node], query, scratch, keep,
-                               sq_row, id_row)  # fmt: skip
+                _measure_leaf(tiles, ids, start[node], end[node], query, scratch, sq_row, id_row)
                 measured += end[node] - start[node]
                 continue
             c_first = first[node]
             cutoff = sq_row[top_k - 1] * slack
-            m = _block_box_bounds(child_lo, child_hi, c_first, count[node], query, cutoff,
-                                  bounds, kids)  # fmt: skip
-            for s in range(m):
-                c = kids[s]
+            _block_box_bounds(child_lo, child_hi, c_first, count[node], query, cutoff, bounds)
+            for c in range(count[node]):
                 kid = children[c_first + c]
                 if start[kid] >= g_start and end[kid] <= g_end:
                     continue
@@ -307,6 +299,11 @@ def _best_first(
                     i = parent
                 heap_bound[i], heap_node[i] = kid_bound, kid
         examined[qi] = measured
+        for t in range(top_k):
+            if id_row[t] == _SENTINEL:
+                out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
+            else:
+                out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
 
 
 def _offer(sq, entry_id, sq_row, id_row):  # pragma: no cover - JIT
@@ -340,13 +337,15 @@ def _compiled_kernels():
     from numba import njit
 
     global _row_sq_distance, _row_box_bound, _offer, _measure_leaf, _key_start
-    global _block_box_bounds
+    global _block_box_bounds, _add_sq_terms, _add_box_terms
     jit = njit(cache=True, nogil=True)
     _row_sq_distance = jit(_row_sq_distance)
     _row_box_bound = jit(_row_box_bound)
     _offer = jit(_offer)
     _measure_leaf = jit(_measure_leaf)
     _key_start = jit(_key_start)
+    _add_sq_terms = jit(_add_sq_terms)
+    _add_box_terms = jit(_add_box_terms)
     _block_box_bounds = jit(_block_box_bounds)
     return SimpleNamespace(
         pair_sq_distances=jit(_pair_sq_distances_kernel), best_first=jit(_best_first)

@@ -60,7 +60,6 @@ from eigmotion.retrieval.brute_force import BruteForceIndex
 from eigmotion.retrieval.keys import Quantizer, key_prefix
 from eigmotion.retrieval.neighbours import (
     NearestEntries,
-    RunningBest,
     check_ids,
     check_max_distance,
     check_points,
@@ -517,12 +516,15 @@ class TreeIndex:
         )
 
     def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
-        best = RunningBest(queries.shape[0], top_k, max_sq)
+        n = queries.shape[0]
+        ids = np.empty((n, top_k), dtype=np.int64)
+        distances = np.empty((n, top_k), dtype=np.float64)
+        examined = np.empty(n, dtype=np.int64)
         kernels().best_first(
             self._tiles, self.ids, self._lo, self._hi, self._child_lo, self._child_hi,
-            self._child_first, self._child_count,
-            self._child_list, self._is_leaf, self._start, self._end, queries, self._edges,
-            self._prefix_digits, self._prefix_nodes, self._prefix_first, self._size,
-            self._base_first, self._base_count, _SLACK, best.sq, best.ids, best.examined,
+            self._child_first, self._child_count, self._child_list, self._is_leaf, self._start,
+            self._end, queries, self._edges, self._prefix_digits, self._prefix_nodes,
+            self._prefix_first, self._size, self._base_first, self._base_count, _SLACK, max_sq,
+            ids, distances, examined,
         )  # fmt: skip
-        return best.result()
+        return NearestEntries(ids, distances, examined)
