@@ -215,8 +215,8 @@ def _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf, b
 
 def _best_first(
     tiles, ids, lo, hi, child_lo, child_hi, first, count, children, is_leaf, start, end,
-    queries, edges, digits, nodes, level_first, size, base_first, base_count, slack,
-    max_sq, out_ids, out_distances, examined,
+    queries, edges, digits, nodes, level_first, size, base_first, base_count, widest,
+    slack, max_sq, out_ids, out_distances, examined,
 ):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query, nearest lower bound first.
 
@@ -234,11 +234,12 @@ def _best_first(
     top_k = out_ids.shape[1]
     sq_row = np.empty(top_k, np.float64)
     id_row = np.empty(top_k, np.int64)
-    heap_bound = np.empty(n_nodes, np.float32)
-    heap_node = np.empty(n_nodes, np.int64)
+    # The heap grows (doubling) as needed: a query holds few nodes in it, and a small
+    # allocation per call keeps one query at a time cheap.
+    heap_bound = np.empty(min(n_nodes, 1024), np.float32)
+    heap_node = np.empty(min(n_nodes, 1024), np.int64)
     scratch = np.empty(_BLOCK, np.float32)
-    widest = max(1, count.max()) if count.size else 1
-    bounds = np.empty(widest, np.float32)
+    bounds = np.empty(max(1, widest), np.float32)
     for qi in range(queries.shape[0]):
         query = queries[qi]
         sq_row[:] = max_sq
@@ -289,6 +290,12 @@ def _best_first(
                 kid_bound = bounds[c]
                 if kid_bound > cutoff:
                     continue
+                if size_heap == heap_bound.shape[0]:
+                    grown_bound = np.empty(2 * size_heap, np.float32)
+                    grown_node = np.empty(2 * size_heap, np.int64)
+                    grown_bound[:size_heap] = heap_bound
+                    grown_node[:size_heap] = heap_node
+                    heap_bound, heap_node = grown_bound, grown_node
                 i = size_heap  # sift up
                 size_heap += 1
                 while i > 0:

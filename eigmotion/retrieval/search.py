@@ -23,30 +23,42 @@ record):
   on its squared distance to anything inside, far tighter than the section
   boundaries alone, and it covers the axes beyond K;
 * for searching, each node's children are its highest descendants holding at most
-  1/16 of its entries (or leaves).
+  1/8 of its entries (or leaves).
 
-A query:
+A query (one compiled loop per batch, which releases the GIL; Python only checks the
+arguments and allocates the answer, so one query at a time costs little more than in a
+batch):
 
-1. *Key lookup* (vectorised over queries with numpy): the query's own key (the
-   patent's step) finds the deepest occupied key prefix; below it the child with the
-   smallest bound is followed until at most 8 leaves' worth of entries remain; their
-   distances give a first k-th best.
-2. *Nearest bound first* (a compiled loop per query, which releases the GIL): from
-   the root, nodes are taken from a heap in order of their bound; a leaf's entries
-   are measured, an inner node's children whose bound does not exceed the current
-   k-th best go on the heap; the search ends when the nearest bound left exceeds the
-   k-th best.
+1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
+   deepest occupied key prefix; below it the child with the smallest bound is
+   followed down to a leaf, whose distances give a first k-th best.
+2. *Nearest bound first*: from the root, nodes are taken from a heap in order of
+   their bound; a leaf's entries are measured, an inner node's children whose bound
+   does not exceed the current k-th best go on the heap; the search ends when the
+   nearest bound left exceeds the k-th best.
+
+Leaves' points and each node's children's boxes are stored as *tiles*, coordinate by
+coordinate (coordinate ``a`` of item ``j`` of a tile of ``m`` items at ``a·m + j``), so
+one leaf's distances or one node's children's bounds are summed axis by axis over the
+whole tile; after the first 16 axes (the eigenspace's widest) the rest is skipped when
+every partial sum already exceeds the k-th best (the terms are >= 0).
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
 
+A batch of at least :attr:`TreeIndex.scan_queries` queries over at most
+:attr:`TreeIndex.scan_entries` entries, without ``max_distance``, is answered by
+scanning every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`:
+matrix products beat the walk there); its ``examined`` is then N.
+:meth:`TreeIndex.walk` always walks.
+
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
-``Σ_a (p_a − h_a)²`` summed in order in float32 by one function shared with
+``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
 :class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
 (:mod:`eigmotion.retrieval.neighbours`), and a bound is the same sum with each ``p_a``
-replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance holds in
-floating point, no entry that brute force would return is ever pruned, and the
-answers agree bit for bit.
+replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance
+holds in floating point (a partial sum too), no entry that brute force would return is
+ever pruned, and the answers agree bit for bit.
 """
 
 from __future__ import annotations
@@ -358,6 +370,7 @@ class TreeIndex:
         self._child_first = first
         self._child_count = count
         self._child_list = np.concatenate(lists) if lists else np.zeros(0, dtype=np.int64)
+        self._widest = int(count.max(initial=0))  # most children of a node
 
     # -- description ----------------------------------------------------------------
     @property
@@ -524,7 +537,7 @@ class TreeIndex:
             self._tiles, self.ids, self._lo, self._hi, self._child_lo, self._child_hi,
             self._child_first, self._child_count, self._child_list, self._is_leaf, self._start,
             self._end, queries, self._edges, self._prefix_digits, self._prefix_nodes,
-            self._prefix_first, self._size, self._base_first, self._base_count, _SLACK, max_sq,
-            ids, distances, examined,
+            self._prefix_first, self._size, self._base_first, self._base_count,
+            self._widest, _SLACK, max_sq, ids, distances, examined,
         )  # fmt: skip
         return NearestEntries(ids, distances, examined)
