@@ -37,7 +37,8 @@ class NearestEntries:
         Euclidean distances (not squared) in eigen-coordinate units; inf in empty
         slots.
     examined : (Q,) int64
-        Entries whose distance to the query was computed.
+        Entries the query was compared with: their distance summed, or (in the key
+        tree) dropped once the sum over the first axes exceeded the k-th best.
     """
 
     ids: np.ndarray
