@@ -466,7 +466,7 @@ class TreeIndex:
     #: most ``scan_entries`` entries is answered by scanning every entry
     #: (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, matrix products):
     #: measured on a real database's points (``bench_search.py --real``), that beats
-    #: the walk there, 49 against 63–83 µs a query at 34,048 entries, while one query
+    #: the walk there, 56 against 78–95 µs a query at 34,048 entries, while one query
     #: at a time or 10^5 entries the walk wins.  Set ``scan_entries = 0`` to always walk.
     scan_queries = 32
     scan_entries = 50_000
