@@ -282,7 +282,7 @@ def test_tree_search_is_exact_on_the_real_database(db_path):
         queries = points[picks] + rng.normal(size=(10_000, points.shape[1])) * scale
         assert brute_force_check(db, queries, top_k=1)
         assert brute_force_check(db, queries[:500], top_k=5)
-        examined = db.index.search(queries, 1).examined
+        examined = db.index.walk(queries, 1).examined
         assert examined.mean() < db.n_entries
 
 

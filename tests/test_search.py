@@ -59,9 +59,13 @@ def assert_same(result: NearestEntries, reference: NearestEntries):
     np.testing.assert_array_equal(result.distances, reference.distances)
 
 
-def tree_of(points, ids, n_axes=4, n_sections=8, method="quantile", leaf_size=32):
+def tree_of(points, ids, n_axes=4, n_sections=8, method="quantile", leaf_size=32, scan=False):
+    """The tree over ``points``; batches are walked, never scanned, unless ``scan``."""
     quantizer = Quantizer(n_axes, n_sections, method).fit(points)
-    return TreeIndex.from_arrays(quantizer.keys(points), points, ids, quantizer, leaf_size)
+    tree = TreeIndex.from_arrays(quantizer.keys(points), points, ids, quantizer, leaf_size)
+    if not scan:
+        tree.scan_entries = 0
+    return tree
 
 
 @pytest.mark.slow
@@ -108,6 +112,72 @@ def test_leaf_sizes_and_large_top_k(leaf_size, top_k):
     tree.check()
     queries = queries_like(points, 100, rng)
     assert_same(tree.search(queries, top_k), brute_force(points, ids, queries, top_k))
+
+
+def renderings_like(n_motions: int, n_dims: int, rng, clothing: float = 0.0) -> np.ndarray:
+    """(n_motions · 6 · 12, n_dims) float32 points shaped like a database's motion images.
+
+    Each motion is a smooth sheet over 6 time windows × 12 views (a bilinear patch
+    between random corners, bent by a sine over the views), the spread per axis
+    falling like the default database's eigenvalues (0.26 … 0.04 over 40 axes);
+    ``clothing`` adds the offset of another rendering of the same motions.
+    """
+    scale = (0.26 / np.sqrt(np.arange(1, n_dims + 1))).astype(np.float32)
+    corners = rng.standard_normal((n_motions, 4, n_dims)).astype(np.float32) * scale
+    u = np.linspace(0.0, 1.0, 6, dtype=np.float32)[:, None, None]
+    v = np.linspace(0.0, 1.0, 12, dtype=np.float32)[None, :, None]
+    bend = np.sin(2 * np.pi * v).astype(np.float32)
+    out = []
+    for c in corners:
+        sheet = (1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + (1 - u) * v * c[2]
+        sheet = sheet + u * v * c[3] + 0.3 * bend * scale
+        out.append(sheet.reshape(-1, n_dims))
+    points = np.concatenate(out)
+    points += clothing * scale * rng.standard_normal(points.shape).astype(np.float32)
+    return points.astype(np.float32)
+
+
+@pytest.mark.parametrize(("n_dims", "leaf_size"), [(40, 16), (40, 1), (40, 100), (3, 16)])
+@pytest.mark.parametrize(("n_axes", "n_sections"), [(4, 8), (10, 4)])
+def test_equals_brute_force_on_rendering_like_points(n_dims, leaf_size, n_axes, n_sections):
+    # Sheets of windows × views per motion, a flat eigenvalue spectrum, leaves wider
+    # than one vector block (100) and fewer axes (3) than are summed before dropping.
+    rng = np.random.default_rng(n_dims + leaf_size)
+    motions = renderings_like(60, n_dims, rng)
+    points = motions + 0.01 * rng.standard_normal(motions.shape).astype(np.float32)
+    ids = rng.permutation(len(points) * 2)[: len(points)]
+    tree = tree_of(points, ids, min(n_axes, n_dims), n_sections, leaf_size=leaf_size)
+    tree.check()
+    np.testing.assert_array_equal(np.sort(tree.points, axis=0), np.sort(points, axis=0))
+    # Known motions: the same sheets rendered again (other noise); unknown: new motions.
+    known = motions[rng.choice(len(motions), 150)] + 0.02 * rng.standard_normal((150, n_dims))
+    unknown = renderings_like(3, n_dims, rng)[rng.choice(216, 50)]
+    for queries in (known, unknown):
+        for top_k in (1, 7, 40):
+            assert_same(tree.search(queries, top_k), brute_force(points, ids, queries, top_k))
+    one = tree.search(known[0], 7)
+    assert_same(one, brute_force(points, ids, known[0], 7))
+
+
+def test_small_databases_scan_large_batches():
+    rng = np.random.default_rng(8)
+    points = renderings_like(40, 40, rng)
+    ids = np.arange(len(points))
+    tree = tree_of(points, ids, scan=True)
+    queries = points[rng.choice(len(points), 64)] + 0.01
+    scanned = tree.search(queries, 5)
+    assert np.all(scanned.examined == len(points))  # says it scanned
+    assert_same(scanned, brute_force(points, ids, queries, 5))
+    walked = tree.search(queries[:31], 5)  # too few queries to scan
+    assert np.all(walked.examined < len(points))
+    assert_same(walked, brute_force(points, ids, queries[:31], 5))
+    cut = tree.search(queries, 5, max_distance=0.05)  # a cutoff prunes the walk
+    assert np.all(cut.examined < len(points))
+    assert_same(cut, brute_force(points, ids, queries, 5, max_distance=0.05))
+    assert_same(tree.walk(queries, 5), scanned)
+    assert np.all(tree.walk(queries, 5).examined < len(points))
+    tree.scan_entries = len(points) - 1
+    assert np.all(tree.search(queries, 5).examined < len(points))
 
 
 def test_brute_force_equals_naive_scan(rng):

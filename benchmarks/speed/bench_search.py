@@ -6,6 +6,7 @@ Run from the repository root::
     python benchmarks/speed/bench_search.py --sizes 1000 100000 --dims 24
     python benchmarks/speed/bench_search.py --store 100000  # database build / open times
     python benchmarks/speed/bench_search.py --eigenspace 1000 16384 50   # vs sklearn PCA
+    python benchmarks/speed/bench_search.py --real DB.fs    # points of a real database
 
 For each database size it builds every index over the same points and answers the same
 queries, and prints one Markdown table: build time, search time per query (all queries
@@ -19,7 +20,12 @@ to one thread, so that a busy shared machine changes them little.  FAISS
 (``pip install faiss-cpu``, the ``bench`` extra) is optional: its rows are skipped with
 a note when it is missing.
 
-Points are drawn like motion-image points: per-axis spread decaying like an
+With ``--real DB`` the points are a real database's motion-image points instead (see
+:func:`real_sets`): the database's own entries, and a set of at least 10^6 entries
+resampled from them; the queries are real motion-image points of renderings the set
+does not hold.
+
+Otherwise points are drawn like motion-image points: per-axis spread decaying like an
 eigenvalue spectrum (std ∝ 1/√axis), in clusters of 500 entries (one per motion and
 view), each cluster a smooth random walk (the time window sliding along the motion)
 plus noise.  Known-motion queries are entries plus fresh noise of 1.5 times the
@@ -84,6 +90,8 @@ class Method:
 
     name = ""
 
+    build_s = 0.0
+
     def build(self, points, ids):
         raise NotImplementedError
 
@@ -109,12 +117,21 @@ def cutoff_note(max_distance) -> str:
 
 
 class Tree(Method):
+    """The key tree; ``walk``: through the tree for every batch (``TreeIndex.walk``),
+    else as ``TreeIndex.search`` chooses (large batches over small sets scanned)."""
+
     def __init__(
-        self, n_axes=4, n_sections=8, method="quantile", leaf_size=32, max_distance=np.inf
-    ):
+        self, n_axes=4, n_sections=8, method="quantile", leaf_size=16, max_distance=np.inf,
+        walk=False,
+    ):  # fmt: skip
         self.params = (n_axes, n_sections, method, leaf_size)
         self.max_distance = max_distance
-        self.name = f"tree R={n_sections} K={n_axes} {method}" + cutoff_note(max_distance)
+        self.walk = walk
+        self.name = (
+            f"tree R={n_sections} K={n_axes} {method}"
+            + (", walk" if walk else "")
+            + cutoff_note(max_distance)
+        )
 
     def build(self, points, ids):
         n_axes, n_sections, method, leaf_size = self.params
@@ -123,7 +140,8 @@ class Tree(Method):
         self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
 
     def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
-        r: NearestEntries = self.index.search(queries, max_distance=self.max_distance)
+        find = self.index.walk if self.walk else self.index.search
+        r: NearestEntries = find(queries, max_distance=self.max_distance)
         return r.ids[:, 0], r.examined
 
 
@@ -206,8 +224,8 @@ def have_faiss() -> bool:
     return True
 
 
-def measure(method: Method, points, ids, queries, reference, n_single: int) -> dict:
-    _, build_s = cpu(method.build, points, ids)
+def measure(method: Method, points, ids, queries, reference, n_single: int, build=True) -> dict:
+    build_s = cpu(method.build, points, ids)[1] if build else method.build_s
     (found, examined), batch_s = cpu(method.search, queries)
     single_s = 0.0
     for q in queries[:n_single]:
@@ -311,6 +329,120 @@ def bench_eigenspace(n_rows: int, n_features: int, k: int, rng) -> None:
         print(f"| PCA(svd_solver={solver!r}) | {pca_s:.2f} | {cos.min():.7f} | {err:.1e} |")
 
 
+def load_real(uri: str) -> tuple[np.ndarray, dict]:
+    """A database's entry points (N, k) float32 and, per entry, its motion, clothing
+    (``body``), view azimuth and elevation (degrees) and window (frames)."""
+    from eigmotion.retrieval.store import Store
+
+    fields = ("motion", "body", "view_azimuth_deg", "view_elevation_deg", "start_frame",
+              "end_frame")  # fmt: skip
+    with Store.open(uri) as store:
+        arrays = store.arrays()
+        rows = [store.entry(int(i)) for i in arrays.ids]
+    meta = {f: np.array([row.get(f, 0) for row in rows]) for f in fields}
+    return np.array(arrays.points, dtype=np.float32), meta
+
+
+def interpolate_renderings(points, meta, rows: np.ndarray, target: int, rng) -> np.ndarray:
+    """(≥ target, k) float32: the entries ``rows`` and, inside every cell between an
+    entry, the next window of the same rendering (same motion, clothing, elevation,
+    azimuth and window length; the entry itself when it is the last) and the same two
+    windows seen from the next azimuth, points at random positions ``(u, v)`` in
+    [0, 1)², bilinear between the four corners: windows between the database's window
+    steps seen from views between its views.  No point is repeated."""
+
+    def cell_key(r, azimuth, start):
+        return (meta["motion"][r], meta["body"][r], meta["view_elevation_deg"][r],
+                meta["end_frame"][r] - meta["start_frame"][r], azimuth % 360.0, start)  # fmt: skip
+
+    azimuths = np.unique(meta["view_azimuth_deg"][rows])
+    next_azimuth = dict(zip(azimuths, np.roll(azimuths, -1), strict=True))
+    where, starts = {}, {}
+    for r in rows:
+        az, start = meta["view_azimuth_deg"][r], meta["start_frame"][r]
+        where[cell_key(r, az, start)] = r
+        starts.setdefault(cell_key(r, az, None), []).append(start)
+    following = {
+        chain: dict(zip(sorted(v), sorted(v)[1:], strict=False)) for chain, v in starts.items()
+    }
+    corners = np.empty((rows.size, 4), dtype=np.int64)
+    for j, r in enumerate(rows):
+        az, start = meta["view_azimuth_deg"][r], meta["start_frame"][r]
+        later = following[cell_key(r, az, None)].get(start, start)
+        turned = where.get(cell_key(r, next_azimuth[az], start), r)
+        r10 = where.get(cell_key(r, az, later), r)
+        r11 = where.get(cell_key(r, next_azimuth[az], later), r10 if turned == r else turned)
+        corners[j] = (r, r10, turned, r11)
+    per = -(-(target - rows.size) // rows.size)
+    out = [points[rows]]
+    for lo in range(0, rows.size, 4096):  # bounds memory
+        c = points[corners[lo : lo + 4096]][:, None]  # (m, 1, 4, k)
+        u = rng.random((c.shape[0], per, 1), dtype=np.float32)
+        v = rng.random((c.shape[0], per, 1), dtype=np.float32)
+        mix = (1 - u) * (1 - v) * c[:, :, 0] + u * (1 - v) * c[:, :, 1]
+        mix += (1 - u) * v * c[:, :, 2] + u * v * c[:, :, 3]
+        out.append(mix.reshape(-1, points.shape[1]))
+    return np.concatenate(out).astype(np.float32)
+
+
+def real_sets(uri: str, target: int, n_queries: int, rng):
+    """The sets of ``--real``: ``(base, resampled, known, unknown)`` float32 points.
+
+    * Held out: a tenth of the motions (chosen by the seed), every rendering of them
+      — their entries are the **unknown-motion** queries; and of the other motions
+      every entry with the last clothing (``body``) of the build — these are the
+      **known-motion** queries: the same motions and views rendered on another
+      person, real motion-image points that no entry equals.
+    * ``base``: every other entry of the database.
+    * ``resampled``: ``base`` and bilinear points between its neighbouring windows and
+      views (:func:`interpolate_renderings`) up to ``target`` entries.
+    """
+    points, meta = load_real(uri)
+    motions = np.unique(meta["motion"])
+    held = rng.choice(motions, max(1, motions.size // 10), replace=False)
+    unknown = np.isin(meta["motion"], held)
+    known = ~unknown & (meta["body"] == meta["body"].max())
+    if not known.any():
+        raise SystemExit(f"{uri}: one clothing only, no known-motion queries to hold out")
+    base = ~unknown & ~known
+    resampled = interpolate_renderings(points, meta, np.flatnonzero(base), target, rng)
+
+    def pick(mask):
+        return points[rng.choice(np.flatnonzero(mask), min(n_queries, mask.sum()), replace=False)]
+
+    return points[base], resampled, pick(known), pick(unknown)
+
+
+def bench_real(uri: str, target: int, n_queries: int, n_single: int, faiss_ok: bool, rng):
+    """Tables of the sets of :func:`real_sets`, known- and unknown-motion queries."""
+    base, resampled, known, unknown = real_sets(uri, target, n_queries, rng)
+    print(
+        f"Real motion-image points of {uri} (k = {base.shape[1]}): {len(base):,} entries "
+        f"of the database, {len(resampled):,} resampled from them; {len(known)} known-motion "
+        f"and {len(unknown)} unknown-motion queries, {n_single} of each timed one by one; "
+        "CPU time, one thread.\n"
+    )
+    for points in (base, resampled):
+        n, ids = len(points), np.arange(len(points))
+        trees = [Tree(4, 8), Tree(4, 8, walk=True), Tree(10, 4, walk=True)]
+        methods = [Brute(), *trees, SkKDTree()] + ([FaissFlat(), FaissHNSW()] if faiss_ok else [])
+        for method in methods:
+            method.build_s = cpu(method.build, points, ids)[1]
+        for kind, queries in (("known", known), ("unknown", unknown)):
+            print(f"{kind}-motion queries, {n:,} entries:\n\n{HEADER}")
+            reference = methods[0].index.search(queries)
+            base_row = None
+            for method in methods:
+                row = measure(method, points, ids, queries, reference.ids[:, 0], n_single, False)
+                base_row = base_row or row
+                print(fmt_row(n, method.name, row, base_row), flush=True)
+            for tree in trees:
+                same = tree.index.walk(queries)
+                assert np.array_equal(same.ids, reference.ids), "tree differs from brute force"
+                assert np.array_equal(same.distances, reference.distances)
+            print()
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000, 1_000_000])
@@ -328,6 +460,10 @@ def main(argv=None) -> int:
         metavar=("P", "D", "K"),
         help="instead: time the eigenspace fit against scikit-learn PCA",
     )
+    parser.add_argument("--real", metavar="DB", help="instead: points of this database (read only)")
+    parser.add_argument(
+        "--real-size", type=int, default=1_000_000, help="entries resampled from --real's"
+    )
     args = parser.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     if args.store:
@@ -342,6 +478,9 @@ def main(argv=None) -> int:
     warm.build(points, np.arange(CLUSTER))
     warm.search(points[:2])
 
+    if args.real:
+        bench_real(args.real, args.real_size, args.queries, args.single, faiss_ok, rng)
+        return 0
     print(
         f"k = {args.dims} eigen-coordinates, {args.queries} known-motion queries per size, "
         f"{args.single} timed one by one; CPU time, one thread.\n"

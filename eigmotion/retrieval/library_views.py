@@ -107,8 +107,8 @@ class BuildConfig:
     window_step_s: float = 0.5
     n_components: int | None = 40
     explained_variance: float = 0.95
-    key_axes: int = 4
-    key_sections: int = 8
+    key_axes: int = 10
+    key_sections: int = 4
     key_method: str = "quantile"
     low_poly_faces: int = 4000
     body_shapes: tuple[tuple[float | None, float], ...] = DEFAULT_BODY_SHAPES

@@ -23,30 +23,42 @@ record):
   on its squared distance to anything inside, far tighter than the section
   boundaries alone, and it covers the axes beyond K;
 * for searching, each node's children are its highest descendants holding at most
-  1/16 of its entries (or leaves).
+  1/8 of its entries (or leaves).
 
-A query:
+A query (one compiled loop per batch, which releases the GIL; Python only checks the
+arguments and allocates the answer, so one query at a time costs little more than in a
+batch):
 
-1. *Key lookup* (vectorised over queries with numpy): the query's own key (the
-   patent's step) finds the deepest occupied key prefix; below it the child with the
-   smallest bound is followed until at most 8 leaves' worth of entries remain; their
-   distances give a first k-th best.
-2. *Nearest bound first* (a compiled loop per query, which releases the GIL): from
-   the root, nodes are taken from a heap in order of their bound; a leaf's entries
-   are measured, an inner node's children whose bound does not exceed the current
-   k-th best go on the heap; the search ends when the nearest bound left exceeds the
-   k-th best.
+1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
+   deepest occupied key prefix; below it the child with the smallest bound is
+   followed down to a leaf, whose distances give a first k-th best.
+2. *Nearest bound first*: from the root, nodes are taken from a heap in order of
+   their bound; a leaf's entries are measured, an inner node's children whose bound
+   does not exceed the current k-th best go on the heap; the search ends when the
+   nearest bound left exceeds the k-th best.
+
+Leaves' points and each node's children's boxes are stored as *tiles*, coordinate by
+coordinate (coordinate ``a`` of item ``j`` of a tile of ``m`` items at ``a·m + j``), so
+one leaf's distances or one node's children's bounds are summed axis by axis over the
+whole tile; after the first 16 axes (the eigenspace's widest) the rest is skipped when
+every partial sum already exceeds the k-th best (the terms are >= 0).
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
 
+A batch of at least :attr:`TreeIndex.scan_queries` queries over at most
+:attr:`TreeIndex.scan_entries` entries, without ``max_distance``, is answered by
+scanning every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`:
+matrix products beat the walk there); its ``examined`` is then N.
+:meth:`TreeIndex.walk` always walks.
+
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
-``Σ_a (p_a − h_a)²`` summed in order in float32 by one function shared with
+``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
 :class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
 (:mod:`eigmotion.retrieval.neighbours`), and a bound is the same sum with each ``p_a``
-replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance holds in
-floating point, no entry that brute force would return is ever pruned, and the
-answers agree bit for bit.
+replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance
+holds in floating point (a partial sum too), no entry that brute force would return is
+ever pruned, and the answers agree bit for bit.
 """
 
 from __future__ import annotations
@@ -56,10 +68,10 @@ from numbers import Integral
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.retrieval.brute_force import BruteForceIndex
 from eigmotion.retrieval.keys import Quantizer, key_prefix
 from eigmotion.retrieval.neighbours import (
     NearestEntries,
-    RunningBest,
     check_ids,
     check_max_distance,
     check_points,
@@ -80,6 +92,38 @@ def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(counts) - counts
     return np.repeat(starts - offsets, counts) + np.arange(total)
+
+
+def _tile_index(starts: np.ndarray, n: int, n_dims: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where row ``i`` of (n, k) rows cut into runs at ``starts`` lies in the tiles:
+    (n,) position of its coordinate 0 and (n,) stride between its coordinates."""
+    sizes = np.diff(np.append(starts, n))
+    run_start = np.repeat(starts, sizes)
+    return run_start * (n_dims - 1) + np.arange(n), np.repeat(sizes, sizes)
+
+
+def _tiles(rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """(n * k,) float32: the (n, k) ``rows`` cut into runs at ``starts`` (ascending,
+    from 0), each run stored by coordinate — coordinate ``a`` of row ``s + j`` of the
+    run ``s … s + m − 1`` at ``s·k + a·m + j`` — so a run is one contiguous tile whose
+    loop over rows runs in vector registers."""
+    n, n_dims = rows.shape
+    out = np.empty(n * n_dims, dtype=np.float32)
+    if n:
+        base, stride = _tile_index(starts, n, n_dims)
+        for a in range(n_dims):
+            out[base + a * stride] = rows[:, a]
+    return out
+
+
+def _untile(tiles: np.ndarray, starts: np.ndarray, n: int, n_dims: int) -> np.ndarray:
+    """The (n, k) rows of :func:`_tiles`."""
+    out = np.empty((n, n_dims), dtype=np.float32)
+    if n:
+        base, stride = _tile_index(starts, n, n_dims)
+        for a in range(n_dims):
+            out[:, a] = tiles[base + a * stride]
+    return out
 
 
 # -- the tree ----------------------------------------------------------------------
@@ -113,7 +157,7 @@ class TreeIndex:
 
     # -- building ---------------------------------------------------------------------
     @classmethod
-    def from_store(cls, store, leaf_size: int = 32) -> TreeIndex:
+    def from_store(cls, store, leaf_size: int = 16) -> TreeIndex:
         """The tree of a database: the store's in-memory arrays and quantizer.
 
         Parameters
@@ -128,7 +172,7 @@ class TreeIndex:
         )
 
     @classmethod
-    def from_arrays(cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 32) -> TreeIndex:
+    def from_arrays(cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 16) -> TreeIndex:
         """Build the tree over entries.
 
         Parameters
@@ -143,7 +187,7 @@ class TreeIndex:
             The fitted quantizer that made the keys.
         leaf_size : int
             Most entries per leaf, >= 1.  Smaller leaves examine fewer entries but
-            visit more nodes; 32 suits k = 20 … 50.
+            visit more nodes; 16 suits motion-image points (k = 40).
 
         Raises
         ------
@@ -176,6 +220,7 @@ class TreeIndex:
         self.n_axes = int(quantizer.n_axes)
         self.leaf_size = int(leaf_size)
         self.quantizer = quantizer
+        self._scan = None  # the brute-force index, made on the first scanned batch
         self._build(k, p, i)
         return self
 
@@ -242,7 +287,8 @@ class TreeIndex:
             level += 1
 
         self.keys, self.ids = keys, ids
-        self.points = points
+        self._n_entries, self._n_dims = n, n_dims
+        self._leaf_starts = starts
         self.depth = level
         self._start = np.concatenate(node_start)
         self._end = np.concatenate(node_end)
@@ -253,18 +299,30 @@ class TreeIndex:
         self._base_count = np.bincount(parent[1:], minlength=n_nodes)
         self._base_first = np.concatenate([[1], 1 + np.cumsum(self._base_count)[:-1]])
         self._is_leaf = self._base_count == 0
-        self._prefix_levels = prefix_levels
-        self._boxes(starts, seg_node, level_first)
+        self._prefix_digits = np.concatenate(
+            [np.zeros(0, np.int64)] + [d.astype(np.int64) for d, _ in prefix_levels]
+        )
+        self._prefix_nodes = np.concatenate(
+            [np.zeros(0, np.int64)] + [c.astype(np.int64) for _, c in prefix_levels]
+        )
+        self._prefix_first = np.cumsum([0] + [d.size for d, _ in prefix_levels]).astype(np.int64)
+        self._edges = np.ascontiguousarray(self.quantizer.edges_, dtype=np.float64)
+        self._boxes(points, starts, seg_node, level_first)
         self._flatten()
+        self._tiles = _tiles(points, starts)
+        # The children's boxes in tiles too: a node's children are bounded together.
+        runs = np.sort(self._child_first[self._child_count > 0])
+        self._child_lo = _tiles(self._lo[self._child_list], runs)
+        self._child_hi = _tiles(self._hi[self._child_list], runs)
 
-    def _boxes(self, starts, leaf_of_segment, level_first) -> None:
+    def _boxes(self, points, starts, leaf_of_segment, level_first) -> None:
         """Tight boxes: leaves from their entries, then every parent from its children."""
         n_nodes, n_dims = self._size.size, self.n_dims
         lo = np.zeros((n_nodes, n_dims), dtype=np.float32)
         hi = np.zeros((n_nodes, n_dims), dtype=np.float32)
         if self.n_entries:
             # Reductions over segments run along contiguous memory when transposed.
-            coords = np.ascontiguousarray(self.points.T)
+            coords = np.ascontiguousarray(points.T)
             lo[leaf_of_segment] = np.minimum.reduceat(coords, starts, axis=1).T
             hi[leaf_of_segment] = np.maximum.reduceat(coords, starts, axis=1).T
         for level in range(len(level_first) - 3, -1, -1):
@@ -279,7 +337,7 @@ class TreeIndex:
     #: A search-tree node's children are its highest descendants with at most
     #: 1/_FANOUT of its entries (or leaves): about _FANOUT children per node, so a
     #: query takes few vectorised steps however deep the built tree is.
-    _FANOUT = 16
+    _FANOUT = 8
 
     def _flatten(self) -> None:
         """Search-tree children (CSR over node ids) of every node reachable from the root."""
@@ -312,17 +370,23 @@ class TreeIndex:
         self._child_first = first
         self._child_count = count
         self._child_list = np.concatenate(lists) if lists else np.zeros(0, dtype=np.int64)
+        self._widest = int(count.max(initial=0))  # most children of a node
 
     # -- description ----------------------------------------------------------------
     @property
+    def points(self) -> np.ndarray:
+        """(N, k) float32 entry points in tree order (gathered from the leaves' tiles)."""
+        return _untile(self._tiles, self._leaf_starts, self._n_entries, self._n_dims)
+
+    @property
     def n_entries(self) -> int:
         """N, the number of entries."""
-        return self.points.shape[0]
+        return self._n_entries
 
     @property
     def n_dims(self) -> int:
         """k, the number of eigen-coordinates per point."""
-        return self.points.shape[1]
+        return self._n_dims
 
     @property
     def n_bins(self) -> int:
@@ -365,6 +429,7 @@ class TreeIndex:
             ``leaf_size``.
         """
         problems = []
+        points = self.points
         if np.any(np.diff(self.keys) < 0):
             problems.append("entries are not in key order")
         for node in self._reachable():
@@ -372,7 +437,7 @@ class TreeIndex:
             if s >= e:
                 problems.append(f"node {node} is empty")
                 continue
-            block = self.points[s:e]
+            block = points[s:e]
             if not (
                 np.array_equal(block.min(0), self._lo[node])
                 and np.array_equal(block.max(0), self._hi[node])
@@ -397,6 +462,14 @@ class TreeIndex:
     # -- searching --------------------------------------------------------------------
     #: Queries searched together (bounds the size of the working arrays).
     query_block = 512
+    #: A batch of at least ``scan_queries`` queries, without ``max_distance``, over at
+    #: most ``scan_entries`` entries is answered by scanning every entry
+    #: (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, matrix products):
+    #: measured on a real database's points (``bench_search.py --real``), that beats
+    #: the walk there, 56 against 78–95 µs a query at 34,048 entries, while one query
+    #: at a time or 10^5 entries the walk wins.  Set ``scan_entries = 0`` to always walk.
+    scan_queries = 32
+    scan_entries = 50_000
 
     def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
@@ -417,12 +490,32 @@ class TreeIndex:
         -------
         NearestEntries
             ``ids`` and ``distances`` (Q, top_k) equal to
-            :func:`~eigmotion.retrieval.brute_force.brute_force`'s; ``examined`` counts the entries
-            whose distance was computed.
+            :func:`~eigmotion.retrieval.brute_force.brute_force`'s; ``examined`` counts the
+            entries the query was compared with (its distance summed, or dropped once
+            the sum over the first axes exceeded the k-th best): N for every query of
+            a batch answered by scanning (see ``scan_entries``).
         """
         q = check_queries(queries, self.n_dims)
         top_k = check_top_k(top_k, self.n_entries)
         max_sq = check_max_distance(max_distance)
+        if (
+            q.shape[0] >= self.scan_queries
+            and self.n_entries <= self.scan_entries
+            and np.isinf(max_sq)
+        ):
+            if self._scan is None:
+                self._scan = BruteForceIndex(self.points, self.ids)
+            return self._scan.search(q, top_k)
+        return self._walk(q, top_k, max_sq)
+
+    def walk(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
+        """:meth:`search` through the tree for every batch, never by scanning (for
+        checking the tree against brute force)."""
+        q = check_queries(queries, self.n_dims)
+        top_k = check_top_k(top_k, self.n_entries)
+        return self._walk(q, top_k, check_max_distance(max_distance))
+
+    def _walk(self, q: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
         parts = [
             self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
             for lo in range(0, q.shape[0], self.query_block)
@@ -435,63 +528,16 @@ class TreeIndex:
             np.concatenate([p.examined for p in parts]),
         )
 
-    def _lower_bounds(self, nodes: np.ndarray, rows: np.ndarray, queries: np.ndarray):
-        """(m,) float32 squared distance from query ``rows`` to the boxes of ``nodes``
-        (the box's nearest point minus the query, squared and summed), vectorised: it
-        only picks where the key lookup descends, so its summation order may differ
-        from :func:`_row_box_bound`'s."""
-        qq = queries[0] if queries.shape[0] == 1 else np.take(queries, rows, axis=0)
-        near = np.take(self._lo, nodes, axis=0)  # np.take gathers faster than indexing
-        np.maximum(near, qq, out=near)
-        np.minimum(near, np.take(self._hi, nodes, axis=0), out=near)
-        near -= qq
-        near *= near
-        return near.sum(axis=1)
-
-    #: The first node a query examines holds at most this many leaves' worth of entries.
-    _GREEDY_LEAVES = 8
-
-    def _greedy(self, queries: np.ndarray, top_k: int) -> np.ndarray:
-        """(Q,) a small node near each query, examined first for a first k-th distance.
-
-        The query's own key (the patent's lookup) finds the deepest occupied key prefix
-        holding >= top_k entries; below it, the child with the smallest bound is
-        followed until the node is small.
-        """
-        current = np.zeros(queries.shape[0], dtype=np.int64)
-        prefix = np.zeros(queries.shape[0], dtype=np.int64)
-        edges = self.quantizer.edges_
-        for depth, (digits, nodes) in enumerate(self._prefix_levels):
-            section = np.searchsorted(edges[depth], queries[:, depth], side="right")
-            prefix = prefix * self.n_sections + section
-            if digits.size:
-                pos = np.minimum(np.searchsorted(digits, prefix), digits.size - 1)
-                node = nodes[pos]
-                ok = (digits[pos] == prefix) & (self._size[node] >= top_k)
-                current[ok] = node[ok]
-        budget = max(top_k, self._GREEDY_LEAVES * self.leaf_size)
-        active = np.flatnonzero(~self._is_leaf[current] & (self._size[current] > budget))
-        while active.size:
-            counts = self._base_count[current[active]]
-            kids = _expand_ranges(self._base_first[current[active]], counts)
-            rows = np.repeat(active, counts)
-            bound = self._lower_bounds(kids, rows, queries)
-            bound[self._size[kids] < top_k] = np.inf
-            first = np.cumsum(counts) - counts
-            best = np.lexsort((bound, rows))[first]
-            moved = np.isfinite(bound[best])
-            current[active[moved]] = kids[best[moved]]
-            active = active[moved]
-            active = active[
-                ~self._is_leaf[current[active]] & (self._size[current[active]] > budget)
-            ]
-        return current
-
     def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
-        best = RunningBest(queries.shape[0], top_k, max_sq)
+        n = queries.shape[0]
+        ids = np.empty((n, top_k), dtype=np.int64)
+        distances = np.empty((n, top_k), dtype=np.float64)
+        examined = np.empty(n, dtype=np.int64)
         kernels().best_first(
-            self.points, self.ids, self._lo, self._hi, self._child_first, self._child_count,
-            self._child_list, self._is_leaf, self._start, self._end, queries,
-            self._greedy(queries, top_k), _SLACK, best.sq, best.ids, best.examined,
+            self._tiles, self.ids, self._lo, self._hi, self._child_lo, self._child_hi,
+            self._child_first, self._child_count, self._child_list, self._is_leaf, self._start,
+            self._end, queries, self._edges, self._prefix_digits, self._prefix_nodes,
+            self._prefix_first, self._size, self._base_first, self._base_count,
+            self._widest, _SLACK, max_sq, ids, distances, examined,
         )  # fmt: skip
-        return best.result()
+        return NearestEntries(ids, distances, examined)
