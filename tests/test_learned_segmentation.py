@@ -22,6 +22,7 @@ from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.segmentation import learned
 from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.fused import fuse_masks
 from eigmotion.segmentation.learned import (
     MODEL_PATH,
     crop_input,
@@ -131,6 +132,42 @@ def test_pose_landmarks_lie_on_the_person():
     assert people.max() == 1
 
 
+def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
+    """A learned mask that rounds off an arm: the subtraction's arm is added where it
+    lies within two pixels of the mask, not beyond; its shadow away from the person is
+    not added, and a frame where the network found no one stays empty whatever the
+    subtraction found."""
+    config = SilhouetteConfig()
+    learned_mask = np.zeros((2, 120, 160), bool)
+    learned_mask[0, 30:100, 60:85] = True  # the body
+    subtracted = np.zeros_like(learned_mask)
+    subtracted[0, 30:100, 61:84] = True  # the body, a pixel thinner
+    subtracted[0, 40:44, 84:110] = True  # an arm the network rounded off
+    subtracted[0, 100:106, 100:150] = True  # a shadow on the floor, away from it
+    subtracted[1, 30:100, 60:85] = True  # something moved where the network saw no one
+    fused = fuse_masks(learned_mask, subtracted, config)
+    assert fused[0, 30:100, 60:85].all() and fused[0, 40:44, 84:87].all()
+    assert not fused[0, :, 88:].any()
+    assert not fused[0, 100:106, 100:150].any()
+    assert not fused[1].any()
+    with pytest.raises(InvalidParameterError, match="one shape"):
+        fuse_masks(learned_mask, subtracted[:1], config)
+
+
+def test_fused_masks_follow_the_person_the_background_image_shows():
+    """The kick sample with its background image: the fused masks keep what the learned
+    ones find and overlap the subtraction's at least as well."""
+    video = SAMPLES / "kick.mp4"
+    background = SAMPLES / "kick_background.png"
+    fused = load_clip_masks(video, background, QUERY_CONFIG, 15.0, segmenter="auto")
+    assert fused.segmenter == "fused"
+    cut, overlap = _cut_and_reference("kick")
+    reference = load_clip_masks(video, background, QUERY_CONFIG, 15.0, segmenter="subtraction")
+    assert np.all(fused.masks | ~cut.masks)  # nothing learned is lost
+    both = np.array([_iou(a, b) for a, b in zip(fused.masks, reference.masks, strict=True)])
+    assert np.median(both) >= np.median(overlap)
+
+
 def test_a_crop_goes_back_where_it_was_cut():
     """:func:`crop_input` and :func:`crop_probabilities_back` are inverse maps: a
     bright square in a frame, cut out, taken as probabilities and put back on the
@@ -204,11 +241,15 @@ def test_people_in_view_needs_a_third_of_the_frames():
 
 def test_resolve_segmenter():
     assert resolve_segmenter("auto", False) == "learned"
-    assert resolve_segmenter("auto", True) == "subtraction"
+    assert resolve_segmenter("auto", True) == "fused"
     assert resolve_segmenter("subtraction", False) == "subtraction"
+    assert resolve_segmenter("subtraction", True) == "subtraction"
     assert resolve_segmenter("learned", False) == "learned"
+    assert resolve_segmenter("fused", True) == "fused"
     with pytest.raises(InvalidParameterError, match="empty scene"):
         resolve_segmenter("learned", True)
+    with pytest.raises(InvalidParameterError, match="needs an image of the empty scene"):
+        resolve_segmenter("fused", False)
     with pytest.raises(InvalidParameterError, match="segmenter must be one of"):
         resolve_segmenter("grabcut", False)
 

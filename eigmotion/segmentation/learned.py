@@ -57,8 +57,10 @@ from eigmotion.segmentation.networks import (
 from eigmotion.segmentation.networks import runtime as runtime
 
 #: The front ends a query may cut the person out with: ``auto`` is ``learned`` when no
-#: image of the empty scene is given and ``subtraction`` (against that image) when one is.
-SEGMENTERS = ("auto", "learned", "subtraction")
+#: image of the empty scene is given and ``fused`` (the learned masks with what
+#: subtracting that image finds beside them: :mod:`eigmotion.segmentation.fused`) when
+#: one is.
+SEGMENTERS = ("auto", "learned", "subtraction", "fused")
 
 #: The selfie network's file, shipped with the package.
 MODEL_PATH = SELFIE_PATH
@@ -103,30 +105,35 @@ PEOPLE_FRAME_SHARE = 1.0 / 3.0
 
 
 def resolve_segmenter(segmenter: str, with_background: bool) -> str:
-    """The front end a query uses: ``"learned"`` or ``"subtraction"``.
+    """The front end a query uses: ``"learned"``, ``"subtraction"`` or ``"fused"``.
 
     Parameters
     ----------
-    segmenter : {"auto", "learned", "subtraction"}
+    segmenter : {"auto", "learned", "subtraction", "fused"}
     with_background : bool
         Whether an image of the empty scene was given.
 
     Raises
     ------
     InvalidParameterError
-        An unknown name, or ``"learned"`` with a background image (the network does not
-        use it).
+        An unknown name, ``"learned"`` with a background image (the network does not
+        use it), or ``"fused"`` without one.
     """
     if segmenter not in SEGMENTERS:
         raise InvalidParameterError(
             f"segmenter must be one of {', '.join(SEGMENTERS)}, got {segmenter!r}"
         )
     if segmenter == "auto":
-        return "subtraction" if with_background else "learned"
+        return "fused" if with_background else "learned"
     if segmenter == "learned" and with_background:
         raise InvalidParameterError(
             "the learned segmenter does not use an image of the empty scene: give "
-            "--background with --segmenter subtraction or auto, or leave it out"
+            "--background with --segmenter fused, subtraction or auto, or leave it out"
+        )
+    if segmenter == "fused" and not with_background:
+        raise InvalidParameterError(
+            "the fused segmenter needs an image of the empty scene: give --background, "
+            "or use --segmenter learned or auto"
         )
     return segmenter
 
