@@ -132,6 +132,24 @@ def test_pose_landmarks_lie_on_the_person():
     assert people.max() == 1
 
 
+def test_without_the_pose_network_the_selfie_network_looks_twice(monkeypatch):
+    """Where LiteRT is missing there is no pose network: the selfie network looks at
+    the square too, no landmarks come back, and asking for the pose network says what
+    to install."""
+    sample = read_frame_sample(SAMPLES / "kick.mp4", 15.0)
+    frames = np.stack([learned.stored_frame(f) for f in sample.frames[-6:]])
+    size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
+    selfie, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "selfie")
+    monkeypatch.setattr(learned, "pose_network", lambda: None)
+    masks, people, landmarks = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG)
+    np.testing.assert_array_equal(masks, selfie)
+    assert masks.any() and np.isnan(landmarks).all()
+    with pytest.raises(InvalidParameterError, match="LiteRT"):
+        learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
+    with pytest.raises(InvalidParameterError, match="second_look"):
+        learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "grabcut")
+
+
 def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
     """A learned mask that rounds off an arm: the subtraction's arm is added where it
     lies within two pixels of the mask, not beyond; its shadow away from the person is
