@@ -323,3 +323,16 @@ def test_query_segmenter_switch(db_path, capsys):
     assert len(err) == 1 and "learned segmenter" in err[0]
     with pytest.raises(SystemExit):
         main(["query", str(clip), "--db", str(db_path), "--segmenter", "magic"])
+
+
+def test_network_threads_must_be_positive():
+    from eigmotion.segmentation import networks
+
+    with pytest.raises(ValueError, match="at least 1"):
+        networks.set_network_threads(0)
+    before = networks._network_threads
+    try:
+        networks.set_network_threads(1)
+        assert networks._threads() == 1
+    finally:
+        networks._network_threads = before

@@ -81,7 +81,22 @@ def _sigmoid(x: np.ndarray) -> np.ndarray:
     return (1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))).astype(np.float32)
 
 
+#: Threads each network runs on; ``None``: as many as the cores this process may use.
+_network_threads: int | None = None
+
+
+def set_network_threads(threads: int) -> None:
+    """Run the networks loaded from now on on ``threads`` threads (a process of a pool
+    that answers one query at a time among others wants 1)."""
+    global _network_threads
+    if int(threads) < 1:
+        raise ValueError(f"network threads must be at least 1, not {threads}")
+    _network_threads = int(threads)
+
+
 def _threads() -> int:
+    if _network_threads is not None:
+        return _network_threads
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 
 

@@ -15,11 +15,12 @@ import re
 import secrets
 import threading
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from eigmotion.errors import EigmotionError
 from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.segmentation.networks import set_network_threads
 from eigmotion.serve.answer import answer_clip, write_json
 
 #: A job id: 32 lower-case hex digits.
@@ -29,8 +30,10 @@ _worker_db: MotionDatabase | None = None
 
 
 def _open_worker_database(db_path: str) -> None:
-    """Pool initializer: open the database once per worker process."""
+    """Pool initializer: open the database once per worker process (whose person
+    networks run on one thread: the workers share the cores)."""
     global _worker_db
+    set_network_threads(1)
     _worker_db = MotionDatabase.open(db_path)
 
 
@@ -140,6 +143,18 @@ class JobPool:
         status["id"] = job_id
         return status
 
-    def close(self) -> None:
-        """Stop the workers (jobs still queued are dropped)."""
-        self._executor.shutdown(wait=True, cancel_futures=True)
+    def close(self, exit_timeout_s: float = 30.0) -> None:
+        """Stop the workers: jobs still queued are dropped, running ones finish; a worker
+        not gone ``exit_timeout_s`` after that is terminated (nothing of a job is left
+        in it then)."""
+        with self._lock:
+            running = [future for future in self._futures.values() if future.running()]
+        processes = list((getattr(self._executor, "_processes", None) or {}).values())
+        self._executor.shutdown(wait=False, cancel_futures=True)
+        wait(running)
+        deadline = time.monotonic() + exit_timeout_s
+        for process in processes:
+            process.join(max(0.0, deadline - time.monotonic()))
+            if process.is_alive():
+                process.terminate()
+                process.join(5.0)
