@@ -3,15 +3,19 @@
 For each sample clip (``database/samples/*.mp4``; ``walk_3s`` is the 3 s, 320×240 clip
 of the ≤ 50 ms target), with its background image and without, prints the median
 wall time over ``--repeat`` runs of :meth:`MotionDatabase.query_clip` — reading the
-video, cutting the person out, motion images, exact search through the tree — for
-our settings (only the frames the motion image samples, segmented at
-``QUERY_SILHOUETTE_SIDE_PX``) beside the baseline of the same run (every frame,
-segmented at the video's full resolution, searched by brute force), with the ratio.
+video, cutting the person out, motion images, exact search through the tree — with
+the default front end (``auto``: fused with the background image, learned without)
+and with the classical subtraction, for our settings (only the frames the motion
+image samples, segmented at ``QUERY_SILHOUETTE_SIDE_PX``) beside the baseline of the
+same run (every frame, subtraction at the video's full resolution, searched by brute
+force), with the ratio.
 Start-up is excluded: the database is opened and the kernels compiled before timing.
 Then the stages of our query: reading alone, silhouettes alone, retrieval from
 masks, one search (tree vs brute force).
 
     python benchmarks/speed/bench_query.py [--db database/eigmotion.fs] [--repeat 7]
+
+On one core: ``taskset -c 0 python benchmarks/speed/bench_query.py``.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import time  # noqa: E402
+from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -32,6 +37,7 @@ from eigmotion.retrieval.brute_force import BruteForceIndex  # noqa: E402
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX, MotionDatabase  # noqa: E402
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 from eigmotion.segmentation.config import SilhouetteConfig  # noqa: E402
+from eigmotion.segmentation.learned import resolve_segmenter  # noqa: E402
 from eigmotion.segmentation.video import (  # noqa: E402
     extract_silhouettes,
     load_clip_masks,
@@ -82,15 +88,18 @@ def main() -> None:
         size = f"{sample.frames.shape[2]}×{sample.frames.shape[1]}"
         print(f"{clip.stem}: {sample.n_frames} frames at {sample.clip_fps:.0f} fps, {size}")
         for bg_name, bg in (("given bg", background), ("no bg", None)):
-            db.query_clip(clip, bg)  # compile the kernels, warm the caches
-            ours_ms, (result, _) = _median_ms(args.repeat, db.query_clip, clip, bg)
             base_ms, base = _median_ms(max(1, args.repeat // 3), baseline_query, clip, bg)
-            name = f"  {bg_name}"
-            print(
-                f"{name:<24}{'query (end to end)':<26}{ours_ms:>10.1f}{base_ms:>13.1f}"
-                f"{base_ms / ours_ms:>8.1f}"
-            )
-            print(f"{'':<24}{'  answer':<26}{result.best.label:>10}{base.best.label:>13}")
+            for segmenter in ("auto", "subtraction"):  # auto: fused with bg, learned without
+                front = resolve_segmenter(segmenter, bg is not None)
+                db.query_clip(clip, bg, segmenter=segmenter)  # compile kernels, load networks
+                ask = partial(db.query_clip, clip, bg, segmenter=segmenter)
+                ours_ms, (result, _) = _median_ms(args.repeat, ask)
+                name = f"  {bg_name}, {front}"
+                print(
+                    f"{name:<24}{'query (end to end)':<26}{ours_ms:>10.1f}{base_ms:>13.1f}"
+                    f"{base_ms / ours_ms:>8.1f}"
+                )
+                print(f"{'':<24}{'  answer':<26}{result.best.label:>10}{base.best.label:>13}")
         read_ms, sample = _median_ms(args.repeat, read_frame_sample, clip, sample_fps)
         frames = sample.frames
         bg_image = read_background(background)

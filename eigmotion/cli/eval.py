@@ -88,7 +88,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=SEGMENTERS,
         default="auto",
         help="recognition: the query's front end for video, as for eigmotion query "
-        "(default auto: subtraction with the background image, learned without; learned in "
+        "(default auto: fused with the background image, learned without; learned in "
         "the bg mode asks the video without its background image)",
     )
     parser.add_argument(

@@ -9,10 +9,11 @@ Examples::
     eigmotion query clip.mp4 --false-rejection 0.2
     eigmotion query clip.mp4 --segmenter subtraction
 
-Without ``--background`` the person is cut out by a person segmentation network
-shipped with eigmotion (:mod:`eigmotion.segmentation.learned`); with it, by subtracting
-the empty scene.  ``--segmenter`` picks either.  The answer warns when more than one
-person is in view.
+Without ``--background`` the person is cut out by person networks shipped with
+eigmotion (:mod:`eigmotion.segmentation.learned`); with it, by those networks with what
+subtracting the empty scene finds beside their masks added
+(:mod:`eigmotion.segmentation.fused`).  ``--segmenter`` picks one front end.  The
+answer warns when more than one person is in view.
 
 ``--false-rejection`` trades known motions turned away for unknown ones rejected: the
 answer's ``p_known`` says how close the clip is to the library: at least as close as
@@ -60,10 +61,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--segmenter",
         choices=SEGMENTERS,
         default="auto",
-        help="how the person is cut out of video: learned (a person segmentation "
-        "network, shipped with eigmotion), subtraction (against --background, or the "
-        "empty scene estimated from the clip); auto (default): subtraction with "
-        "--background, learned without",
+        help="how the person is cut out of video: learned (person networks shipped with "
+        "eigmotion), subtraction (against --background, or the empty scene estimated from "
+        "the clip), fused (learned, plus what subtracting --background finds beside it); "
+        "auto (default): fused with --background, learned without",
     )
     parser.add_argument(
         "--top", type=int, default=3, help="distinct actions (labels) and motions to list"

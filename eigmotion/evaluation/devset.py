@@ -296,7 +296,7 @@ def answer_clip(
         One of :data:`MODES` (see the module's description).
     scratch : Path, optional
         A folder for the ``masks`` mode's ``.npz`` query (needed in that mode).
-    segmenter : {"auto", "learned", "subtraction"}
+    segmenter : {"auto", "learned", "subtraction", "fused"}
         The front end for video (``eigmotion query --segmenter``); in the ``bg`` mode
         ``learned`` ignores the background image (the clip is asked without it).
 

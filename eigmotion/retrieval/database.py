@@ -452,10 +452,11 @@ class MotionDatabase:
             Progress bars on stderr while a long video is read.
         false_rejection : float, optional
             As for :meth:`query_masks`.
-        segmenter : {"auto", "learned", "subtraction"}
+        segmenter : {"auto", "learned", "subtraction", "fused"}
             How the person is cut out of video (:func:`~eigmotion.segmentation.video.
-            load_clip_masks`): ``auto`` subtracts the background image when one is
-            given and runs the learned segmenter when none is.
+            load_clip_masks`): ``auto`` fuses the learned masks with the subtraction of
+            the background image when one is given and runs the learned segmenter
+            alone when none is.
 
         Returns
         -------

@@ -1,64 +1,69 @@
-"""The learned front end: person masks from a trained segmentation network.
+"""The learned front end: person masks from trained networks.
 
-For clips without an image of the empty scene, a network trained to find people cuts
-the person out of each frame on its own, so the person need not move and the scene
-need not be estimated.  The network is MediaPipe's selfie segmentation (general
-model, 256×256 RGB in, the probability of "person" per pixel out; Apache-2.0), shipped
-with the package in ``eigmotion/data/segmenter/`` beside its licence: nothing is
-downloaded.  It runs on the CPU through the LiteRT interpreter when the optional
-``ai-edge-litert`` package is installed (``pip install 'eigmotion[segmenter]'``),
-else through OpenCV's DNN module, which reads the same file and gives the same
-probabilities, several times slower (``docs/segmentation.md`` has the measurements).
+For clips without an image of the empty scene, networks trained to find people cut
+the person out of each frame on their own, so the person need not move and the scene
+need not be estimated.  Both are MediaPipe's (Apache-2.0), shipped with the package in
+``eigmotion/data/segmenter/`` beside their licence, nothing downloaded
+(:mod:`eigmotion.segmentation.networks`): the selfie segmentation network (256×256
+RGB in, the probability of "person" per pixel out) and the pose landmark network (a
+256×256 square centred on one person in; its segmentation, 33 body landmarks and a
+flag that a person is there out).
 
-Each frame goes through the network twice.  First whole, resized to the network's
+Each frame is looked at twice.  First the selfie network sees it whole, resized to its
 input (no cropping); its probabilities, resized back to the working size of the
 classical path (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`)
 and cut at :data:`PERSON_PROBABILITY`, give a box around the person.  Then a square
 around that box (:data:`CROP_MARGIN` times its longer side, at least
 :data:`CROP_MIN_SIDE_PX` pixels so the network never sees the frame enlarged more than
-twice) is cut out and given to the network again, and its probabilities, put back in
-place, replace the first ones: a small or distant person fills the network's input
-instead of a few of its pixels.  A frame with no box takes the box of its neighbours
-(the median of those within :data:`BOX_NEIGHBOURS` frames, else the nearest frame's);
-a first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched again at
-:data:`SEED_PROBABILITY`.  A square as large as the frame is not cut: the first
-pass stands.  Then, as in the classical path, the largest blob and the big pieces
-beside it are the person (:func:`person_in_frame`), and a frame whose person covers
-more than :data:`OUTLIER_AREA` times the clip's median area is left empty: the network
-has taken part of the scene (a rendered floor) for the person there.  The masks go on
-to the motion image exactly as the classical masks do.
+twice) is cut out and given to the second look's network (:data:`SECOND_LOOK`): the
+pose network when LiteRT is installed, else the selfie network again.  Its
+probabilities, put back in place, replace the first ones: a small or distant person
+fills the network's input instead of a few of its pixels.  Where the pose network's
+flag says no person (under :data:`PERSON_PROBABILITY`), the selfie network looks at the
+square instead.  A frame with no box takes the box of its neighbours (the median of
+those within :data:`BOX_NEIGHBOURS` frames, else the nearest frame's); a first pass
+that finds nothing above :data:`PERSON_PROBABILITY` is searched again at
+:data:`SEED_PROBABILITY`.  A square as large as the frame is not cut for the selfie
+network (the first pass stands); the pose network always sees a square centred on the
+person, black beyond the frame.  Then, as in the classical path, the largest blob and
+the big pieces beside it are the person (:func:`person_in_frame`), and a frame whose
+person covers more than :data:`OUTLIER_AREA` times the clip's median area is left
+empty: the network has taken part of the scene (a rendered floor) for the person
+there.  The masks go on to the motion image exactly as the classical masks do.
+:func:`learned_masks_and_landmarks` also returns the pose network's landmarks, in the
+frame's pixels.
 
 Every blob beside the largest one and at least :data:`PERSON_SHARE` of its area is
-counted as one more person in view (:func:`people_in_view`): a clip with two people side by side is
-answered from the largest, and the answer carries a warning.
+counted as one more person in view (:func:`people_in_view`): a clip with two people
+side by side is answered from the largest, and the answer carries a warning.
 """
 
 from __future__ import annotations
 
 import math
-import os
-import sys
-from contextlib import contextmanager
-from functools import cache
-from pathlib import Path
 
 import cv2
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import InvalidParameterError
 from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.networks import (
+    MODEL_SIDE_PX,
+    N_POSE_LANDMARKS,
+    SELFIE_PATH,
+    pose_network,
+    selfie_network,
+)
+from eigmotion.segmentation.networks import runtime as runtime
 
 #: The front ends a query may cut the person out with: ``auto`` is ``learned`` when no
-#: image of the empty scene is given and ``subtraction`` (against that image) when one is.
-SEGMENTERS = ("auto", "learned", "subtraction")
+#: image of the empty scene is given and ``fused`` (the learned masks with what
+#: subtracting that image finds beside them: :mod:`eigmotion.segmentation.fused`) when
+#: one is.
+SEGMENTERS = ("auto", "learned", "subtraction", "fused")
 
-#: The network's file, shipped with the package.
-MODEL_PATH = (
-    Path(__file__).resolve().parents[1] / "data" / "segmenter" / "selfie_segmentation.tflite"
-)
-
-#: The network's input and output side, pixels.
-MODEL_SIDE_PX = 256
+#: The selfie network's file, shipped with the package.
+MODEL_PATH = SELFIE_PATH
 
 #: A pixel whose probability of being the person is above this is the person.
 PERSON_PROBABILITY = 0.5
@@ -78,6 +83,12 @@ CROP_MIN_SIDE_PX = MODEL_SIDE_PX // 2
 #: before and after it.
 BOX_NEIGHBOURS = 2
 
+#: The networks that may look again at the square around the person.
+SECOND_LOOKS = ("pose", "selfie")
+
+#: The one that does when LiteRT is installed (the pose network needs it).
+SECOND_LOOK = "pose"
+
 #: A frame whose person covers more than this many times the clip's median person area
 #: is left empty (the network took part of the scene for the person).
 OUTLIER_AREA = 3.0
@@ -94,37 +105,37 @@ PEOPLE_FRAME_SHARE = 1.0 / 3.0
 
 
 def resolve_segmenter(segmenter: str, with_background: bool) -> str:
-    """The front end a query uses: ``"learned"`` or ``"subtraction"``.
+    """The front end a query uses: ``"learned"``, ``"subtraction"`` or ``"fused"``.
 
     Parameters
     ----------
-    segmenter : {"auto", "learned", "subtraction"}
+    segmenter : {"auto", "learned", "subtraction", "fused"}
     with_background : bool
         Whether an image of the empty scene was given.
 
     Raises
     ------
     InvalidParameterError
-        An unknown name, or ``"learned"`` with a background image (the network does not
-        use it).
+        An unknown name, ``"learned"`` with a background image (the network does not
+        use it), or ``"fused"`` without one.
     """
     if segmenter not in SEGMENTERS:
         raise InvalidParameterError(
             f"segmenter must be one of {', '.join(SEGMENTERS)}, got {segmenter!r}"
         )
     if segmenter == "auto":
-        return "subtraction" if with_background else "learned"
+        return "fused" if with_background else "learned"
     if segmenter == "learned" and with_background:
         raise InvalidParameterError(
             "the learned segmenter does not use an image of the empty scene: give "
-            "--background with --segmenter subtraction or auto, or leave it out"
+            "--background with --segmenter fused, subtraction or auto, or leave it out"
+        )
+    if segmenter == "fused" and not with_background:
+        raise InvalidParameterError(
+            "the fused segmenter needs an image of the empty scene: give --background, "
+            "or use --segmenter learned or auto"
         )
     return segmenter
-
-
-def runtime() -> str:
-    """``"litert"`` when the LiteRT interpreter is installed, else ``"opencv"``."""
-    return _network()[0]
 
 
 def model_input(frame: np.ndarray) -> np.ndarray:
@@ -224,7 +235,7 @@ def person_probabilities(inputs: np.ndarray) -> np.ndarray:
             f"network inputs must be (F, {MODEL_SIDE_PX}, {MODEL_SIDE_PX}, 3) uint8, got "
             f"{inputs.dtype} {inputs.shape}"
         )
-    _, run = _network()
+    _, run = selfie_network()
     out = np.empty(inputs.shape[:3], np.float32)
     for i, frame in enumerate(inputs):
         out[i] = run(frame.astype(np.float32) * np.float32(1.0 / 255.0))
@@ -234,8 +245,24 @@ def person_probabilities(inputs: np.ndarray) -> np.ndarray:
 def learned_masks(
     frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The person in each frame, and the people in view (two passes of the network:
-    the module's description).
+    """The person in each frame, and the people in view: :func:`learned_masks_and_landmarks`
+    without the landmarks.
+
+    Returns
+    -------
+    masks : (F, H', W') bool
+    people : (F,) int64
+    """
+    masks, people, _ = learned_masks_and_landmarks(frames, size, config)
+    return masks, people
+
+
+def learned_masks_and_landmarks(
+    frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig,
+    second_look: str | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """The person in each frame, the people in view, and the person's body landmarks
+    (two passes of the networks: the module's description).
 
     Parameters
     ----------
@@ -245,6 +272,9 @@ def learned_masks(
         (H', W') of the masks wanted: the frames' working size (:func:`working_size`).
     config : SilhouetteConfig
         Its ``min_person_frac`` and ``keep_piece_frac`` apply.
+    second_look : {"pose", "selfie"}, optional
+        The network that looks again at the square around the person: ``"pose"`` (the
+        default when LiteRT is installed) or ``"selfie"`` (the default without).
 
     Returns
     -------
@@ -254,7 +284,25 @@ def learned_masks(
     people : (F,) int64
         Blobs per frame large enough to be a person (:data:`PERSON_SHARE`): the more
         of the two passes' counts (the square may leave out a person beside).
+    landmarks : (F, 33, 4) float32
+        Per frame, x and y (pixels of ``frames``, continuous: 0 is the left or top edge
+        of the first pixel), visibility and presence (probabilities) of the pose
+        network's 33 body landmarks (:data:`~eigmotion.segmentation.networks.N_POSE_LANDMARKS`,
+        MediaPipe's order); NaN in a frame the pose network did not see or where it
+        found no person (flag under :data:`PERSON_PROBABILITY`), and everywhere when
+        the second look is the selfie network's.
     """
+    pose = pose_network()
+    if second_look is None:
+        second_look = SECOND_LOOK if pose is not None else "selfie"
+    if second_look not in SECOND_LOOKS:
+        raise InvalidParameterError(
+            f"second_look must be one of {', '.join(SECOND_LOOKS)}, got {second_look!r}"
+        )
+    if second_look == "pose" and pose is None:
+        raise InvalidParameterError(
+            "the pose network runs through LiteRT only: pip install 'eigmotion[segmenter]'"
+        )
     h, w = size
     frame_size = frames.shape[1:3]
     first = person_probabilities(np.stack([model_input(f) for f in frames]))
@@ -262,16 +310,29 @@ def learned_masks(
     # people are counted on the whole frame too: a square may leave out a person beside
     whole_frame_people = [person_in_frame(p > PERSON_PROBABILITY, config)[1] for p in probabilities]
     boxes = _person_boxes(probabilities, config, frame_size)
+    landmarks = np.full((len(frames), N_POSE_LANDMARKS, 4), np.nan, np.float32)
     longest = max(frame_size)
     for i, box in enumerate(boxes):
         if box is None:
             continue
         x0, y0, x1, y1 = box
         side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
-        if side >= longest:
+        if side >= longest and second_look == "selfie":
             continue
         view, matrix = crop_input(frames[i], ((x0 + x1) / 2, (y0 + y1) / 2, side))
-        second = person_probabilities(view[None])[0]
+        if second_look == "selfie":
+            second = person_probabilities(view[None])[0]
+        else:
+            out = pose(view.astype(np.float32) * np.float32(1.0 / 255.0))
+            if out.person < PERSON_PROBABILITY:  # no one it knows: the selfie network looks
+                second = person_probabilities(view[None])[0]
+                probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
+                continue
+            second = out.probabilities
+            landmarks[i] = out.landmarks
+            # the square's pixels (continuous) back to the frame's
+            landmarks[i, :, 0] = (out.landmarks[:, 0] - 0.5 - matrix[0, 2]) / matrix[0, 0] + 0.5
+            landmarks[i, :, 1] = (out.landmarks[:, 1] - 0.5 - matrix[1, 2]) / matrix[1, 1] + 0.5
         probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
     masks = np.zeros((len(probabilities), h, w), bool)
     people = np.zeros(len(probabilities), np.int64)
@@ -282,7 +343,7 @@ def learned_masks(
     if area.any():
         outliers = area > OUTLIER_AREA * np.median(area[area > 0])
         masks[outliers], people[outliers] = False, 0
-    return masks, people
+    return masks, people, landmarks
 
 
 def _person_boxes(
@@ -392,51 +453,3 @@ def count_people(masks: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
     """People per frame in finished masks (F, H, W) bool, counted as
     :func:`person_in_frame` counts them; (F,) int64."""
     return np.array([person_in_frame(m, config)[1] for m in masks], np.int64)
-
-
-@cache
-def _network():
-    """(runtime name, function from one (256, 256, 3) float32 input in [0, 1] to the
-    (256, 256) float32 probabilities), the network loaded once per process."""
-    if not MODEL_PATH.is_file():
-        raise VideoError(f"{MODEL_PATH}: the person segmenter's network is missing")
-    try:
-        from ai_edge_litert.interpreter import Interpreter
-    except ImportError:
-        Interpreter = None  # noqa: N806 - the class, when installed
-    if Interpreter is not None:
-        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-        with _quiet_stderr():  # LiteRT announces its CPU delegate on stderr
-            interpreter = Interpreter(model_path=str(MODEL_PATH), num_threads=max(1, threads))
-            interpreter.allocate_tensors()
-        source = interpreter.get_input_details()[0]["index"]
-        target = interpreter.get_output_details()[0]["index"]
-
-        def run_litert(x: np.ndarray) -> np.ndarray:
-            interpreter.set_tensor(source, x[None])
-            interpreter.invoke()
-            return interpreter.get_tensor(target)[0, :, :, 0]
-
-        return "litert", run_litert
-    net = cv2.dnn.readNetFromTFLite(str(MODEL_PATH))
-
-    def run_opencv(x: np.ndarray) -> np.ndarray:
-        net.setInput(np.ascontiguousarray(x.transpose(2, 0, 1)[None]))
-        return net.forward()[0, 0]
-
-    return "opencv", run_opencv
-
-
-@contextmanager
-def _quiet_stderr():
-    """File descriptor 2 sent to ``/dev/null`` for the block (what a native library
-    prints there), then restored."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)

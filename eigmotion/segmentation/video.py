@@ -31,6 +31,7 @@ from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.evidence import check_frames, shrink
+from eigmotion.segmentation.fused import fuse_masks
 from eigmotion.segmentation.learned import (
     count_people,
     learned_masks,
@@ -165,8 +166,8 @@ class ClipMasks:
         People in view (:func:`~eigmotion.segmentation.learned.people_in_view`): with the
         learned segmenter the blobs of the network's masks, else those of the masks.
     segmenter : str
-        The front end that cut them: ``"learned"``, ``"subtraction"``, or ``"masks"``
-        for an ``.npz`` of masks.
+        The front end that cut them: ``"learned"``, ``"subtraction"``, ``"fused"``, or
+        ``"masks"`` for an ``.npz`` of masks.
     """
 
     masks: np.ndarray
@@ -217,8 +218,8 @@ def load_clip_masks(
         Missing or unreadable file, zero frames, no person, background of another size.
     InvalidParameterError
         An ``.npz`` without ``masks`` or with masks of the wrong shape; a background
-        given with an ``.npz`` of masks; a bad ``sample_fps``; an unknown segmenter, or
-        the learned one with a background.
+        given with an ``.npz`` of masks; a bad ``sample_fps``; an unknown segmenter,
+        the learned one with a background, or the fused one without.
     """
     path = Path(path)
     segmenter = resolve_segmenter(segmenter, background_path is not None)
@@ -238,6 +239,12 @@ def load_clip_masks(
         return ClipMasks(masks, indices, n_frames, min(rate, clip_fps), clip_fps, people, "masks")
     if segmenter == "learned":
         return _learned_clip_masks(path, config, sample_fps, progress)
+    if segmenter == "fused":
+        cut = _learned_clip_masks(path, config, sample_fps, progress)
+        subtracted = load_clip_masks(path, background_path, config, sample_fps, progress)
+        return replace(
+            cut, masks=fuse_masks(cut.masks, subtracted.masks, config), segmenter="fused"
+        )
 
     def to_working_size(frame: np.ndarray) -> np.ndarray:
         """Each frame shrunk as soon as it is decoded (as the segmentation would shrink
