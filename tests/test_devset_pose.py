@@ -36,6 +36,7 @@ from eigmotion.evaluation.joint_errors import (
 )
 from eigmotion.imaging.cameras import intrinsics, look_at
 from eigmotion.imaging.media import write_video
+from eigmotion.imaging.render import render_shaded
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
 from eigmotion.retrieval.library_views import BuildConfig
@@ -174,15 +175,18 @@ def dev_set(tmp_path_factory):
     cams = []
     for i, side in enumerate((60.0, -60.0)):
         direction = yaw_rotation(heading + side) @ [0.0, 0.0, 1.0]
-        eye = middle + 4.5 * direction
+        eye = middle + 3.2 * direction
         eye[1] = 1.5
         cams.append(look_at(eye, [middle[0], 0.9, middle[2]], K, 320, 240, name=f"cam{i}"))
     save_calibration(cams, folder / "cams.json")
     for i, cam in enumerate(cams):
         masks = render_masks(vertices[anim_frames], body.faces, cam)
-        frames, background = compose_scene(None, masks, rng)
+        # a shaded body, as the person networks of the default front end need
+        shaded = render_shaded(vertices[anim_frames], body.faces, cam, floor=False)
+        frames, background = compose_scene(shaded, masks, rng)
         write_video(frames, folder / f"cam{i}.mp4", 30.0)
         cv2.imwrite(str(folder / f"background{i}.png"), background[..., ::-1])
+        np.savez_compressed(folder / f"masks{i}.npz", masks=masks)
     _write_truth(folder, names, truth[anim_frames])
     (folder / "meta.json").write_text(json.dumps({"label": "walk"}))
     # one camera: a retrieval clip
@@ -199,8 +203,12 @@ def dev_set(tmp_path_factory):
 
 
 def test_eval_tracking_scores_what_track_writes(dev_set, tmp_path, capsys):
+    """Background subtraction: the person networks of the default front end take little
+    of this plain rendered body (IoU 0.6-0.7, below)."""
     out = tmp_path / "tracking.json"
-    assert main(["eval", "tracking", "--dev", str(dev_set), "--json-out", str(out)]) == 0
+    subtraction = ["--segmenter", "subtraction"]
+    args = ["eval", "tracking", "--dev", str(dev_set), "--json-out", str(out), *subtraction]
+    assert main(args) == 0
     printed = capsys.readouterr().out
     assert "## tracking" in printed and "track_t" in printed and "l_wrist" in printed
     report = json.loads(out.read_text())
@@ -213,7 +221,7 @@ def test_eval_tracking_scores_what_track_writes(dev_set, tmp_path, capsys):
     joints = tmp_path / "j.npz"
     args = ["track", "--calib", folder / "cams.json", folder / "cam0.mp4", folder / "cam1.mp4",
             "--background", folder / "background0.png", folder / "background1.png",
-            "--joints-out", joints]  # fmt: skip
+            "--joints-out", joints, *subtraction]  # fmt: skip
     assert main([str(a) for a in args]) == 0
     written = np.load(joints)
     truth_names = json.loads((folder / "joints.json").read_text())["names"]
@@ -230,7 +238,7 @@ def test_eval_tracking_scores_what_track_writes(dev_set, tmp_path, capsys):
     settings = ["travel_tolerance_deg=null", "scale_from_top=true"]
     other = tmp_path / "other.json"
     args_eval = ["eval", "tracking", "--dev", str(dev_set), "--json-out", str(other),
-                 "--tracker-config", *settings]  # fmt: skip
+                 *subtraction, "--tracker-config", *settings]  # fmt: skip
     assert main(args_eval) == 0
     report = json.loads(other.read_text())
     assert report["tracker_config"]["travel_tolerance_deg"] is None
@@ -242,6 +250,41 @@ def test_eval_tracking_scores_what_track_writes(dev_set, tmp_path, capsys):
         np.load(folder / "joints.npy"),
     )  # fmt: skip
     assert report["sets"][0]["mpjpe_mm"] == pytest.approx(errors.mpjpe_mm, abs=0.01)
+
+
+@pytest.mark.parametrize("segmenter", ["auto", "learned"])
+def test_eval_tracking_segmenters_and_their_iou(dev_set, tmp_path, capsys, segmenter):
+    """Each front end's silhouettes are scored against the set's true masks, and
+    tracked as `track --segmenter` tracks them."""
+    default = tmp_path / "subtraction.json"
+    args = ["eval", "tracking", "--dev", str(dev_set), "--json-out", str(default),
+            "--segmenter", "subtraction"]  # fmt: skip
+    assert main(args) == 0
+    out = tmp_path / f"{segmenter}.json"
+    args = ["eval", "tracking", "--dev", str(dev_set), "--segmenter", segmenter,
+            "--json-out", str(out)]  # fmt: skip
+    assert main(args) == 0
+    assert "silhouette IoU" in capsys.readouterr().out
+    base, other = json.loads(default.read_text()), json.loads(out.read_text())
+    assert base["segmenter"] == "subtraction" and other["segmenter"] == segmenter
+    (subtracted,), (scored,) = base["sets"], other["sets"]
+    assert scored["error"] is None and scored["frames"] == 24
+    assert 0.8 < subtracted["silhouette_iou"] <= 1.0
+    assert 0.5 < scored["silhouette_iou"] < subtracted["silhouette_iou"]
+    assert other["summary"]["silhouette_iou"] == pytest.approx(scored["silhouette_iou"], abs=1e-4)
+    folder = dev_set / "tracking" / "track_t"
+    joints = tmp_path / "j.npz"
+    backgrounds = [] if segmenter == "learned" else [
+        "--background", folder / "background0.png", folder / "background1.png"]  # fmt: skip
+    track = ["track", "--calib", folder / "cams.json", folder / "cam0.mp4", folder / "cam1.mp4",
+             *backgrounds, "--segmenter", segmenter, "--joints-out", joints]  # fmt: skip
+    assert main([str(a) for a in track]) == 0
+    written = np.load(joints)
+    errors = tracking_errors(
+        [str(n) for n in written["names"]], written["positions"],
+        json.loads((folder / "joints.json").read_text())["names"], np.load(folder / "joints.npy"),
+    )  # fmt: skip
+    assert scored["mpjpe_mm"] == pytest.approx(errors.mpjpe_mm, abs=0.01)
 
 
 def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, capsys):

@@ -78,6 +78,20 @@ def test_backgrounds_must_match_videos(scene, capsys):
     assert code == 2 and len(err) == 1 and "1 backgrounds given for 2 videos" in err[0]
 
 
+def test_segmenter_needs_what_it_uses(scene, capsys, tmp_path):
+    """The learned segmenter takes no background image, the fused one needs one."""
+    root, *_ = scene
+    video, image = tmp_path / "v.avi", tmp_path / "bg.png"
+    write_video(np.zeros((3, 240, 320, 3), np.uint8), video, 25.0)
+    cv2.imwrite(str(image), np.zeros((240, 320, 3), np.uint8))
+    common = ["--calib", root / "cams.json", video, video]
+    learned = [*common, "--background", image, image, "--segmenter", "learned"]
+    code, _, err = run_cli(learned, capsys)
+    assert code == 2 and len(err) == 1 and "learned segmenter does not use" in err[0]
+    code, _, err = run_cli([*common, "--segmenter", "fused"], capsys)
+    assert code == 2 and len(err) == 1 and "fused segmenter needs" in err[0]
+
+
 def test_wrong_frame_size(scene, capsys, tmp_path):
     root, paths, *_ = scene
     small = tmp_path / "small.npz"
@@ -166,7 +180,8 @@ def test_track_end_to_end(scene, tracked, capsys, tmp_path):
 
 def test_track_from_video_with_background(scene, capsys, tmp_path):
     """RGB videos with a textured background, a shadow and noise, cut out against
-    background images."""
+    background images by subtraction (the person networks of the default front end do
+    not take a flat-coloured body for a person)."""
     from eigmotion.synth.scene import compose_scene
 
     root, _, truth, vertices, subject, cams = scene
@@ -181,7 +196,7 @@ def test_track_from_video_with_background(scene, capsys, tmp_path):
     code, out, err = run_cli(
         [
             "--calib", root / "cams.json", *videos, "--background", *backgrounds,
-            "--dictionary", "walk_02_01", "--heading-step-deg", "30",
+            "--segmenter", "subtraction", "--dictionary", "walk_02_01", "--heading-step-deg", "30",
             "--joints-out", tmp_path / "j.npz",
         ],
         capsys,

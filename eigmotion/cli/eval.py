@@ -7,6 +7,7 @@ Examples::
     eigmotion eval recognition --only walk_ wave_
     eigmotion eval tracking --json-out tracking.json # two cameras: MPJPE, swaps, speed
     eigmotion eval tracking --tracker-config travel_tolerance_deg=null   # a setting off
+    eigmotion eval tracking --segmenter subtraction  # silhouettes by background subtraction
     eigmotion eval pose --db my.fs                   # one camera: PA-MPJPE
 
 Every clip is answered in this process exactly as ``eigmotion query CLIP --json``
@@ -87,9 +88,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--segmenter",
         choices=SEGMENTERS,
         default="auto",
-        help="recognition: the query's front end for video, as for eigmotion query "
+        help="the front end for video, as for eigmotion query and eigmotion track "
         "(default auto: fused with the background image, learned without; learned in "
-        "the bg mode asks the video without its background image)",
+        "the bg mode and for tracking asks the video without its background image)",
     )
     parser.add_argument(
         "--only", nargs="+", metavar="SUBSTR", help="clips whose id contains any of these"
@@ -211,16 +212,20 @@ def _run_tracking(args: argparse.Namespace, dev: Path) -> int:
     print("building the posture dictionary", file=sys.stderr, flush=True)
     dictionary = dictionary_from_specs(args.dictionary)
     tracked = [
-        track_set(folder, dictionary, config)
+        track_set(folder, dictionary, config, args.segmenter)
         for folder in tqdm(sets, desc="tracking", unit="set", leave=False)
     ]
     print(format_tracking(tracked))
-    print(f"\ndevelopment set {dev}, dictionary of {len(dictionary)} postures")
+    print(
+        f"\ndevelopment set {dev}, dictionary of {len(dictionary)} postures, "
+        f"segmenter {args.segmenter}"
+    )
     if args.tracker_config:
         print(f"tracker settings: {' '.join(args.tracker_config)}")
     report = {
         "dev": str(dev),
         "tracker_config": dataclasses.asdict(config),
+        "segmenter": args.segmenter,
         "summary": summarise_tracking(tracked),
         "sets": [s.to_json() for s in tracked],
     }

@@ -2,11 +2,14 @@
 
 One video per calibrated camera (same order as the calibration file, same frame
 count and rate), each a video file, a folder of frames or an ``.npz`` of silhouettes
-(key ``masks``).  The person is cut out by background subtraction against
-``--background`` images (one per video) or, without them, a background estimated
-from the clip.  Every ``video fps / --estimate-fps``-th frame is tracked against a
-posture dictionary built from ``--dictionary`` motions (default: CMU walks and turns
-in every direction), or loaded from a saved dictionary ``.npz``.
+(key ``masks``).  The person is cut out as ``eigmotion query`` cuts it out
+(``--segmenter``): by default (``auto``) the learned person masks plus what
+background subtraction against the ``--background`` images (one per video) finds
+next to them (``fused``), or the learned masks alone without background images;
+``subtraction`` is background subtraction alone (against a background estimated from
+the clip when no image is given).  Every ``video fps / --estimate-fps``-th frame is
+tracked against a posture dictionary built from ``--dictionary`` motions (default:
+CMU walks and turns in every direction), or loaded from a saved dictionary ``.npz``.
 
 Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-speed
 playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
@@ -28,6 +31,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.segmentation.learned import SEGMENTERS
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.calibration import load_calibration
 from eigmotion.tracking.dictionary import posture_sequence
@@ -63,6 +67,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         type=Path,
         help="an image of the empty scene per video (default: estimated from each clip)",
+    )
+    parser.add_argument(
+        "--segmenter",
+        choices=SEGMENTERS,
+        default="auto",
+        help="how the person is cut out of the videos: learned (person networks), "
+        "subtraction (background subtraction), fused (learned plus what subtraction finds "
+        "next to them; needs --background); default auto: fused with --background, "
+        "learned without",
     )
     parser.add_argument(
         "--dictionary",
@@ -154,7 +167,7 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
     backgrounds = args.background or [None] * len(args.videos)
     all_masks, rates = [], []
     for cam, video, background in zip(cameras, args.videos, backgrounds, strict=True):
-        clip = load_clip_masks(video, background)
+        clip = load_clip_masks(video, background, segmenter=args.segmenter, progress=True)
         masks, fps = clip.masks, clip.fps
         if masks.shape[1:] != (cam.height, cam.width):
             raise InvalidParameterError(

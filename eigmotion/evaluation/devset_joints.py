@@ -20,6 +20,7 @@ The figures are those of ``shared/eval/score.py tracking`` and ``pose``.
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -91,6 +92,9 @@ class TrackedSet:
         dictionary), seconds.
     error : str or None
         The message of the :class:`~eigmotion.errors.EigmotionError` raised.
+    silhouette_iou : float or None
+        The silhouettes' IoU against the set's true masks, mean over cameras and
+        frames; None without true masks.
     """
 
     set_id: str
@@ -99,6 +103,7 @@ class TrackedSet:
     cpu_s: float
     wall_s: float
     error: str | None = None
+    silhouette_iou: float | None = None
 
     @property
     def estimates_per_cpu_s(self) -> float:
@@ -112,27 +117,63 @@ class TrackedSet:
             "cpu_s": round(self.cpu_s, 3),
             "wall_s": round(self.wall_s, 3),
             "estimates_per_cpu_s": round(self.estimates_per_cpu_s, 2) if self.cpu_s else None,
+            "silhouette_iou": (
+                None if self.silhouette_iou is None else round(self.silhouette_iou, 4)
+            ),
             "error": self.error,
         }
 
 
+def silhouette_iou(masks: np.ndarray, truth: np.ndarray) -> float:
+    """Mean over frames of the intersection over union of two mask sequences.
+
+    Parameters
+    ----------
+    masks, truth : (F, H, W) bool
+        Frames where both are empty are left out.
+
+    Returns
+    -------
+    float
+        In [0, 1]; NaN when every frame is empty in both.
+    """
+    n = min(len(masks), len(truth))
+    masks, truth = masks[:n], truth[:n]
+    union = (masks | truth).sum(axis=(1, 2))
+    inter = (masks & truth).sum(axis=(1, 2))
+    seen = union > 0
+    return float(np.mean(inter[seen] / union[seen])) if seen.any() else float("nan")
+
+
 def track_set(
-    folder: Path, dictionary: PostureDictionary, config: TrackerConfig | None = None
+    folder: Path,
+    dictionary: PostureDictionary,
+    config: TrackerConfig | None = None,
+    segmenter: str = "auto",
 ) -> TrackedSet:
     """Track one set as ``eigmotion track`` does (with its default settings, or
-    ``config``), and score it."""
+    ``config``), and score it.
+
+    ``segmenter`` is the front end of ``eigmotion track --segmenter``; every front end
+    but ``learned`` gets the set's empty-scene images.  Where the set has its true masks
+    (``masks0.npz``, ``masks1.npz``) the silhouettes' IoU against them is kept.
+    """
     folder = Path(folder)
     try:
         calibration = load_calibration(folder / "cams.json")
-        masks, fps = [], None
+        masks, ious, fps = [], [], None
         for c, camera in enumerate(calibration.cameras):
-            clip = load_clip_masks(folder / f"cam{c}.mp4", folder / f"background{c}.png")
+            background = None if segmenter == "learned" else folder / f"background{c}.png"
+            clip = load_clip_masks(folder / f"cam{c}.mp4", background, segmenter=segmenter)
             if clip.masks.shape[1:] != (camera.height, camera.width):
                 raise InvalidParameterError(
                     f"{folder}/cam{c}.mp4: frames do not match camera {camera.name!r}"
                 )
             masks.append(clip.masks)
             fps = fps or clip.fps
+            if (folder / f"masks{c}.npz").is_file():
+                with np.load(folder / f"masks{c}.npz") as stored:
+                    ious.append(silhouette_iou(clip.masks, stored["masks"] > 0))
         tracker = SilhouetteTracker(
             dictionary, calibration.cameras, config=config, pairs=calibration.pairs
         )
@@ -145,9 +186,11 @@ def track_set(
         )
     except EigmotionError as exc:
         return TrackedSet(folder.name, None, 0, 0.0, 0.0, " ".join(str(exc).split()))
+    iou = float(np.mean(ious)) if len(ious) == len(masks) else None
     return TrackedSet(
-        folder.name, errors, tracked.result.n_estimates, tracked.cpu_s, tracked.wall_s
-    )
+        folder.name, errors, tracked.result.n_estimates, tracked.cpu_s, tracked.wall_s,
+        silhouette_iou=iou,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -235,6 +278,7 @@ def summarise_tracking(sets: Sequence[TrackedSet]) -> dict:
         "heading_flips": sum(s.errors.heading_flips for s in scored),
         "frames": sum(s.errors.frames for s in scored),
         "estimates_per_cpu_s": sum(s.estimates for s in scored) / cpu if cpu else float("nan"),
+        "silhouette_iou": _mean([s.silhouette_iou for s in scored if s.silhouette_iou is not None]),
     }
 
 
@@ -249,6 +293,7 @@ def format_tracking(sets: Sequence[TrackedSet]) -> str:
             f"{s.errors.swaps}/{s.errors.frames}",
             f"{s.errors.heading_flips}/{s.errors.frames}",
             f"{s.estimates_per_cpu_s:.1f}",
+            "—" if s.silhouette_iou is None else f"{s.silhouette_iou:.2f}",
         ]
         for s in scored
     ]
@@ -262,10 +307,11 @@ def format_tracking(sets: Sequence[TrackedSet]) -> str:
                 f"{total['swaps']}/{total['frames']}",
                 f"{total['heading_flips']}/{total['frames']}",
                 f"{total['estimates_per_cpu_s']:.1f}",
+                "—" if math.isnan(total["silhouette_iou"]) else f"{total['silhouette_iou']:.2f}",
             ]
         )
     header = ["set", "MPJPE mm", "root mm", "left/right swapped", "heading off > 90°",
-              "estimates / CPU s"]  # fmt: skip
+              "estimates / CPU s", "silhouette IoU"]  # fmt: skip
     lines = ["## tracking: two cameras, 13 joints", "", *markdown_table(header, rows)]
     if scored:
         joints = scored[0].errors.joints

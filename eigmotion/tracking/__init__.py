@@ -6,7 +6,9 @@ person's 3D position from the silhouettes' centroids (:mod:`.position`), candida
 postures near the previous one, their silhouettes scored against the observed ones
 (:mod:`.similarity`, :mod:`.frame_scoring`; postures facing away from the direction
 of travel penalised, :mod:`.heading`) through the 2-layer search tree
-(:mod:`.search`), all driven by :class:`~.tracker.SilhouetteTracker`.  Smooth output
+(:mod:`.search`), all driven by :class:`~.tracker.SilhouetteTracker`; optionally a
+Viterbi path through each frame's best postures over the whole clip
+(:mod:`.temporal`).  Smooth output
 motion comes from variable-speed playback of a reference sequence
 (:mod:`.generation`).  Cameras come from a calibration file or from checkerboard
 images (:mod:`.calibration`).

@@ -54,6 +54,7 @@ from eigmotion.tracking.search import (
     exhaustive_search,
     two_layer_search,
 )
+from eigmotion.tracking.temporal import along_best_path
 from eigmotion.validation import Interval, Options, SequenceOf, validate_params
 
 RenderMasks = Callable[[np.ndarray, np.ndarray, Camera], np.ndarray]
@@ -136,6 +137,13 @@ class TrackerConfig:
         Seconds over which the direction of travel is measured (centred).
     travel_min_speed_mps : float
         Slower than this, metres per second, the direction of travel is not used.
+    path_candidates : int
+        Temporal decision (:mod:`~eigmotion.tracking.temporal`): with 2 or more, each
+        estimate keeps this many best-scored postures and :meth:`~SilhouetteTracker.track`
+        picks one per frame by a Viterbi path (score minus ``path_weight`` per 30° of d1
+        between consecutive postures); 1: the greedy choice frame by frame (the paper's).
+    path_weight : float
+        Score lost per 30° of d1 between consecutive estimates on the Viterbi path.
     """
 
     layer_step: int = 3
@@ -162,6 +170,8 @@ class TrackerConfig:
     travel_weight: float = 1.0
     travel_window_s: float = 0.5
     travel_min_speed_mps: float = 0.3
+    path_candidates: int = 1
+    path_weight: float = 0.1
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: order of ``body_scale_range`` is checked after.
@@ -188,6 +198,8 @@ class TrackerConfig:
         "travel_weight": Interval(Real, 0.0, None, noun=""),
         "travel_window_s": _POSITIVE,
         "travel_min_speed_mps": Interval(Real, 0.0, None, noun=""),
+        "path_candidates": _COUNT,
+        "path_weight": Interval(Real, 0.0, None, noun=""),
     }
 
     def __post_init__(self):
@@ -226,6 +238,12 @@ class Estimate:
         Scale of the body model (about its root) used for this estimate.
     found : bool
         False when no camera saw the person (the previous estimate is repeated).
+    alternatives : (K,) int64
+        With ``path_candidates`` of 2 or more: the best-scored entries, best first
+        (``entry`` among them); empty otherwise.
+    alternative_scores : (K,) float64
+    alternative_positions_m : (K, 3) float64
+        Each alternative's shift-refined body-centre position, world metres.
     """
 
     entry: int
@@ -237,6 +255,9 @@ class Estimate:
     scales: np.ndarray
     body_scale: float = 1.0
     found: bool = True
+    alternatives: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    alternative_scores: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    alternative_positions_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -533,6 +554,10 @@ class SilhouetteTracker:
 
     def _finish(self, result: SearchResult, scorer: FrameScorer) -> Estimate:
         shifts, scales = scorer.detail[result.best]
+        order = np.argsort(-result.scores, kind="stable")[: self.config.path_candidates]
+        if self.config.path_candidates < 2:
+            order = order[:0]
+        others = result.evaluated[order]
         return Estimate(
             result.best,
             scorer.refined_position(result.best, shifts),
@@ -543,6 +568,11 @@ class SilhouetteTracker:
             scales,
             scorer.body_scale,
             True,
+            others,
+            result.scores[order],
+            np.array(
+                [scorer.refined_position(int(e), scorer.detail[int(e)][0]) for e in others]
+            ).reshape(-1, 3),
         )
 
     def _local_search(
@@ -689,6 +719,8 @@ class SilhouetteTracker:
             estimates.append(self.step([m[f] for m in masks], travel[i]))
             if progress is not None:
                 progress(i + 1, len(frames))
+        if self.config.path_candidates > 1:
+            estimates = along_best_path(estimates, self.dictionary.vectors, self.config.path_weight)
         return self.result(estimates, frames, frame_time_s * frame_step)
 
     def result(
