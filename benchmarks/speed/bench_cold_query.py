@@ -65,8 +65,9 @@ FLOORS = {
     "python + numpy + cv2 + ZODB": "import numpy, cv2, ZODB.FileStorage, BTrees.LOBTree",
     # what the tree search's compiled walk costs a new process before its first query
     "python + numpy + numba's first cached loop": (
-        "import numpy as np\nfrom eigmotion.retrieval.neighbours import pair_sq_distances\n"
-        "pair_sq_distances(np.zeros((1, 1), np.float32), np.zeros(1, np.float32))"
+        "import numpy as np\nfrom eigmotion.retrieval.neighbours import kernels\n"
+        "kernels().pair_sq_distances(np.zeros((1, 1), np.float32), "
+        "np.zeros((1, 1), np.float32), np.zeros(1, np.float32))"
     ),
 }
 
@@ -88,11 +89,12 @@ def _children_cpu_s() -> float:
 
 
 def run_s(command: list[str], path: Path) -> tuple[float, float, str]:
-    """Wall and CPU seconds (user + system) of ``command`` with ``path`` first on
-    PYTHONPATH, and its stdout."""
+    """Wall and CPU seconds (user + system) of ``command`` run in ``path`` (so that
+    ``-m`` and ``-c`` import the package found there) with it first on PYTHONPATH, and
+    its stdout."""
     env = dict(os.environ, PYTHONPATH=str(path))
     cpu0, t0 = _children_cpu_s(), time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, cwd=REPO, env=env)
+    done = subprocess.run(command, capture_output=True, text=True, cwd=path, env=env)
     seconds, cpu = time.perf_counter() - t0, _children_cpu_s() - cpu0
     if done.returncode:
         raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr}")
@@ -107,6 +109,8 @@ def main() -> int:
     parser.add_argument("--previous", default=PREVIOUS_REVISION, help="git revision")
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
+    args.db, args.clip = str(Path(args.db).resolve()), args.clip.resolve()
+    args.background = args.background.resolve()
     query = ["query", str(args.clip), "--background", str(args.background)]
     query += ["--db", args.db, "--json"]
     commands = {
