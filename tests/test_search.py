@@ -13,7 +13,12 @@ from threadpoolctl import threadpool_limits
 from eigmotion.errors import InvalidParameterError
 from eigmotion.retrieval.brute_force import BruteForceIndex, brute_force
 from eigmotion.retrieval.keys import Quantizer
-from eigmotion.retrieval.neighbours import NearestEntries, pair_sq_distances
+from eigmotion.retrieval.neighbours import (
+    NearestEntries,
+    kernels,
+    pair_sq_distances,
+    sq_distances_in_order,
+)
 from eigmotion.retrieval.search import TreeIndex
 
 REPO = Path(__file__).resolve().parents[1]
@@ -71,6 +76,7 @@ def tree_of(points, ids, n_axes=4, n_sections=8, method="quantile", leaf_size=32
     tree = TreeIndex.from_arrays(quantizer.keys(points), points, ids, quantizer, leaf_size)
     if not scan:
         tree.scan_entries = 0
+    tree.walk_top_k = 0  # scanned whether or not numba is loaded
     return tree
 
 
@@ -185,11 +191,13 @@ def test_small_databases_are_scanned_without_building_the_tree():
     assert np.all(walked.examined < len(points))
     tree.scan_entries = len(points) - 1
     assert np.all(tree.search(queries, 5).examined < len(points))
+    tree.scan_entries, tree.walk_top_k = len(points), 5  # numba is loaded: walked
+    kernels()
+    assert np.all(tree.search(queries, 5).examined < len(points))
+    assert np.all(tree.search(queries, 6).examined == len(points))
 
 
 def test_numpy_distances_equal_the_compiled_ones_bit_for_bit(rng):
-    from eigmotion.retrieval.neighbours import kernels, sq_distances_in_order
-
     points = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
     queries = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
     compiled = np.empty(3000, np.float32)
@@ -354,3 +362,19 @@ def test_max_distance_keeps_entries_exactly_at_the_cutoff():
     for bad in (-1.0, float("nan"), "far"):
         with pytest.raises(InvalidParameterError, match="max_distance"):
             tree.search(np.zeros(2), max_distance=bad)
+
+
+def test_keys_left_unchecked_are_checked_by_the_first_walk():
+    rng = np.random.default_rng(5)
+    points = rng.standard_normal((600, 6)).astype(np.float32)
+    quantizer = Quantizer(3, 4, "quantile").fit(points)
+    keys = quantizer.keys(points)
+    keys[17] = keys[17] + 1 if keys[17] < keys.max() else keys[17] - 1
+    ids = np.arange(600)
+    with pytest.raises(InvalidParameterError, match="keys differ"):
+        TreeIndex.from_arrays(keys, points, ids, quantizer)
+    tree = TreeIndex.from_arrays(keys, points, ids, quantizer, check_keys=False)
+    tree.walk_top_k = 0  # scanned, whether or not numba is loaded
+    assert_same(tree.search(points[:3], 4), brute_force(points, ids, points[:3], 4))
+    with pytest.raises(InvalidParameterError, match="1 of 600 keys differ"):
+        tree.walk(points[:3], 4)

@@ -47,10 +47,11 @@ every partial sum already exceeds the k-th best (the terms are >= 0).
 that distance, so a query with nothing near is answered after a few steps.
 
 A search over at most :attr:`TreeIndex.scan_entries` entries is answered by scanning
-every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, NumPy:
-quicker than the walk there, and it needs no compiled loop loaded); its ``examined`` is
-then N, and the tree is built only when something walks it (:meth:`TreeIndex.walk`
-always walks) or reads its structure.
+every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, NumPy,
+no compiled loop to load), unless numba is loaded in the process already and at most
+:attr:`TreeIndex.walk_top_k` nearest are asked for (warm, the walk is quicker there);
+a scanned search's ``examined`` is N.  The tree is built only when something walks it
+(:meth:`TreeIndex.walk` always walks) or reads its structure.
 
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
 ``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
@@ -63,6 +64,7 @@ ever pruned, and the answers agree bit for bit.
 
 from __future__ import annotations
 
+import sys
 from numbers import Integral
 
 import numpy as np
@@ -126,6 +128,21 @@ def _untile(tiles: np.ndarray, starts: np.ndarray, n: int, n_dims: int) -> np.nd
     return out
 
 
+def _check_keys(keys: np.ndarray, points: np.ndarray, ids: np.ndarray, quantizer) -> None:
+    """Raise InvalidParameterError unless the (N,) ``keys`` are the quantizer's keys of
+    the (N, k) ``points`` (ids (N,) name the first that differs)."""
+    if not keys.size:
+        return
+    expected = quantizer.keys(points)
+    wrong = np.flatnonzero(expected != keys)
+    if wrong.size:
+        raise InvalidParameterError(
+            f"{wrong.size} of {keys.size} keys differ from the quantizer's keys of their "
+            f"points (first: id {int(ids[wrong[0]])} has key {int(keys[wrong[0]])}, "
+            f"expected {int(expected[wrong[0]])})"
+        )
+
+
 # -- the tree ----------------------------------------------------------------------
 
 
@@ -168,11 +185,13 @@ class TreeIndex:
         """
         arrays = store.arrays()
         return cls.from_arrays(
-            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size=leaf_size
+            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size, check_keys=False
         )
 
     @classmethod
-    def from_arrays(cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 16) -> TreeIndex:
+    def from_arrays(
+        cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 16, check_keys: bool = True
+    ) -> TreeIndex:
         """Build the tree over entries.
 
         Parameters
@@ -188,12 +207,17 @@ class TreeIndex:
         leaf_size : int
             Most entries per leaf, >= 1.  Smaller leaves examine fewer entries but
             visit more nodes; 16 suits motion-image points (k = 40).
+        check_keys : bool
+            Compare the keys with the quantizer's keys of the points here (True), or
+            only when the tree is built (False: a database's scanned searches never
+            read the keys, and its open does not pay for the check).
 
         Raises
         ------
         InvalidParameterError
             Inconsistent shapes, duplicate ids, non-finite points, or keys that differ
-            from the quantizer's keys of the points.
+            from the quantizer's keys of the points (with ``check_keys`` False, raised
+            by the first walk instead).
         """
         if not isinstance(quantizer, Quantizer):
             raise InvalidParameterError(f"quantizer must be a Quantizer, got {type(quantizer)}")
@@ -206,15 +230,8 @@ class TreeIndex:
         if k.shape != (n,) or (n and not np.issubdtype(k.dtype, np.integer)):
             raise InvalidParameterError(f"keys must be ({n},) integers, got {k.dtype} {k.shape}")
         k = k.astype(np.int64)
-        if n:
-            expected = quantizer.keys(p)
-            wrong = np.flatnonzero(expected != k)
-            if wrong.size:
-                raise InvalidParameterError(
-                    f"{wrong.size} of {n} keys differ from the quantizer's keys of their "
-                    f"points (first: id {int(i[wrong[0]])} has key {int(k[wrong[0]])}, "
-                    f"expected {int(expected[wrong[0]])})"
-                )
+        if check_keys:
+            _check_keys(k, p, i, quantizer)
         self = object.__new__(cls)
         self.n_sections = int(quantizer.n_sections)
         self.n_axes = int(quantizer.n_axes)
@@ -224,6 +241,7 @@ class TreeIndex:
         self._scan = None  # the brute-force index, made on the first scanned batch
         self._entries = (k, p, i)  # kept until the tree is built (and for scanning)
         self._built = False
+        self._keys_checked = bool(check_keys)
         if n > self.scan_entries:  # every search walks: build now
             self._tree()
         return self
@@ -233,6 +251,9 @@ class TreeIndex:
         answered by scanning never build it)."""
         if not self._built:
             keys, points, ids = self._entries
+            if not self._keys_checked:
+                _check_keys(keys, points, ids, self.quantizer)
+                self._keys_checked = True
             self._build(keys, points, ids)
             self._built = True
             if self._n_entries > self.scan_entries:
@@ -493,15 +514,19 @@ class TreeIndex:
     # -- searching --------------------------------------------------------------------
     #: Queries searched together (bounds the size of the working arrays).
     query_block = 512
-    #: Every search over at most ``scan_entries`` entries is answered by scanning
-    #: every entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few
-    #: queries measured exactly in NumPy, a larger batch screened by matrix products),
-    #: and the tree is then never built.  Measured on the default database (49,236
-    #: entries, ``bench_search.py --small``): one query with ``top_k`` 256 takes
-    #: 1.0–1.5 ms scanned against 10.6 ms walked, and the walk's compiled loop costs a
-    #: new process about 1 s to load.  Larger databases are walked.  Set
-    #: ``scan_entries = 0`` to always walk.
+    #: A search over at most ``scan_entries`` entries is answered by scanning every
+    #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
+    #: measured exactly in NumPy, a larger batch screened by matrix products), and the
+    #: tree is then not built.  Measured on the default database (49,236 entries,
+    #: ``bench_scan_or_walk.py``): one query for 256 nearest takes 1.0–1.6 ms scanned
+    #: against 10–18 ms walked, and the walk's compiled loop costs a new process about
+    #: 0.45 s of CPU to load.  Larger databases are walked.  Set ``scan_entries = 0``
+    #: to always walk.
     scan_entries = 50_000
+    #: In a process that has loaded numba already (its load is then paid), a small
+    #: database's searches for at most ``walk_top_k`` nearest entries are walked all the
+    #: same: warm, the walk beats the scan there (``bench_scan_or_walk.py``).
+    walk_top_k = 16
 
     def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
@@ -530,7 +555,8 @@ class TreeIndex:
         q = check_queries(queries, self.n_dims)
         top_k = check_top_k(top_k, self.n_entries)
         max_sq = check_max_distance(max_distance)
-        if self.n_entries <= self.scan_entries and self._entries is not None:
+        small = self.n_entries <= self.scan_entries and self._entries is not None
+        if small and not (top_k <= self.walk_top_k and "numba" in sys.modules):
             if self._scan is None:
                 _, points, ids = self._entries
                 self._scan = BruteForceIndex(points, ids)
