@@ -518,7 +518,7 @@ class TreeIndex:
     #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
     #: measured exactly in NumPy, a larger batch screened by matrix products), and the
     #: tree is then not built.  Measured on the default database (49,236 entries,
-    #: ``bench_scan_or_walk.py``): one query for 256 nearest takes 1.0–1.6 ms scanned
+    #: ``bench_scan_or_walk.py``): one query for 256 nearest takes 0.8–1.6 ms scanned
     #: against 10–18 ms walked, and the walk's compiled loop costs a new process about
     #: 0.45 s of CPU to load.  Larger databases are walked.  Set ``scan_entries = 0``
     #: to always walk.
