@@ -65,6 +65,7 @@ ever pruned, and the answers agree bit for bit.
 from __future__ import annotations
 
 import sys
+import threading
 from numbers import Integral
 
 import numpy as np
@@ -241,6 +242,7 @@ class TreeIndex:
         self._scan = None  # the brute-force index, made on the first scanned batch
         self._entries = (k, p, i)  # kept until the tree is built (and for scanning)
         self._built = False
+        self._building = threading.Lock()  # one thread builds; the others wait for it
         self._keys_checked = bool(check_keys)
         if n > self.scan_entries:  # every search walks: build now
             self._tree()
@@ -250,14 +252,16 @@ class TreeIndex:
         """The built tree (built here on first use: a database's searches that are all
         answered by scanning never build it)."""
         if not self._built:
-            keys, points, ids = self._entries
-            if not self._keys_checked:
-                _check_keys(keys, points, ids, self.quantizer)
-                self._keys_checked = True
-            self._build(keys, points, ids)
-            self._built = True
-            if self._n_entries > self.scan_entries:
-                self._entries = None
+            with self._building:
+                if not self._built:
+                    keys, points, ids = self._entries
+                    if not self._keys_checked:
+                        _check_keys(keys, points, ids, self.quantizer)
+                        self._keys_checked = True
+                    self._build(keys, points, ids)
+                    self._built = True
+                    if self._n_entries > self.scan_entries:
+                        self._entries = None
         return self
 
     #: Entries sampled per segment to pick the coordinate a bin is split along.
