@@ -890,6 +890,15 @@ def test_a_build_from_given_images_equals_a_build_that_renders(tmp_path, library
         assert one.n_entries == sum(len(v.vectors) for v in wave_only) > 3
 
 
+def test_motion_records_are_read_when_first_needed(db_path):
+    with MotionDatabase.open(db_path) as db:
+        assert not db._motions  # the open reads none
+        records = db.motion_records()
+        assert list(records) == db.store.motion_ids().tolist()
+        assert [r["metadata"]["name"] for r in records.values()] == list(MOTIONS)
+        assert db.motion_record(1) is records[1]
+
+
 def test_list_cli_names_the_stored_motions(db_path, library, tmp_path, capsys):
     assert main(["list", "--db", str(db_path), "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
@@ -9,8 +13,15 @@ from threadpoolctl import threadpool_limits
 from eigmotion.errors import InvalidParameterError
 from eigmotion.retrieval.brute_force import BruteForceIndex, brute_force
 from eigmotion.retrieval.keys import Quantizer
-from eigmotion.retrieval.neighbours import NearestEntries, pair_sq_distances
+from eigmotion.retrieval.neighbours import (
+    NearestEntries,
+    kernels,
+    pair_sq_distances,
+    sq_distances_in_order,
+)
 from eigmotion.retrieval.search import TreeIndex
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def motion_like(n: int, n_dims: int, n_groups: int, rng) -> np.ndarray:
@@ -65,6 +76,7 @@ def tree_of(points, ids, n_axes=4, n_sections=8, method="quantile", leaf_size=32
     tree = TreeIndex.from_arrays(quantizer.keys(points), points, ids, quantizer, leaf_size)
     if not scan:
         tree.scan_entries = 0
+    tree.walk_top_k = 0  # scanned whether or not numba is loaded
     return tree
 
 
@@ -159,25 +171,62 @@ def test_equals_brute_force_on_rendering_like_points(n_dims, leaf_size, n_axes, 
     assert_same(one, brute_force(points, ids, known[0], 7))
 
 
-def test_small_databases_scan_large_batches():
+def test_small_databases_are_scanned_without_building_the_tree():
     rng = np.random.default_rng(8)
     points = renderings_like(40, 40, rng)
     ids = np.arange(len(points))
     tree = tree_of(points, ids, scan=True)
     queries = points[rng.choice(len(points), 64)] + 0.01
-    scanned = tree.search(queries, 5)
-    assert np.all(scanned.examined == len(points))  # says it scanned
-    assert_same(scanned, brute_force(points, ids, queries, 5))
-    walked = tree.search(queries[:31], 5)  # too few queries to scan
-    assert np.all(walked.examined < len(points))
-    assert_same(walked, brute_force(points, ids, queries[:31], 5))
-    cut = tree.search(queries, 5, max_distance=0.05)  # a cutoff prunes the walk
-    assert np.all(cut.examined < len(points))
+    for batch in (queries[:1], queries[:5], queries):  # measured exactly, then screened
+        scanned = tree.search(batch, 5)
+        assert np.all(scanned.examined == len(points))  # says it scanned
+        assert_same(scanned, brute_force(points, ids, batch, 5))
+    cut = tree.search(queries, 5, max_distance=0.05)
+    assert np.all(cut.examined == len(points))
     assert_same(cut, brute_force(points, ids, queries, 5, max_distance=0.05))
-    assert_same(tree.walk(queries, 5), scanned)
-    assert np.all(tree.walk(queries, 5).examined < len(points))
+    assert not tree._built  # nothing walked yet: the tree was never built
+    walked = tree.walk(queries, 5)
+    assert tree._built
+    assert_same(walked, tree.search(queries, 5))
+    assert np.all(walked.examined < len(points))
     tree.scan_entries = len(points) - 1
     assert np.all(tree.search(queries, 5).examined < len(points))
+    tree.scan_entries, tree.walk_top_k = len(points), 5  # numba is loaded: walked
+    kernels()
+    assert np.all(tree.search(queries, 5).examined < len(points))
+    assert np.all(tree.search(queries, 6).examined == len(points))
+
+
+def test_numpy_distances_equal_the_compiled_ones_bit_for_bit(rng):
+    points = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
+    queries = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
+    compiled = np.empty(3000, np.float32)
+    kernels().pair_sq_distances(points, queries, compiled)
+    np.testing.assert_array_equal(sq_distances_in_order(points.T, queries.T), compiled)
+    kernels().pair_sq_distances(points, queries[:1], compiled)
+    np.testing.assert_array_equal(sq_distances_in_order(points.T, queries[:1].T), compiled)
+
+
+def test_a_small_database_is_searched_without_numba(tmp_path):
+    """A new process searching a small tree never imports numba (about 1 s to load)."""
+    code = """
+import sys
+import numpy as np
+from eigmotion.retrieval.keys import Quantizer
+from eigmotion.retrieval.search import TreeIndex
+rng = np.random.default_rng(3)
+points = rng.standard_normal((5000, 12)).astype(np.float32)
+quantizer = Quantizer(4, 8, "quantile").fit(points)
+tree = TreeIndex.from_arrays(quantizer.keys(points), points, np.arange(5000), quantizer)
+for n in (1, 5, 40):
+    found = tree.search(points[:n] + 0.01, top_k=9, max_distance=2.0)
+    assert (found.examined == 5000).all() and (found.ids[:, 0] >= 0).all()
+print("numba" in sys.modules)
+"""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True
+    )
+    assert done.stdout.strip() == "False", done.stderr
 
 
 def test_brute_force_equals_naive_scan(rng):
@@ -313,3 +362,19 @@ def test_max_distance_keeps_entries_exactly_at_the_cutoff():
     for bad in (-1.0, float("nan"), "far"):
         with pytest.raises(InvalidParameterError, match="max_distance"):
             tree.search(np.zeros(2), max_distance=bad)
+
+
+def test_keys_left_unchecked_are_checked_by_the_first_walk():
+    rng = np.random.default_rng(5)
+    points = rng.standard_normal((600, 6)).astype(np.float32)
+    quantizer = Quantizer(3, 4, "quantile").fit(points)
+    keys = quantizer.keys(points)
+    keys[17] = keys[17] + 1 if keys[17] < keys.max() else keys[17] - 1
+    ids = np.arange(600)
+    with pytest.raises(InvalidParameterError, match="keys differ"):
+        TreeIndex.from_arrays(keys, points, ids, quantizer)
+    tree = TreeIndex.from_arrays(keys, points, ids, quantizer, check_keys=False)
+    tree.walk_top_k = 0  # scanned, whether or not numba is loaded
+    assert_same(tree.search(points[:3], 4), brute_force(points, ids, points[:3], 4))
+    with pytest.raises(InvalidParameterError, match="1 of 600 keys differ"):
+        tree.walk(points[:3], 4)

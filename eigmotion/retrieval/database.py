@@ -133,7 +133,7 @@ class MotionDatabase:
         self.index = TreeIndex.from_store(self.store)
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
-        self._motions = {int(mid): self.store.motion(int(mid)) for mid in self.store.motion_ids()}
+        self._motions: dict[int, dict] = {}  # motion id → record, read on first use
         self._sequences: dict = {}  # motion id → (MotionSequences, starts, speeds), on first use
 
     @classmethod
@@ -145,7 +145,8 @@ class MotionDatabase:
                 "run 'eigmotion build' (or pass --db)"
             )
         if not read_only:  # every stored motion readable before the file is opened to write
-            cls.open(uri, read_only=True).close()
+            with cls.open(uri, read_only=True) as db:
+                db.motion_records()
         store = Store.open(uri, read_only=read_only)
         try:
             with damage_named(store.uri, "its build configuration and motions"):
@@ -168,7 +169,16 @@ class MotionDatabase:
         return self.index.n_entries
 
     def motion_record(self, motion_id: int) -> dict:
-        return self._motions[motion_id]
+        """A stored motion's record (``label``, ``source``, ``bvh``, ``metadata``): read
+        from the store on first use, then kept (a query reads only its candidates')."""
+        record = self._motions.get(motion_id)
+        if record is None:
+            record = self._motions[motion_id] = self.store.motion(motion_id)
+        return record
+
+    def motion_records(self) -> dict[int, dict]:
+        """Every stored motion's record by id, ascending (each read once, then kept)."""
+        return {int(mid): self.motion_record(int(mid)) for mid in self.store.motion_ids()}
 
     def threshold_at(self, false_rejection: float) -> float:
         """The distance beyond which a query is "unknown" when about
@@ -208,7 +218,7 @@ class MotionDatabase:
 
     def motion(self, motion_id: int) -> Motion:
         """A stored basic motion, read back from its BVH text."""
-        rec = self._motions[motion_id]
+        rec = self.motion_record(motion_id)
         meta = rec["metadata"]
         motion = parse_bvh(rec["bvh"])
         unit = meta.get("length_unit_m", -1.0)
@@ -218,7 +228,7 @@ class MotionDatabase:
 
     def _match(self, entry_id: int, distance: float) -> Match:
         entry = self.store.entry(entry_id)
-        rec = self._motions[entry["motion"]]
+        rec = self.motion_record(int(entry["motion"]))
         return Match(
             self._label_of(entry_id),
             rec["metadata"].get("name", str(entry["motion"])),
@@ -517,7 +527,7 @@ class MotionDatabase:
         """
         if self.store.read_only:
             raise DatabaseError(f"{self.store.uri}: opened read-only; indexing needs writing")
-        names = {rec["metadata"].get("name") for rec in self._motions.values()}
+        names = {rec["metadata"].get("name") for rec in self.motion_records().values()}
         if item.name in names:
             raise InvalidParameterError(
                 f"a motion named {item.name!r} is already in the database; give it another "
@@ -556,7 +566,7 @@ class MotionDatabase:
     def stored_library(self) -> list[LibraryMotion]:
         """Every stored motion as a :class:`LibraryMotion` (for a refit rebuild)."""
         out = []
-        for mid, rec in sorted(self._motions.items()):
+        for mid, rec in self.motion_records().items():
             meta = rec["metadata"]
             out.append(
                 LibraryMotion(

@@ -19,11 +19,11 @@ cluster by (motion, body) (:func:`render_views` with ``scheduler``); the vectors
 
 from __future__ import annotations
 
+import concurrent.futures
 import os
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field, fields
 from functools import lru_cache
 from numbers import Real
@@ -515,7 +515,9 @@ def render_views(
                 yield _render_task(task)
                 bar.update()
         else:
-            with ProcessPoolExecutor(
+            # The process pool's module (and multiprocessing) loads here, on first
+            # use: a query, which renders nothing, does not import it.
+            with concurrent.futures.ProcessPoolExecutor(
                 workers, initializer=_init_worker, initargs=(library, rig, config)
             ) as pool:
                 for result in pool.map(_render_task, tasks, chunksize=len(rig)):

@@ -13,6 +13,7 @@ compiled forms.
 
 from __future__ import annotations
 
+import sys
 import threading
 from dataclasses import dataclass
 from functools import lru_cache
@@ -58,9 +59,36 @@ def pair_sq_distances(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """
     points = np.ascontiguousarray(points, dtype=np.float32)
     queries = np.ascontiguousarray(np.atleast_2d(queries), dtype=np.float32)
+    if "numba" not in sys.modules:  # no compiler to load: NumPy, the same sums
+        return sq_distances_in_order(points.T, queries.T)
     out = np.empty(points.shape[0], np.float32)
     kernels().pair_sq_distances(points, queries, out)
     return out
+
+
+def sq_distances_in_order(point_axes: np.ndarray, query_axes: np.ndarray) -> np.ndarray:
+    """:func:`_row_sq_distance` in NumPy, axis by axis over many rows at once.
+
+    Parameters
+    ----------
+    point_axes : (k, m) float32
+        Points by coordinate (a transposed (m, k) array, or its contiguous copy).
+    query_axes : (k, m) or (k, 1) float32
+        The queries by coordinate, one per point or one for all.
+
+    Returns
+    -------
+    (m,) float32
+        ``Σ_a (p_a − h_a)²`` summed in order in float32, term by term the compiled
+        loop's sum (no fused multiply-add in either), so bit-identical to it.
+    """
+    total = np.zeros(point_axes.shape[1], dtype=np.float32)
+    diff = np.empty_like(total)
+    for a in range(point_axes.shape[0]):
+        np.subtract(point_axes[a], query_axes[a], out=diff)
+        np.multiply(diff, diff, out=diff)
+        total += diff
+    return total
 
 
 def _row_sq_distance(point, query):  # pragma: no cover - JIT

@@ -46,11 +46,12 @@ every partial sum already exceeds the k-th best (the terms are >= 0).
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
 
-A batch of at least :attr:`TreeIndex.scan_queries` queries over at most
-:attr:`TreeIndex.scan_entries` entries, without ``max_distance``, is answered by
-scanning every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`:
-matrix products beat the walk there); its ``examined`` is then N.
-:meth:`TreeIndex.walk` always walks.
+A search over at most :attr:`TreeIndex.scan_entries` entries is answered by scanning
+every entry instead (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, NumPy,
+no compiled loop to load), unless numba is loaded in the process already and at most
+:attr:`TreeIndex.walk_top_k` nearest are asked for (warm, the walk is quicker there);
+a scanned search's ``examined`` is N.  The tree is built only when something walks it
+(:meth:`TreeIndex.walk` always walks) or reads its structure.
 
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
 ``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
@@ -63,6 +64,8 @@ ever pruned, and the answers agree bit for bit.
 
 from __future__ import annotations
 
+import sys
+import threading
 from numbers import Integral
 
 import numpy as np
@@ -126,6 +129,21 @@ def _untile(tiles: np.ndarray, starts: np.ndarray, n: int, n_dims: int) -> np.nd
     return out
 
 
+def _check_keys(keys: np.ndarray, points: np.ndarray, ids: np.ndarray, quantizer) -> None:
+    """Raise InvalidParameterError unless the (N,) ``keys`` are the quantizer's keys of
+    the (N, k) ``points`` (ids (N,) name the first that differs)."""
+    if not keys.size:
+        return
+    expected = quantizer.keys(points)
+    wrong = np.flatnonzero(expected != keys)
+    if wrong.size:
+        raise InvalidParameterError(
+            f"{wrong.size} of {keys.size} keys differ from the quantizer's keys of their "
+            f"points (first: id {int(ids[wrong[0]])} has key {int(keys[wrong[0]])}, "
+            f"expected {int(expected[wrong[0]])})"
+        )
+
+
 # -- the tree ----------------------------------------------------------------------
 
 
@@ -168,11 +186,13 @@ class TreeIndex:
         """
         arrays = store.arrays()
         return cls.from_arrays(
-            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size=leaf_size
+            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size, check_keys=False
         )
 
     @classmethod
-    def from_arrays(cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 16) -> TreeIndex:
+    def from_arrays(
+        cls, keys, points, ids, quantizer: Quantizer, leaf_size: int = 16, check_keys: bool = True
+    ) -> TreeIndex:
         """Build the tree over entries.
 
         Parameters
@@ -188,12 +208,17 @@ class TreeIndex:
         leaf_size : int
             Most entries per leaf, >= 1.  Smaller leaves examine fewer entries but
             visit more nodes; 16 suits motion-image points (k = 40).
+        check_keys : bool
+            Compare the keys with the quantizer's keys of the points here (True), or
+            only when the tree is built (False: a database's scanned searches never
+            read the keys, and its open does not pay for the check).
 
         Raises
         ------
         InvalidParameterError
             Inconsistent shapes, duplicate ids, non-finite points, or keys that differ
-            from the quantizer's keys of the points.
+            from the quantizer's keys of the points (with ``check_keys`` False, raised
+            by the first walk instead).
         """
         if not isinstance(quantizer, Quantizer):
             raise InvalidParameterError(f"quantizer must be a Quantizer, got {type(quantizer)}")
@@ -206,22 +231,37 @@ class TreeIndex:
         if k.shape != (n,) or (n and not np.issubdtype(k.dtype, np.integer)):
             raise InvalidParameterError(f"keys must be ({n},) integers, got {k.dtype} {k.shape}")
         k = k.astype(np.int64)
-        if n:
-            expected = quantizer.keys(p)
-            wrong = np.flatnonzero(expected != k)
-            if wrong.size:
-                raise InvalidParameterError(
-                    f"{wrong.size} of {n} keys differ from the quantizer's keys of their "
-                    f"points (first: id {int(i[wrong[0]])} has key {int(k[wrong[0]])}, "
-                    f"expected {int(expected[wrong[0]])})"
-                )
+        if check_keys:
+            _check_keys(k, p, i, quantizer)
         self = object.__new__(cls)
         self.n_sections = int(quantizer.n_sections)
         self.n_axes = int(quantizer.n_axes)
         self.leaf_size = int(leaf_size)
         self.quantizer = quantizer
+        self._n_entries, self._n_dims = p.shape
         self._scan = None  # the brute-force index, made on the first scanned batch
-        self._build(k, p, i)
+        self._entries = (k, p, i)  # kept until the tree is built (and for scanning)
+        self._built = False
+        self._building = threading.Lock()  # one thread builds; the others wait for it
+        self._keys_checked = bool(check_keys)
+        if n > self.scan_entries:  # every search walks: build now
+            self._tree()
+        return self
+
+    def _tree(self) -> TreeIndex:
+        """The built tree (built here on first use: a database's searches that are all
+        answered by scanning never build it)."""
+        if not self._built:
+            with self._building:
+                if not self._built:
+                    keys, points, ids = self._entries
+                    if not self._keys_checked:
+                        _check_keys(keys, points, ids, self.quantizer)
+                        self._keys_checked = True
+                    self._build(keys, points, ids)
+                    self._built = True
+                    if self._n_entries > self.scan_entries:
+                        self._entries = None
         return self
 
     #: Entries sampled per segment to pick the coordinate a bin is split along.
@@ -286,10 +326,9 @@ class TreeIndex:
             level_first.append(n_nodes)
             level += 1
 
-        self.keys, self.ids = keys, ids
-        self._n_entries, self._n_dims = n, n_dims
+        self._keys, self._ids = keys, ids
         self._leaf_starts = starts
-        self.depth = level
+        self._depth = level
         self._start = np.concatenate(node_start)
         self._end = np.concatenate(node_end)
         self._size = self._end - self._start
@@ -320,7 +359,7 @@ class TreeIndex:
         n_nodes, n_dims = self._size.size, self.n_dims
         lo = np.zeros((n_nodes, n_dims), dtype=np.float32)
         hi = np.zeros((n_nodes, n_dims), dtype=np.float32)
-        if self.n_entries:
+        if self._n_entries:
             # Reductions over segments run along contiguous memory when transposed.
             coords = np.ascontiguousarray(points.T)
             lo[leaf_of_segment] = np.minimum.reduceat(coords, starts, axis=1).T
@@ -376,7 +415,23 @@ class TreeIndex:
     @property
     def points(self) -> np.ndarray:
         """(N, k) float32 entry points in tree order (gathered from the leaves' tiles)."""
+        self._tree()
         return _untile(self._tiles, self._leaf_starts, self._n_entries, self._n_dims)
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(N,) int64 entry ids in tree order."""
+        return self._tree()._ids
+
+    @property
+    def keys(self) -> np.ndarray:
+        """(N,) int64 entry keys in tree order (ascending)."""
+        return self._tree()._keys
+
+    @property
+    def depth(self) -> int:
+        """Levels of the built tree below the root (key digits, then bin splits)."""
+        return self._tree()._depth
 
     @property
     def n_entries(self) -> int:
@@ -398,6 +453,7 @@ class TreeIndex:
     @property
     def n_leaves(self) -> int:
         """Leaves of the tree."""
+        self._tree()
         return int(np.count_nonzero(self._is_leaf[self._reachable()]))
 
     def _reachable(self) -> np.ndarray:
@@ -429,7 +485,7 @@ class TreeIndex:
             ``leaf_size``.
         """
         problems = []
-        points = self.points
+        points = self.points  # builds the tree
         if np.any(np.diff(self.keys) < 0):
             problems.append("entries are not in key order")
         for node in self._reachable():
@@ -462,14 +518,19 @@ class TreeIndex:
     # -- searching --------------------------------------------------------------------
     #: Queries searched together (bounds the size of the working arrays).
     query_block = 512
-    #: A batch of at least ``scan_queries`` queries, without ``max_distance``, over at
-    #: most ``scan_entries`` entries is answered by scanning every entry
-    #: (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`, matrix products):
-    #: measured on a real database's points (``bench_search.py --real``), that beats
-    #: the walk there, 56 against 78–95 µs a query at 34,048 entries, while one query
-    #: at a time or 10^5 entries the walk wins.  Set ``scan_entries = 0`` to always walk.
-    scan_queries = 32
+    #: A search over at most ``scan_entries`` entries is answered by scanning every
+    #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
+    #: measured exactly in NumPy, a larger batch screened by matrix products), and the
+    #: tree is then not built.  Measured on the default database (49,236 entries,
+    #: ``bench_scan_or_walk.py``): one query for 256 nearest takes 0.8–1.6 ms scanned
+    #: against 10–18 ms walked, and the walk's compiled loop costs a new process about
+    #: 0.45 s of CPU to load.  Larger databases are walked.  Set ``scan_entries = 0``
+    #: to always walk.
     scan_entries = 50_000
+    #: In a process that has loaded numba already (its load is then paid), a small
+    #: database's searches for at most ``walk_top_k`` nearest entries are walked all the
+    #: same: warm, the walk beats the scan there (``bench_scan_or_walk.py``).
+    walk_top_k = 16
 
     def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
@@ -498,14 +559,12 @@ class TreeIndex:
         q = check_queries(queries, self.n_dims)
         top_k = check_top_k(top_k, self.n_entries)
         max_sq = check_max_distance(max_distance)
-        if (
-            q.shape[0] >= self.scan_queries
-            and self.n_entries <= self.scan_entries
-            and np.isinf(max_sq)
-        ):
+        small = self.n_entries <= self.scan_entries and self._entries is not None
+        if small and not (top_k <= self.walk_top_k and "numba" in sys.modules):
             if self._scan is None:
-                self._scan = BruteForceIndex(self.points, self.ids)
-            return self._scan.search(q, top_k)
+                _, points, ids = self._entries
+                self._scan = BruteForceIndex(points, ids)
+            return self._scan.search_checked(q, top_k, max_sq)
         return self._walk(q, top_k, max_sq)
 
     def walk(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
@@ -516,6 +575,7 @@ class TreeIndex:
         return self._walk(q, top_k, check_max_distance(max_distance))
 
     def _walk(self, q: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
+        self._tree()
         parts = [
             self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
             for lo in range(0, q.shape[0], self.query_block)
