@@ -57,7 +57,8 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
-    command = [sys.executable, "-c", _WARM, args.db, str(args.clip), str(args.background)]
+    given = (Path(args.db).resolve(), args.clip.resolve(), args.background.resolve())
+    command = [sys.executable, "-c", _WARM, *map(str, given)]
     command.append(str(args.repeat))
     results: dict[str, list[dict]] = {"ours": [], "previous": []}
     with tempfile.TemporaryDirectory(prefix="eigmotion-previous-") as tmp:
@@ -65,9 +66,10 @@ def main() -> int:
         load_before = os.getloadavg()
         for _ in range(args.rounds):
             for name, path in copies.items():
+                # run in the copy's folder: ``-c`` imports the package found there first
                 env = dict(os.environ, PYTHONPATH=str(path))
                 done = subprocess.run(
-                    command, capture_output=True, text=True, cwd=REPO, env=env, check=True
+                    command, capture_output=True, text=True, cwd=path, env=env, check=True
                 )
                 results[name].append(json.loads(done.stdout.splitlines()[-1]))
         load_after = os.getloadavg()
