@@ -40,7 +40,12 @@ from eigmotion.evaluation.joint_errors import (
 from eigmotion.evaluation.query_clips import TOP_K
 from eigmotion.evaluation.statistics import markdown_table
 from eigmotion.pose.keypoint_fit import fit_keypoints
-from eigmotion.pose.keypoints import clip_keypoints, keypoints_available, limb_world_joints
+from eigmotion.pose.keypoints import (
+    clip_keypoints,
+    keypoints_available,
+    limb_world_joints,
+    resolve_cue,
+)
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.calibration import load_calibration
@@ -226,7 +231,6 @@ def pose_clip(db: MotionDatabase, clip: DevClip) -> PosedClip:
     --background B --pose-out P.npz`` does, and score it over :data:`LIMB_JOINTS`; in
     the same run each of :data:`POSE_VARIANTS` where the pose network runs (LiteRT)."""
     # Lazy, as in the query command: the 3D answer loads retargeting and scipy.spatial.
-    from eigmotion.pose.clip_pose import resolve_cue
     from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose
 
     started = time.perf_counter()

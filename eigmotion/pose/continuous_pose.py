@@ -73,6 +73,7 @@ from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import Motion
+from eigmotion.pose.keypoints import CUES
 from eigmotion.pose.playback import monotone_path, sample_motion, smooth_path, speed_costs
 from eigmotion.pose.replay import Replay, turn_about_vertical
 from eigmotion.pose.silhouette_scoring import (
@@ -86,11 +87,6 @@ from eigmotion.validation import Interval, Options, validate_params
 
 if TYPE_CHECKING:
     from eigmotion.retrieval.database import MotionDatabase, QueryResult
-
-#: What the pose is fitted to: ``silhouette`` (the continuous pose alone),
-#: ``keypoints`` (then refined with the pose network's 2D keypoints), ``auto``
-#: (keypoints when the clip's frames and LiteRT are at hand, else silhouette).
-CUES = ("auto", "silhouette", "keypoints")
 
 _POSITIVE = Interval(Real, 0.0, None, closed="neither", noun="")
 _NOT_NEGATIVE = Interval(Real, 0.0, None, noun="")
@@ -143,7 +139,8 @@ class ContinuousPoseConfig:
     n_faces : int
         Triangles of the low-poly body that is rendered.
     cue : {"auto", "silhouette", "keypoints"}
-        What :func:`eigmotion.pose.clip_pose.clip_pose` fits the pose to (:data:`CUES`).
+        What :func:`eigmotion.pose.clip_pose.clip_pose` fits the pose to
+        (:data:`eigmotion.pose.keypoints.CUES`).
     """
 
     margin_s: float = 1.0

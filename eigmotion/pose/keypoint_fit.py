@@ -12,7 +12,10 @@ network's landmarks:
    and is far from the person (weak perspective): a joint ``X`` (metres) is seen at
    ``s · Π X + t`` pixels, ``Π`` the camera's right and down axes, the scale ``s`` and
    offset ``t`` fitted per frame (weighted least squares over the 12 limb joints).
-2. **Heading.** The whole body is turned about the vertical through its root by the
+2. **Mirror image and heading.** The silhouette does not tell a body seen from the
+   front from its mirror image seen from behind: the reference or its mirror image
+   (``mirror``), whichever lays its joints better on the keypoints, is kept for the
+   whole clip.  The whole body is turned about the vertical through its root by the
    angle (every ``heading_step_deg`` around the circle) that best lays its joints on
    the landmarks, chosen for all frames at once (dynamic programming) with a cost for
    turning away from the reference (``heading_weight``) and for changing between
@@ -47,8 +50,9 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.rotations import axis_rotation, rotation_between
-from eigmotion.validation import Interval, validate_params
+from eigmotion.validation import Interval, Options, validate_params
 
 if TYPE_CHECKING:
     from eigmotion.pose.keypoints import ClipKeypoints
@@ -108,18 +112,23 @@ class KeypointFitConfig:
     rounds : int
         Passes over the trunk and limbs, the scale refitted to the posture before each
         (≥ 1).
+    mirror : bool
+        Also try the reference's mirror image (left and right swapped), kept for the
+        whole clip when its joints lie better on the keypoints: a silhouette seen from
+        behind is that of the mirrored body seen from the front.
     """
 
     prior: float = 0.3
     smooth: float = 0.3
     smooth_passes: int = 3
-    world_weight: float = 1.0
+    world_weight: float = 0.3
     min_visibility: float = 0.0
     heading_step_deg: float = 10.0
     heading_weight: float = 0.01
-    heading_change_weight: float = 0.02
+    heading_change_weight: float = 0.2
     directions: int = 4000
     rounds: int = 1
+    mirror: bool = True
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`).
     _parameter_constraints: ClassVar[dict] = {
@@ -133,6 +142,7 @@ class KeypointFitConfig:
         "heading_change_weight": _NOT_NEGATIVE,
         "directions": Interval(Integral, 100, None),
         "rounds": Interval(Integral, 1, None),
+        "mirror": Options(bool, (True, False)),
     }
 
     def __post_init__(self):
@@ -183,9 +193,12 @@ def _fit_view(
     return s, tm - s[..., None] * pm, cost
 
 
-def _headings(costs: np.ndarray, angles: np.ndarray, change_weight: float) -> np.ndarray:
+def _headings(
+    costs: np.ndarray, angles: np.ndarray, change_weight: float
+) -> tuple[np.ndarray, float]:
     """(F,) index into ``angles`` minimising the summed (F, A) costs plus
-    ``change_weight`` times the angle changed between frames (Viterbi)."""
+    ``change_weight`` times the angle changed between frames (Viterbi), and that
+    minimum."""
     diff = np.abs(angles[:, None] - angles[None])
     diff = np.minimum(diff, 2 * np.pi - diff) * change_weight
     total = costs[0].copy()
@@ -198,7 +211,20 @@ def _headings(costs: np.ndarray, angles: np.ndarray, change_weight: float) -> np
     path[-1] = int(total.argmin())
     for f in range(len(costs) - 1, 0, -1):
         path[f - 1] = back[f, path[f]]
-    return path
+    return path, float(total.min())
+
+
+def _mirror_image(motion):
+    """The motion with left and right swapped (:func:`eigmotion.mocap.mirror.
+    mirror_motion`) on its own skeleton, or ``None`` when the skeleton is not its own
+    mirror image (within a centimetre) or cannot be mirrored."""
+    try:
+        mirrored = mirror_motion(motion)
+    except InvalidParameterError:
+        return None
+    if np.abs(mirrored.skeleton.offsets - motion.skeleton.offsets).max() > 0.01:
+        return None
+    return motion.with_local_transforms(mirrored.local_rotations(), mirrored.local_translations())
 
 
 def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | None = None):
@@ -240,21 +266,28 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
     vis = np.where(keypoints.visibility >= config.min_visibility, keypoints.visibility, 0.0)
     vis[~keypoints.found] = 0.0
 
-    local_r = motion.local_rotations()
-    local_t = motion.local_translations()
     parents = np.asarray(sk.parents)
-    positions = forward_kinematics(motion, length_unit_m=1.0, ground=False).positions
     joints = [index[name] for name, _ in LIMB_PAIRS]
     marks = [m for _, m in LIMB_PAIRS]
 
-    # 2. heading about the vertical through the root
+    # 2. heading about the vertical through the root, of the posture or its mirror image
     angles = np.deg2rad(np.arange(-180.0, 180.0, config.heading_step_deg))
     turns = axis_rotation("Y", np.rad2deg(angles))  # (A, 3, 3)
-    rel = positions[:, joints] - positions[:, :1]
-    turned = np.einsum("aij,fkj->faki", turns, rel)
-    _, _, cost = _fit_view(turned, image[:, None, marks], vis[:, None, marks], axes)
-    cost = cost + config.heading_weight * len(joints) * (1.0 - np.cos(angles))[None]
-    heading = angles[_headings(cost, angles, config.heading_change_weight)]
+    best = None
+    for candidate in (motion, _mirror_image(motion) if config.mirror else None):
+        if candidate is None:
+            continue
+        positions = forward_kinematics(candidate, length_unit_m=1.0, ground=False).positions
+        rel = positions[:, joints] - positions[:, :1]
+        turned = np.einsum("aij,fkj->faki", turns, rel)
+        _, _, cost = _fit_view(turned, image[:, None, marks], vis[:, None, marks], axes)
+        cost = cost + config.heading_weight * len(joints) * (1.0 - np.cos(angles))[None]
+        path, total = _headings(cost, angles, config.heading_change_weight)
+        if best is None or total < best[0]:
+            best = (total, candidate, angles[path])
+    _, motion, heading = best
+    local_r = motion.local_rotations()
+    local_t = motion.local_translations()
     turn = axis_rotation("Y", np.rad2deg(heading))
     local_r[:, 0] = turn @ local_r[:, 0]
 

@@ -60,6 +60,12 @@ LIMB_LANDMARKS = {
     "r_wrist": 16,
 }
 
+#: What a single-camera pose is fitted to: ``silhouette`` (the continuous pose alone),
+#: ``keypoints`` (then refined with the pose network's 2D keypoints:
+#: :mod:`eigmotion.pose.keypoint_fit`), ``auto`` (keypoints when the clip's frames
+#: and LiteRT are at hand, else silhouette).
+CUES = ("auto", "silhouette", "keypoints")
+
 #: Landmarks of all 39 points, 5 numbers each (x, y, z, visibility, presence logits).
 _LANDMARK_VALUES = 5 * (N_POSE_LANDMARKS + 6)
 #: World landmarks of all 39 points, 3 numbers each (metres).
@@ -292,3 +298,34 @@ def limb_world_joints(keypoints: ClipKeypoints) -> tuple[tuple[str, ...], np.nda
     nearest = have[np.abs(np.arange(keypoints.n_frames)[:, None] - have[None]).argmin(1)]
     names = tuple(LIMB_LANDMARKS)
     return names, keypoints.world_m[nearest][:, list(LIMB_LANDMARKS.values())]
+
+
+def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
+    """The cue a clip's pose is fitted to: ``"silhouette"`` or ``"keypoints"``.
+
+    Parameters
+    ----------
+    cue : {"auto", "silhouette", "keypoints"}
+    path : str or PathLike or None
+        The clip on disk; ``None`` or an ``.npz`` of masks: no frames to see.
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown cue, or ``"keypoints"`` without frames or without LiteRT.
+    """
+    if cue not in CUES:
+        raise InvalidParameterError(f"pose cue must be one of {', '.join(CUES)}, got {cue!r}")
+    frames = path is not None and Path(path).suffix.lower() != ".npz"
+    if cue == "auto":
+        return "keypoints" if frames and keypoints_available() else "silhouette"
+    if cue == "keypoints" and not frames:
+        raise InvalidParameterError(
+            "the keypoints cue needs the clip's frames (a video or images), not stored masks"
+        )
+    if cue == "keypoints" and not keypoints_available():
+        raise InvalidParameterError(
+            "the keypoints cue runs the pose network through LiteRT: "
+            "pip install 'eigmotion[segmenter]'"
+        )
+    return cue
