@@ -24,8 +24,11 @@ default).  The text answer gives frame ranges with both ends included ("frames 0
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
-frame and follows the clip's own timing.  ``--linear-replay`` stretches the matched
-window linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
+frame and follows the clip's own timing; with ``--pose-cue keypoints`` (the default
+for a video when LiteRT is installed) each frame's heading, trunk and limbs are then
+fitted to the pose landmark network's keypoints (:mod:`eigmotion.pose.keypoint_fit`),
+the joint set and axes unchanged.  ``--linear-replay`` stretches the matched window
+linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
 """
 
 from __future__ import annotations
