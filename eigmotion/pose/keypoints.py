@@ -25,6 +25,7 @@ It runs through LiteRT only (the optional ``ai-edge-litert`` package: ``pip inst
 from __future__ import annotations
 
 import os
+import sys
 import time
 from dataclasses import dataclass
 from functools import cache
@@ -119,8 +120,16 @@ def _interpreter():
     except ImportError:
         return None
     threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    interpreter = Interpreter(model_path=str(POSE_PATH), num_threads=max(1, threads))
-    interpreter.allocate_tensors()
+    sys.stderr.flush()
+    saved = os.dup(2)  # LiteRT announces its CPU delegate on stderr: sent to /dev/null
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        interpreter = Interpreter(model_path=str(POSE_PATH), num_threads=max(1, threads))
+        interpreter.allocate_tensors()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
     return interpreter
 
 
