@@ -152,6 +152,7 @@ LAZY_IMPORTS = {
     "ai_edge_litert": "the learned segmenter's faster runtime, an optional extra",
     "eigmotion.pose.continuous_pose": "3D output only (query --bvh-out/--pose-out/"
     "--replay-out): loads retargeting and scipy.spatial",
+    "eigmotion.pose.clip_pose": "3D output only (query --pose-out …): loads the continuous pose",
     "eigmotion.pose.replay": "3D output only (query --bvh-out/--replay-out)",
 }
 

@@ -39,6 +39,7 @@ from eigmotion.imaging.media import write_video
 from eigmotion.imaging.render import render_shaded
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
+from eigmotion.pose.keypoints import keypoints_available
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.synth.clips import clip_camera
 from eigmotion.synth.scene import compose_scene
@@ -292,10 +293,18 @@ def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, c
     out = tmp_path / "pose.json"
     args = ["eval", "pose", "--dev", str(dev_set), "--db", str(db), "--json-out", str(out)]
     assert main(args) == 0
-    assert "## pose" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "## pose" in printed
     report = json.loads(out.read_text())
     (scored,) = report["clips"]
     assert scored["error"] is None and scored["frames"] == 75
+    if keypoints_available():  # every variant in the same run, the default among them
+        assert "pose landmark network alone, world landmarks" in printed
+        assert set(scored["variants"]) == {"silhouette", "keypoints", "network"}
+        default = scored["variants"]["keypoints"]
+        assert default["pa_mpjpe_frame_mm"] == scored["pa_mpjpe_frame_mm"]
+        assert 0 < scored["variants"]["network"]["pa_mpjpe_frame_mm"] < 300
+        assert scored["network_ms_per_frame"] > 0 and scored["fit_ms_per_frame"] > 0
     folder = dev_set / "retrieval" / "walk_t_v0"
     pose = tmp_path / "p.npz"
     query = ["query", folder / "video.mp4", "--db", db, "--background",

@@ -15,7 +15,10 @@ Each clip is answered by the database (:meth:`MotionDatabase.query_masks`), then
 * **continuous pose** — :func:`eigmotion.pose.continuous_pose.continuous_pose`: the matched
   motion aligned to the clip frame by frame;
 * **linear stretch** — :func:`eigmotion.pose.replay.replay`: the matched window stretched
-  over the clip (the baseline; the matched view).
+  over the clip (the baseline; the matched view);
+* **keypoints cue** (where LiteRT is installed) — the continuous pose refined with the
+  pose landmark network's 2D keypoints of the rendered frames
+  (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`), as ``query --pose-cue keypoints``.
 
 Both are compared with the true joints of the rendered body (the avatar animation of
 the warped motion on that body), all turned so that the clip's camera is at azimuth 0
@@ -68,6 +71,8 @@ from eigmotion.mocap.kinematics import forward_kinematics  # noqa: E402
 from eigmotion.mocap.library import load_library  # noqa: E402
 from eigmotion.mocap.rotations import axis_rotation  # noqa: E402
 from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose  # noqa: E402
+from eigmotion.pose.keypoint_fit import fit_keypoints  # noqa: E402
+from eigmotion.pose.keypoints import frame_keypoints, keypoints_available  # noqa: E402
 from eigmotion.pose.replay import replay  # noqa: E402
 from eigmotion.retrieval.build import build_database  # noqa: E402
 from eigmotion.retrieval.database import MotionDatabase  # noqa: E402
@@ -110,6 +115,7 @@ class Row:
     linear_yaw_mm: float
     floor_mm: float
     seconds: float
+    keypoints_mm: float = float("nan")
 
 
 def root_relative(positions: np.ndarray, azimuth_deg: float) -> np.ndarray:
@@ -209,6 +215,10 @@ def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
     ours = root_relative(pose.positions, 0.0)
     base = forward_kinematics(linear.motion, length_unit_m=1.0, ground=False).positions
     base = root_relative(base, 0.0)
+    keypoints_mm = float("nan")
+    if keypoints_available():
+        fitted = fit_keypoints(pose, frame_keypoints(clip.frames, masks))
+        keypoints_mm = mpjpe_mm(root_relative(fitted.positions, 0.0), truth, joints)
     view = (
         f"{azimuth_deg:.0f}/{elevation_deg:.0f} → {best.azimuth_deg:.0f}/"
         f"{best.elevation_deg:.0f} → {pose.azimuth_deg:.1f}/{pose.elevation_deg:.0f}"
@@ -224,6 +234,7 @@ def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
         mpjpe_mm(yaw_fitted(base, truth, joints), truth, joints),
         mpjpe_mm(on_avatar, truth, joints),
         seconds,
+        keypoints_mm,
     )
 
 
@@ -266,7 +277,7 @@ def main() -> None:
                 rows.append(row)
                 print(
                     f"  {row.motion}: {row.ours_mm:.1f} mm vs {row.linear_mm:.1f} mm "
-                    f"({row.seconds:.1f} s)",
+                    f"(keypoints cue {row.keypoints_mm:.1f} mm; {row.seconds:.1f} s)",
                     flush=True,
                 )
 
@@ -299,6 +310,9 @@ def main() -> None:
         f"MPJPE (root+yaw): continuous {ours_yaw.mean():.1f} mm, linear "
         f"{linear_yaw.mean():.1f} mm, ratio {ours_yaw.mean() / linear_yaw.mean():.3f}"
     )
+    keypoints = np.array([r.keypoints_mm for r in rows])
+    if np.isfinite(keypoints).all():
+        print(f"keypoints cue, MPJPE (root): {keypoints.mean():.1f} mm")
     print(
         f"floor (the true motion on the avatar, whose bones differ from the clip's body): "
         f"{floor.mean():.1f} mm"

@@ -24,8 +24,11 @@ default).  The text answer gives frame ranges with both ends included ("frames 0
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
-frame and follows the clip's own timing.  ``--linear-replay`` stretches the matched
-window linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
+frame and follows the clip's own timing; with ``--pose-cue keypoints`` (or ``auto``
+for a video when LiteRT is installed) each frame's heading, trunk and limbs are then
+fitted to the pose landmark network's keypoints (:mod:`eigmotion.pose.keypoint_fit`),
+the joint set and axes unchanged.  ``--linear-replay`` stretches the matched window
+linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from pathlib import Path
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
+from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
@@ -90,6 +94,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "reference_frames, fps)",
     )
     parser.add_argument(
+        "--pose-cue",
+        choices=CUES,
+        default="silhouette",
+        help="what the 3D answer is fitted to: silhouette (default: the matched motion "
+        "aligned to the silhouettes), keypoints (then refined with the pose network's "
+        "keypoints); auto: keypoints for a video or images when LiteRT is installed",
+    )
+    parser.add_argument(
         "--linear-replay",
         action="store_true",
         help="for --bvh-out/--replay-out, stretch the matched window over the clip "
@@ -105,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
     if args.background is not None or args.segmenter == "subtraction":
         start_colour_tables()  # built on another core while the database opens
+    if args.bvh_out or args.replay_out or args.pose_out:
+        resolve_cue(args.pose_cue, args.clip)  # told before the clip is read
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
         answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
         result, clip = db.query_clip(
@@ -117,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
             segmenter=args.segmenter,
         )
         if answer_3d:
-            _write_replay(db, result, clip.masks, clip.fps, args)
+            _write_replay(db, result, clip, args)
     if args.json:
         print(json.dumps(result.to_json()))
     else:
@@ -169,16 +183,18 @@ def _described(match) -> str:
     )
 
 
-def _write_replay(db, result, masks, fps, args) -> None:
+def _write_replay(db, result, clip, args) -> None:
     # Lazy: the 3D answer loads retargeting and scipy.spatial, which a query that asks
     # for no 3D output never needs (0.5 s of a 4.5 s cold query on a busy two-core machine).
-    from eigmotion.pose.continuous_pose import continuous_pose
+    from eigmotion.pose.clip_pose import clip_pose
+    from eigmotion.pose.continuous_pose import ContinuousPoseConfig
     from eigmotion.pose.replay import read_input_panel, replay, replay_video, segment_captions
 
     best = result.best
+    masks, fps = clip.masks, clip.fps
     pose = None
     if args.pose_out or not args.linear_replay:
-        pose = continuous_pose(db, result, masks, fps)
+        pose = clip_pose(db, result, clip, args.clip, ContinuousPoseConfig(cue=args.pose_cue))
     if args.pose_out:
         pose.save_npz(args.pose_out)
     if not (args.bvh_out or args.replay_out):

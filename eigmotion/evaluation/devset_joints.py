@@ -23,7 +23,7 @@ import json
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +40,13 @@ from eigmotion.evaluation.joint_errors import (
 )
 from eigmotion.evaluation.query_clips import TOP_K
 from eigmotion.evaluation.statistics import markdown_table
+from eigmotion.pose.keypoint_fit import fit_keypoints
+from eigmotion.pose.keypoints import (
+    clip_keypoints,
+    keypoints_available,
+    limb_world_joints,
+    resolve_cue,
+)
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.calibration import load_calibration
@@ -193,6 +200,14 @@ def track_set(
     )  # fmt: skip
 
 
+#: The single-camera variants scored in one run, and how the report names them.
+POSE_VARIANTS = {
+    "silhouette": "ours, silhouette cue (query --pose-cue silhouette)",
+    "keypoints": "ours, keypoints cue (query --pose-cue keypoints)",
+    "network": "pose landmark network alone, world landmarks",
+}
+
+
 @dataclass(frozen=True)
 class PosedClip:
     """One single-camera clip's pose, scored.
@@ -201,13 +216,21 @@ class PosedClip:
     ----------
     clip_id, label : str
     per_frame_mm : float
-        Mean over frames of the PA-MPJPE with one alignment per frame, mm.
+        Mean over frames of the PA-MPJPE with one alignment per frame, mm, of the
+        query's default pose (:data:`~eigmotion.pose.continuous_pose.CUES`: ``auto``).
     per_clip_mm : float
-        PA-MPJPE with one alignment for the whole clip, mm.
+        PA-MPJPE with one alignment for the whole clip, mm, of the same.
     frames : int
     seconds : float
-        Wall time of the query and the pose, seconds.
+        Wall time of the query and the default pose, seconds.
     error : str or None
+    variants : dict of str to (float, float)
+        Per frame and per clip PA-MPJPE, mm, of each of :data:`POSE_VARIANTS` scored.
+    network_ms_per_frame, fit_ms_per_frame : float
+        Wall time of the pose network (cropping included) and of the keypoint fit per
+        frame, ms (NaN when not run).
+    network_found : float
+        Share of the frames where the network found the person.
     """
 
     clip_id: str
@@ -217,6 +240,10 @@ class PosedClip:
     frames: int
     seconds: float
     error: str | None = None
+    variants: dict = field(default_factory=dict)
+    network_ms_per_frame: float = float("nan")
+    fit_ms_per_frame: float = float("nan")
+    network_found: float = float("nan")
 
     def to_json(self) -> dict:
         ok = self.error is None
@@ -228,32 +255,65 @@ class PosedClip:
             "frames": self.frames,
             "seconds": round(self.seconds, 3),
             "error": self.error,
+            "variants": {
+                name: {"pa_mpjpe_frame_mm": round(f, 2), "pa_mpjpe_clip_mm": round(c, 2)}
+                for name, (f, c) in self.variants.items()
+            },
+            "network_ms_per_frame": _rounded(self.network_ms_per_frame),
+            "fit_ms_per_frame": _rounded(self.fit_ms_per_frame),
+            "network_found": _rounded(self.network_found),
         }
+
+
+def _rounded(value: float) -> float | None:
+    return round(float(value), 2) if np.isfinite(value) else None
+
+
+def _scored(names, positions, true_names, truth) -> tuple[float, float]:
+    est, true, _ = match_joints(names, positions, true_names, truth, LIMB_JOINTS)
+    return float(pa_mpjpe_per_frame(est, true).mean()), pa_mpjpe_per_clip(est, true)
 
 
 def pose_clip(db: MotionDatabase, clip: DevClip) -> PosedClip:
     """Ask one clip with its background for its pose, as ``eigmotion query CLIP
-    --background B --pose-out P.npz`` does, and score it over :data:`LIMB_JOINTS`."""
+    --background B --pose-out P.npz`` does, and score it over :data:`LIMB_JOINTS`; in
+    the same run each of :data:`POSE_VARIANTS` where the pose network runs (LiteRT)."""
     # Lazy, as in the query command: the 3D answer loads retargeting and scipy.spatial.
-    from eigmotion.pose.continuous_pose import continuous_pose
+    from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose
 
     started = time.perf_counter()
+    variants: dict[str, tuple[float, float]] = {}
+    timing = {"network_ms_per_frame": np.nan, "fit_ms_per_frame": np.nan, "network_found": np.nan}
     try:
         result, cut = db.query_clip(clip.video, clip.background, TOP_K, every_frame=True)
+        default_cue = resolve_cue(ContinuousPoseConfig().cue, clip.video)
         pose = continuous_pose(db, result, cut.masks, cut.fps)
+        silhouette_s = time.perf_counter() - started
         true_names, truth = load_truth(clip.folder)
-        est, true, _ = match_joints(pose.names, pose.positions, true_names, truth, LIMB_JOINTS)
+        variants["silhouette"] = _scored(pose.names, pose.positions, true_names, truth)
+        if keypoints_available():
+            t0 = time.perf_counter()
+            keypoints = clip_keypoints(clip.video, cut.masks, cut.frame_indices)
+            t1 = time.perf_counter()
+            fitted = fit_keypoints(pose, keypoints)
+            t2 = time.perf_counter()
+            variants["keypoints"] = _scored(fitted.names, fitted.positions, true_names, truth)
+            if keypoints.found.any():
+                variants["network"] = _scored(*limb_world_joints(keypoints), true_names, truth)
+            timing = {
+                "network_ms_per_frame": keypoints.seconds_per_frame * 1000.0,
+                "fit_ms_per_frame": (t2 - t1) / pose.n_frames * 1000.0,
+                "network_found": float(keypoints.found.mean()),
+            }
+            keypoint_s = t2 - t0
+        frames = min(pose.n_frames, len(truth))
     except EigmotionError as exc:
         message = " ".join(str(exc).split())
         return PosedClip(clip.clip_id, clip.label, np.nan, np.nan, 0, 0.0, message)
-    seconds = time.perf_counter() - started
+    seconds = silhouette_s + (keypoint_s if default_cue == "keypoints" else 0.0)
+    per_frame, per_clip = variants[default_cue]
     return PosedClip(
-        clip.clip_id,
-        clip.label,
-        float(pa_mpjpe_per_frame(est, true).mean()),
-        pa_mpjpe_per_clip(est, true),
-        len(est),
-        seconds,
+        clip.clip_id, clip.label, per_frame, per_clip, frames, seconds, None, variants, **timing
     )
 
 
@@ -344,6 +404,22 @@ def summarise_pose(clips: Sequence[PosedClip]) -> dict:
             for label in labels
         },
         "median_s": float(np.median([c.seconds for c in scored])) if scored else float("nan"),
+        "variants": {
+            name: {
+                "n": sum(name in c.variants for c in scored),
+                "pa_mpjpe_frame_mm": _mean(
+                    [c.variants[name][0] for c in scored if name in c.variants]
+                ),
+                "pa_mpjpe_clip_mm": _mean(
+                    [c.variants[name][1] for c in scored if name in c.variants]
+                ),
+            }
+            for name in POSE_VARIANTS
+            if any(name in c.variants for c in scored)
+        },  # fmt: skip
+        "network_ms_per_frame": _mean([c.network_ms_per_frame for c in scored]),
+        "fit_ms_per_frame": _mean([c.fit_ms_per_frame for c in scored]),
+        "network_found": _mean([c.network_found for c in scored]),
     }
 
 
@@ -367,6 +443,22 @@ def format_pose(clips: Sequence[PosedClip]) -> str:
         "",
         f"median time per clip (query and pose): {total['median_s']:.2f} s",
     ]
+    if total["variants"]:
+        variant_rows = [
+            [POSE_VARIANTS[name], v["n"], f"{v['pa_mpjpe_frame_mm']:.0f}",
+             f"{v['pa_mpjpe_clip_mm']:.0f}"]
+            for name, v in total["variants"].items()
+        ]  # fmt: skip
+        lines += [
+            "",
+            "the same clips, each variant (the network on the square around the silhouette):",
+            "",
+            *markdown_table(["variant", "clips", *header[2:]], variant_rows),
+            "",
+            f"pose network {total['network_ms_per_frame']:.1f} ms per frame (found the person "
+            f"in {total['network_found']:.0%} of frames), keypoint fit "
+            f"{total['fit_ms_per_frame']:.1f} ms per frame",
+        ]
     failed = [c for c in clips if c.error is not None]
     if failed:
         lines += ["", f"failed ({len(failed)}):", *(f"- {c.clip_id}: {c.error}" for c in failed)]

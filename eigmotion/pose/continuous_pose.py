@@ -47,6 +47,11 @@ a level camera (elevation 0°, most rig views) looks along that plane, so the pl
 undetermined.  Here size and place come from each silhouette, and the whole clip is
 known, so the playback is solved over all frames rather than greedily.
 
+6. **Keypoints** (``cue``, :func:`eigmotion.pose.clip_pose.clip_pose`).  With the
+   clip's frames, the pose landmark network's 2D keypoints refine each frame's heading
+   and limbs (:mod:`eigmotion.pose.keypoint_fit`); the skeleton, joint set and axes
+   stay.
+
 Steps 1 to 3 live in :mod:`eigmotion.pose.silhouette_scoring`, the playback's path
 and the output's sampling in :mod:`eigmotion.pose.playback`; this module searches
 (coarse pass, view, fine pass) and assembles the answer.
@@ -68,6 +73,7 @@ from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.motion import Motion
+from eigmotion.pose.keypoints import CUES
 from eigmotion.pose.playback import monotone_path, sample_motion, smooth_path, speed_costs
 from eigmotion.pose.replay import Replay, turn_about_vertical
 from eigmotion.pose.silhouette_scoring import (
@@ -77,7 +83,7 @@ from eigmotion.pose.silhouette_scoring import (
     reference_window,
 )
 from eigmotion.tracking.tracker import SCALE_FACTORS
-from eigmotion.validation import Interval, validate_params
+from eigmotion.validation import Interval, Options, validate_params
 
 if TYPE_CHECKING:
     from eigmotion.retrieval.database import MotionDatabase, QueryResult
@@ -132,6 +138,9 @@ class ContinuousPoseConfig:
         A clip frame with fewer silhouette pixels carries no evidence.
     n_faces : int
         Triangles of the low-poly body that is rendered.
+    cue : {"auto", "silhouette", "keypoints"}
+        What :func:`eigmotion.pose.clip_pose.clip_pose` fits the pose to
+        (:data:`eigmotion.pose.keypoints.CUES`).
     """
 
     margin_s: float = 1.0
@@ -151,6 +160,7 @@ class ContinuousPoseConfig:
     smoothing_frames: int = 5
     min_silhouette_px: int = 30
     n_faces: int = 4000
+    cue: str = "silhouette"
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`).
     _parameter_constraints: ClassVar[dict] = {
@@ -171,6 +181,7 @@ class ContinuousPoseConfig:
         "min_silhouette_px": Interval(Integral, 1, None),
         "n_faces": Interval(Integral, 100, None),
         "scales": SCALE_FACTORS,
+        "cue": Options(str, CUES),
     }
 
     def __post_init__(self):

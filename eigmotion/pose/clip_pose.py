@@ -1,0 +1,62 @@
+"""A clip's 3D pose as ``eigmotion query --pose-out`` writes it: the continuous pose
+(:mod:`eigmotion.pose.continuous_pose`), refined with the pose network's 2D keypoints
+(:mod:`eigmotion.pose.keypoint_fit`) when the cue says so (:data:`~eigmotion.pose.
+keypoints.CUES`)."""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import TYPE_CHECKING
+
+from eigmotion.pose.continuous_pose import (
+    ContinuousPose,
+    ContinuousPoseConfig,
+    continuous_pose,
+)
+from eigmotion.pose.keypoint_fit import KeypointFitConfig, fit_keypoints
+from eigmotion.pose.keypoints import clip_keypoints, resolve_cue
+
+if TYPE_CHECKING:
+    from eigmotion.retrieval.database import MotionDatabase, QueryResult
+    from eigmotion.segmentation.video import ClipMasks
+
+
+def clip_pose(
+    db: MotionDatabase,
+    result: QueryResult,
+    clip: ClipMasks,
+    path: str | os.PathLike | None,
+    config: ContinuousPoseConfig | None = None,
+    fit_config: KeypointFitConfig | None = None,
+) -> ContinuousPose:
+    """A clip's pose as ``eigmotion query --pose-out`` writes it: :func:`continuous_pose`,
+    then, with the keypoints cue (:func:`~eigmotion.pose.keypoints.resolve_cue` of
+    ``config.cue``), refined with the pose network's 2D keypoints
+    (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`).
+
+    Parameters
+    ----------
+    db : MotionDatabase
+    result : QueryResult
+    clip : ClipMasks
+        The silhouettes of every frame (``query_clip(..., every_frame=True)``).
+    path : str or PathLike or None
+        The clip on disk the silhouettes were cut from.
+    config : ContinuousPoseConfig, optional
+    fit_config : KeypointFitConfig, optional
+
+    Returns
+    -------
+    ContinuousPose
+        ``timings_s["keypoints"]``: the network's time, with the keypoints cue.
+    """
+    config = config or ContinuousPoseConfig()
+    cue = resolve_cue(config.cue, path)
+    pose = continuous_pose(db, result, clip.masks, clip.fps, config)
+    if cue == "silhouette":
+        return pose
+    started = time.perf_counter()
+    keypoints = clip_keypoints(path, clip.masks, clip.frame_indices)
+    pose.timings_s["keypoints"] = time.perf_counter() - started
+    return fit_keypoints(pose, keypoints, fit_config)

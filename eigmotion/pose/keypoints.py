@@ -1,0 +1,340 @@
+"""The pose landmark network's 2D keypoints and 3D world landmarks for a clip.
+
+The network is MediaPipe's pose landmark network (full model, Apache-2.0), shipped
+with the package (:data:`eigmotion.segmentation.networks.POSE_PATH`).  It sees a
+256×256 square centred on the person, cut by the learned front end's rule
+(:func:`eigmotion.segmentation.learned.crop_input`: :data:`~eigmotion.segmentation.
+learned.CROP_MARGIN` times the longer side of the box around the person's silhouette,
+at least a fifth of the frame's longer side and :data:`~eigmotion.segmentation.learned.
+CROP_MIN_SIDE_PX` pixels), and answers with:
+
+* 33 body landmarks (BlazePose topology), x and y in the square's pixels, with their
+  visibility and presence (probabilities);
+* the same 33 landmarks (plus 6 auxiliary points) in metres, centred between the hips,
+  axes those of the camera: x right, y down, z away from the camera ("world
+  landmarks");
+* the probability that a person is in the square.
+
+:data:`LIMB_LANDMARKS` names the landmarks of the 12 limb joints (shoulders, elbows,
+wrists, hips, knees, ankles) in the development set's names.
+
+It runs through LiteRT only (the optional ``ai-edge-litert`` package: ``pip install
+'eigmotion[segmenter]'``); :func:`keypoints_available` says whether it can.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.media import read_frames
+from eigmotion.segmentation.learned import (
+    CROP_MARGIN,
+    CROP_MIN_SIDE_PX,
+    PERSON_PROBABILITY,
+    crop_input,
+    stored_frame,
+)
+from eigmotion.segmentation.networks import N_POSE_LANDMARKS, POSE_PATH
+
+#: Development-set limb joint -> the pose network's landmark index (MediaPipe's order;
+#: left and right are the person's).
+LIMB_LANDMARKS = {
+    "l_hip": 23,
+    "r_hip": 24,
+    "l_knee": 25,
+    "r_knee": 26,
+    "l_ankle": 27,
+    "r_ankle": 28,
+    "l_shoulder": 11,
+    "r_shoulder": 12,
+    "l_elbow": 13,
+    "r_elbow": 14,
+    "l_wrist": 15,
+    "r_wrist": 16,
+}
+
+#: What a single-camera pose is fitted to: ``silhouette`` (the continuous pose alone),
+#: ``keypoints`` (then refined with the pose network's 2D keypoints:
+#: :mod:`eigmotion.pose.keypoint_fit`), ``auto`` (keypoints when the clip's frames
+#: and LiteRT are at hand, else silhouette).
+CUES = ("auto", "silhouette", "keypoints")
+
+#: Landmarks of all 39 points, 5 numbers each (x, y, z, visibility, presence logits).
+_LANDMARK_VALUES = 5 * (N_POSE_LANDMARKS + 6)
+#: World landmarks of all 39 points, 3 numbers each (metres).
+_WORLD_VALUES = 3 * (N_POSE_LANDMARKS + 6)
+
+
+@dataclass(frozen=True)
+class ClipKeypoints:
+    """The pose network's answer for every frame of a clip.
+
+    Attributes
+    ----------
+    image_px : (F, 33, 2) float64
+        x, y of each landmark in the pixels of the clip's silhouettes (continuous: 0
+        is the left or top edge of the first pixel); NaN where the network found no
+        one.
+    visibility : (F, 33) float64
+        The network's visibility times its presence, in [0, 1]; 0 where it found no
+        one.
+    world_m : (F, 33, 3) float64
+        World landmarks, metres, centred between the hips; x right, y down, z away
+        from the camera; NaN where the network found no one.
+    found : (F,) bool
+        Frames where the network's flag says a person is in the square.
+    seconds_per_frame : float
+        Wall time of the network per frame (cropping included, reading not).
+    """
+
+    image_px: np.ndarray
+    visibility: np.ndarray
+    world_m: np.ndarray
+    found: np.ndarray
+    seconds_per_frame: float
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.found)
+
+
+def keypoints_available() -> bool:
+    """Whether the pose network can run here (LiteRT installed)."""
+    return _interpreter() is not None
+
+
+@cache
+def _interpreter():
+    """The pose network's LiteRT interpreter, tensors allocated; ``None`` without
+    LiteRT."""
+    try:
+        from ai_edge_litert.interpreter import Interpreter
+    except ImportError:
+        return None
+    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    sys.stderr.flush()
+    saved = os.dup(2)  # LiteRT announces its CPU delegate on stderr: sent to /dev/null
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        interpreter = Interpreter(model_path=str(POSE_PATH), num_threads=max(1, threads))
+        interpreter.allocate_tensors()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return interpreter
+
+
+def _run(interpreter, square: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """(39, 5) raw landmarks (square pixels, logits), (39, 3) world metres, person
+    probability, for one (256, 256, 3) uint8 square."""
+    outputs = {int(np.prod(d["shape"][1:])): d["index"] for d in interpreter.get_output_details()}
+    source = interpreter.get_input_details()[0]["index"]
+    interpreter.set_tensor(source, (square.astype(np.float32) * np.float32(1 / 255.0))[None])
+    interpreter.invoke()
+    raw = interpreter.get_tensor(outputs[_LANDMARK_VALUES]).reshape(-1, 5)
+    world = interpreter.get_tensor(outputs[_WORLD_VALUES]).reshape(-1, 3)
+    flag = float(interpreter.get_tensor(outputs[1]).ravel()[0])
+    return raw, world, flag
+
+
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
+
+
+def person_squares(masks: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray:
+    """The square the network sees in each frame, from the person's silhouette.
+
+    Parameters
+    ----------
+    masks : (F, h, w) bool
+        The clip's silhouettes.
+    frame_size : (int, int)
+        (H, W) of the frames the squares are cut from, pixels.
+
+    Returns
+    -------
+    (F, 3) float64
+        Centre x, centre y and side of each square, pixels of the frames; a frame
+        without a silhouette takes the nearest frame's square.
+
+    Raises
+    ------
+    InvalidParameterError
+        No frame has a silhouette.
+    """
+    masks = np.asarray(masks, bool)
+    h, w = masks.shape[1:]
+    ay, ax = frame_size[0] / h, frame_size[1] / w
+    longest = max(frame_size)
+    squares = np.full((len(masks), 3), np.nan)
+    for i, mask in enumerate(masks):
+        rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
+        if not len(rows):
+            continue
+        x0, x1 = cols[0] * ax, (cols[-1] + 1) * ax
+        y0, y1 = rows[0] * ay, (rows[-1] + 1) * ay
+        side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
+        squares[i] = (x0 + x1) / 2, (y0 + y1) / 2, side
+    have = np.flatnonzero(np.isfinite(squares[:, 0]))
+    if not len(have):
+        raise InvalidParameterError("no frame shows a person: no square for the pose network")
+    nearest = have[np.abs(np.arange(len(masks))[:, None] - have[None]).argmin(1)]
+    return squares[nearest]
+
+
+def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
+    """The pose network's keypoints for frames whose silhouettes are known.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8
+        RGB frames.
+    masks : (F, h, w) bool
+        Their silhouettes (any size: boxes are scaled to the frames).
+
+    Returns
+    -------
+    ClipKeypoints
+        Image coordinates in the pixels of ``masks``.
+
+    Raises
+    ------
+    InvalidParameterError
+        LiteRT not installed, frame and mask counts differ, or no silhouette.
+    """
+    interpreter = _interpreter()
+    if interpreter is None:
+        raise InvalidParameterError(
+            "the pose network runs through LiteRT only: pip install 'eigmotion[segmenter]'"
+        )
+    frames, masks = np.asarray(frames), np.asarray(masks, bool)
+    if len(frames) != len(masks) or frames.ndim != 4 or masks.ndim != 3:
+        raise InvalidParameterError(
+            f"frames (F, H, W, 3) and masks (F, h, w) must match, got {frames.shape} and "
+            f"{masks.shape}"
+        )
+    started = time.perf_counter()
+    n = len(frames)
+    squares = person_squares(masks, frames.shape[1:3])
+    to_mask = np.array([masks.shape[2] / frames.shape[2], masks.shape[1] / frames.shape[1]])
+    image = np.full((n, N_POSE_LANDMARKS, 2), np.nan)
+    visibility = np.zeros((n, N_POSE_LANDMARKS))
+    world = np.full((n, N_POSE_LANDMARKS, 3), np.nan)
+    found = np.zeros(n, bool)
+    for i in range(n):
+        square, matrix = crop_input(frames[i], tuple(squares[i]))
+        raw, world_i, flag = _run(interpreter, square)
+        if flag < PERSON_PROBABILITY:
+            continue
+        found[i] = True
+        xy = raw[:N_POSE_LANDMARKS, :2].astype(np.float64)
+        # the square's pixels (continuous) back to the frame's, then the masks'
+        frame_xy = (xy - 0.5 - matrix[:, 2]) / np.diag(matrix) + 0.5
+        image[i] = frame_xy * to_mask
+        visibility[i] = _sigmoid(raw[:N_POSE_LANDMARKS, 3]) * _sigmoid(raw[:N_POSE_LANDMARKS, 4])
+        world[i] = world_i[:N_POSE_LANDMARKS]
+    seconds = (time.perf_counter() - started) / max(n, 1)
+    return ClipKeypoints(image, visibility, world, found, seconds)
+
+
+def clip_keypoints(
+    path: str | os.PathLike, masks: np.ndarray, frame_indices: np.ndarray
+) -> ClipKeypoints:
+    """The pose network's keypoints for a clip on disk whose silhouettes are known.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The video (or folder of frames, or GIF) the silhouettes were cut from.
+    masks : (F, h, w) bool
+        The silhouettes.
+    frame_indices : (F,) int
+        The clip frame each silhouette belongs to.
+
+    Returns
+    -------
+    ClipKeypoints
+        Image coordinates in the pixels of ``masks``.
+
+    Raises
+    ------
+    InvalidParameterError
+        LiteRT not installed, a silhouette of a frame the clip does not have.
+    VideoError
+        The clip cannot be read.
+    """
+    frames, _ = read_frames(Path(path), transform=stored_frame)
+    frame_indices = np.asarray(frame_indices, np.int64)
+    if len(frame_indices) != len(masks) or (
+        len(frame_indices) and not 0 <= frame_indices.min() <= frame_indices.max() < len(frames)
+    ):
+        raise InvalidParameterError(
+            f"{path}: {len(frames)} frames, but silhouettes of frames "
+            f"{frame_indices.min()}..{frame_indices.max()} were given"
+        )
+    return frame_keypoints(frames[frame_indices], masks)
+
+
+def limb_world_joints(keypoints: ClipKeypoints) -> tuple[tuple[str, ...], np.ndarray]:
+    """The network's world landmarks of the 12 limb joints, as a pose of its own.
+
+    Frames where the network found no one take the nearest frame's.
+
+    Returns
+    -------
+    names : tuple of str
+        The development set's limb joint names (:data:`LIMB_LANDMARKS`).
+    positions : (F, 12, 3) float64
+        Metres, hip-centred, the camera's axes (x right, y down, z away from it).
+
+    Raises
+    ------
+    InvalidParameterError
+        The network found no one in any frame.
+    """
+    have = np.flatnonzero(keypoints.found)
+    if not len(have):
+        raise InvalidParameterError("the pose network found no one in any frame")
+    nearest = have[np.abs(np.arange(keypoints.n_frames)[:, None] - have[None]).argmin(1)]
+    names = tuple(LIMB_LANDMARKS)
+    return names, keypoints.world_m[nearest][:, list(LIMB_LANDMARKS.values())]
+
+
+def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
+    """The cue a clip's pose is fitted to: ``"silhouette"`` or ``"keypoints"``.
+
+    Parameters
+    ----------
+    cue : {"auto", "silhouette", "keypoints"}
+    path : str or PathLike or None
+        The clip on disk; ``None`` or an ``.npz`` of masks: no frames to see.
+
+    Raises
+    ------
+    InvalidParameterError
+        An unknown cue, or ``"keypoints"`` without frames or without LiteRT.
+    """
+    if cue not in CUES:
+        raise InvalidParameterError(f"pose cue must be one of {', '.join(CUES)}, got {cue!r}")
+    frames = path is not None and Path(path).suffix.lower() != ".npz"
+    if cue == "auto":
+        return "keypoints" if frames and keypoints_available() else "silhouette"
+    if cue == "keypoints" and not frames:
+        raise InvalidParameterError(
+            "the keypoints cue needs the clip's frames (a video or images), not stored masks"
+        )
+    if cue == "keypoints" and not keypoints_available():
+        raise InvalidParameterError(
+            "the keypoints cue runs the pose network through LiteRT: "
+            "pip install 'eigmotion[segmenter]'"
+        )
+    return cue

@@ -1,0 +1,227 @@
+"""The single-camera pose with the pose network's keypoints as a cue.
+
+A library motion is performed by another body shape, rendered over a textured scene
+(:func:`eigmotion.synth.clips.render_clip`) and written as a video; the tiny database
+of ``tests/test_continuous_pose.py`` answers it.  The network runs on the frames for
+real (LiteRT), the fit on its keypoints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from eigmotion.body.avatar import load_default_avatar
+from eigmotion.body.retarget import pose_avatar, retarget
+from eigmotion.cli.main import main
+from eigmotion.errors import InvalidParameterError
+from eigmotion.evaluation.joint_errors import (
+    JOINT_ALIASES,
+    LIMB_JOINTS,
+    match_joints,
+    pa_mpjpe_per_frame,
+)
+from eigmotion.imaging.cameras import virtual_rig
+from eigmotion.imaging.figures import save_image
+from eigmotion.imaging.media import write_video
+from eigmotion.imaging.silhouettes import render_masks
+from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
+from eigmotion.mocap.library import load_library
+from eigmotion.pose.continuous_pose import align_motion
+from eigmotion.pose.keypoint_fit import (
+    LIMB_PAIRS,
+    KeypointFitConfig,
+    camera_axes,
+    fit_keypoints,
+    sphere_directions,
+)
+from eigmotion.pose.keypoints import (
+    ClipKeypoints,
+    clip_keypoints,
+    keypoints_available,
+    limb_world_joints,
+    resolve_cue,
+)
+from eigmotion.retrieval.library_views import BuildConfig, hull_points
+from eigmotion.segmentation.video import load_clip_masks
+from eigmotion.synth.clips import render_clip
+
+MOTIONS = ("kick_135_04", "wave_14_24")  # the database of tests/test_continuous_pose.py
+CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6, garments=((),))
+CLIP_FPS = 30.0
+AVATAR = load_default_avatar()
+#: The avatar's joint for each development-set limb joint.
+AVATAR_LIMBS = {
+    joint: next(a for a in JOINT_ALIASES[joint] if a in AVATAR.joint_names) for joint in LIMB_JOINTS
+}
+
+needs_litert = pytest.mark.skipif(not keypoints_available(), reason="LiteRT not installed")
+
+
+@pytest.fixture(scope="module")
+def db_path(ring6_database):
+    return ring6_database(MOTIONS, CONFIG)
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory):
+    """(video path, background path, true (F, 12, 3) limb joints in metres)."""
+    motion = {m.name: m for m in load_library()}[MOTIONS[0]].motion
+    body = AVATAR.with_shape(height_m=1.62, girth=1.15)
+    clip = render_clip(motion, body, 30.0, 10.0, np.random.default_rng(7))
+    folder = tmp_path_factory.mktemp("keypoint_clip")
+    write_video(clip.frames, folder / "clip.mp4", clip.fps)
+    save_image(clip.background, folder / "background.png")
+    joints = retarget(motion.resample(clip.fps), body).joint_positions
+    names = list(AVATAR.joint_names)
+    truth = joints[:, [names.index(AVATAR_LIMBS[j]) for j in LIMB_JOINTS]]
+    return folder / "clip.mp4", folder / "background.png", truth
+
+
+def limb_error_mm(names, positions, truth) -> float:
+    """Mean PA-MPJPE per frame over the 12 limb joints, mm."""
+    est, true, _ = match_joints(names, positions, LIMB_JOINTS, truth, LIMB_JOINTS)
+    return float(pa_mpjpe_per_frame(est, true).mean())
+
+
+def query_pose(db_path, video, tmp_path, cue):
+    clip, background, _ = video
+    pose_path, bvh_path = tmp_path / f"{cue}.npz", tmp_path / f"{cue}.bvh"
+    rc = main(
+        ["query", str(clip), "--db", str(db_path), "--background", str(background),
+         "--pose-out", str(pose_path), "--bvh-out", str(bvh_path), "--pose-cue", cue]
+    )  # fmt: skip
+    assert rc == 0
+    with np.load(pose_path) as data:
+        return tuple(str(s) for s in data["names"]), data["positions"], read_bvh(bvh_path)
+
+
+@needs_litert
+def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, tmp_path):
+    """Both cues write the same joint set, axes and frame count; the BVH is the npz's
+    motion; the keypoints cue stays near the truth.  (On a clip of a library motion the
+    silhouette cue is closer: the reference is the very motion, and the network's
+    keypoints of the rendered body are rougher than its outline.)"""
+    _, _, truth = video
+    names_s, silhouette, _ = query_pose(db_path, video, tmp_path, "silhouette")
+    names_k, keypoints, bvh = query_pose(db_path, video, tmp_path, "keypoints")
+    assert names_k == names_s == tuple(AVATAR.joint_names)
+    assert keypoints.shape == silhouette.shape == (len(truth), len(names_k), 3)
+    from_bvh = forward_kinematics(bvh, length_unit_m=1.0, ground=False).positions
+    assert np.abs(from_bvh - keypoints).max() < 2e-3
+    # the same root path, Y up: only the posture and heading are refitted
+    np.testing.assert_allclose(keypoints[:, 0], silhouette[:, 0], atol=1e-9)
+    head = names_k.index("Head")
+    assert np.all(keypoints[:, head, 1] > keypoints[:, 0, 1])
+    ours = limb_error_mm(names_k, keypoints, truth)
+    before = limb_error_mm(names_s, silhouette, truth)
+    assert ours < 130.0 and ours < 1.5 * before, (ours, before)
+
+
+@needs_litert
+def test_network_keypoints_lie_on_the_rendered_person(video):
+    """The network finds the person in most frames; its limb landmarks project inside
+    the true silhouette's box; its world landmarks are a body of about the right size."""
+    clip, background, truth = video
+    cut = load_clip_masks(clip, background, segmenter="subtraction")
+    keypoints = clip_keypoints(clip, cut.masks, cut.frame_indices)
+    assert keypoints.image_px.shape == (len(cut.masks), 33, 2)
+    assert keypoints.found.mean() > 0.8
+    assert keypoints.seconds_per_frame > 0
+    h, w = cut.masks.shape[1:]
+    for i in np.flatnonzero(keypoints.found):
+        rows, cols = np.flatnonzero(cut.masks[i].any(1)), np.flatnonzero(cut.masks[i].any(0))
+        xy = keypoints.image_px[i, [11, 12, 23, 24]]  # shoulders and hips
+        assert np.all((xy[:, 0] > cols[0] - 3) & (xy[:, 0] < cols[-1] + 4)), i
+        assert np.all((xy[:, 1] > rows[0] - 3) & (xy[:, 1] < rows[-1] + 4)), i
+    names, world = limb_world_joints(keypoints)
+    assert names == LIMB_JOINTS and world.shape == truth.shape
+    assert limb_error_mm(names, world, truth) < 120.0
+
+
+def _turned_truth(pose, truth_pose, with_world: bool):
+    """Synthetic keypoints: ``truth_pose``'s limb joints seen by the pose's camera
+    (weak perspective, 40 pixels per metre), and as world landmarks in the camera's
+    axes (x right, y down, z away) if ``with_world``."""
+    joints = [pose.names.index(n) for n, _ in LIMB_PAIRS]
+    marks = [m for _, m in LIMB_PAIRS]
+    axes = camera_axes(pose.elevation_deg)
+    image = np.full((pose.n_frames, 33, 2), np.nan)
+    image[:, marks] = 40.0 * truth_pose[:, joints] @ axes.T + [80.0, 60.0]
+    visibility = np.where(np.isfinite(image[..., 0]), 1.0, 0.0)
+    world = np.full((pose.n_frames, 33, 3), np.nan)
+    if with_world:
+        camera = np.stack([axes[0], axes[1], np.cross(axes[0], axes[1])])  # rows in the scene
+        world[:, marks] = (truth_pose[:, joints] - truth_pose[:, :1]) @ camera.T
+    return ClipKeypoints(image, visibility, world, np.ones(pose.n_frames, bool), 0.0)
+
+
+def test_fit_lays_the_joints_on_the_keypoints():
+    """A pose fitted to the projection of another posture of the same body moves its
+    joints toward that posture (3D, after alignment) and onto its projection (2D)."""
+    motion = {m.name: m for m in load_library()}[MOTIONS[0]].motion
+    body = AVATAR.decimated(4000)
+    anim = retarget(motion.resample(CLIP_FPS), body)
+    vertices = pose_avatar(body, anim)
+    camera = virtual_rig([0.0], [10.0], 160, 120).fitted(hull_points(vertices))[0]
+    masks = render_masks(vertices, body.faces, camera)
+    pose = align_motion(motion, (0, motion.n_frames), 0.0, 10.0, masks, CLIP_FPS)
+    # the target: the aligned pose played 8 frames later (another posture, same body)
+    shifted = np.concatenate([pose.positions[8:], pose.positions[-1:].repeat(8, 0)])
+    target = shifted - shifted[:, :1] + pose.positions[:, :1]
+    config = KeypointFitConfig(prior=0.01)
+    fitted = fit_keypoints(pose, _turned_truth(pose, target, False), config)
+    with_world = fit_keypoints(pose, _turned_truth(pose, target, True), config)
+    limbs = [pose.names.index(n) for n, _ in LIMB_PAIRS]
+
+    def error(positions):
+        return float(pa_mpjpe_per_frame(positions[:, limbs], target[:, limbs]).mean())
+
+    # 2D alone leaves each bone's depth to the prior; the world landmarks tell it
+    assert error(fitted.positions) < 0.6 * error(pose.positions)
+    assert error(with_world.positions) < 0.6 * error(fitted.positions)
+    assert fitted.positions.shape == pose.positions.shape
+    assert fitted.names == pose.names and fitted.motion.n_frames == pose.n_frames
+    assert "keypoints_fit" in fitted.timings_s
+
+
+def test_sphere_directions_are_unit_and_spread():
+    d = sphere_directions(500)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    assert np.abs(d.mean(0)).max() < 0.01
+    # every direction has a neighbour within 12°
+    nearest = np.sort(d @ d.T, axis=1)[:, -2]
+    assert np.degrees(np.arccos(nearest.min())) < 12.0
+
+
+@pytest.mark.parametrize(
+    "change",
+    [{"prior": -1.0}, {"directions": 10}, {"rounds": 0}, {"min_visibility": 2.0},
+     {"heading_step_deg": 0.0}],
+)  # fmt: skip
+def test_fit_config_rejects_out_of_range_values(change):
+    with pytest.raises(InvalidParameterError):
+        KeypointFitConfig(**change)
+
+
+def test_resolve_cue(tmp_path):
+    assert resolve_cue("silhouette", tmp_path / "clip.mp4") == "silhouette"
+    assert resolve_cue("auto", tmp_path / "clip.npz") == "silhouette"
+    expected = "keypoints" if keypoints_available() else "silhouette"
+    assert resolve_cue("auto", tmp_path / "clip.mp4") == expected
+    with pytest.raises(InvalidParameterError, match="frames"):
+        resolve_cue("keypoints", tmp_path / "clip.npz")
+    with pytest.raises(InvalidParameterError, match="one of"):
+        resolve_cue("depth", tmp_path / "clip.mp4")
+
+
+def test_query_keypoints_cue_on_stored_masks_is_one_line(db_path, tmp_path, capsys):
+    clip_path = tmp_path / "clip.npz"
+    np.savez_compressed(clip_path, masks=np.ones((5, 40, 30), bool), fps=CLIP_FPS)
+    out = tmp_path / "pose.npz"
+    rc = main(["query", str(clip_path), "--db", str(db_path), "--pose-out", str(out),
+               "--pose-cue", "keypoints"])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "frames" in err
+    assert not out.exists()
