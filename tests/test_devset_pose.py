@@ -301,7 +301,7 @@ def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, c
     if keypoints_available():  # every variant in the same run, the default among them
         assert "pose landmark network alone, world landmarks" in printed
         assert set(scored["variants"]) == {"silhouette", "keypoints", "network"}
-        default = scored["variants"]["keypoints"]
+        default = scored["variants"]["silhouette"]
         assert default["pa_mpjpe_frame_mm"] == scored["pa_mpjpe_frame_mm"]
         assert 0 < scored["variants"]["network"]["pa_mpjpe_frame_mm"] < 300
         assert scored["network_ms_per_frame"] > 0 and scored["fit_ms_per_frame"] > 0
