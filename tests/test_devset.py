@@ -98,6 +98,12 @@ def test_scores_count_top1_top3_errors_unknown_and_iou():
     assert data["top1"] == 1 and data["unknown"]["rejected"] == 1
     assert data["errors"][0] == {"id": "wave_b", "error": "no person found"}
     assert data["iou_per_label"]["wave"]["n"] == 1
+    # where the true label stands (the unknown clips left out; an error: not ranked)
+    assert summary.ranks == {"1": 1, "2": 1, "3": 1, "lower": 1, "not ranked": 1}
+    assert data["truth_ranks"] == summary.ranks
+    assert "true label ranked (of the in-library clips): 1 1, 2 1, 3 1, lower 1, " in text
+    assert [a.truth_rank for a in answers[:5]] == [1, 3, 4, 2, None]
+    assert answers[2].to_json()["truth_rank"] == 4
     with pytest.raises(InvalidParameterError):
         summarise("bg", [])
 

@@ -212,6 +212,14 @@ class ClipAnswer:
     def in_library(self) -> bool:
         return self.true_label != UNKNOWN_LABEL
 
+    @property
+    def truth_rank(self) -> int | None:
+        """Where the true label stands in ``labels``: 1 when it is the answer, None when
+        the query did not rank it (or raised)."""
+        if self.error is not None or self.true_label not in self.labels:
+            return None
+        return self.labels.index(self.true_label) + 1
+
     def to_json(self) -> dict:
         return {
             "id": self.clip_id,
@@ -219,6 +227,7 @@ class ClipAnswer:
             "truth": self.true_label,
             "label": self.label,
             "labels": list(self.labels),
+            "truth_rank": self.truth_rank,
             "accepted": self.accepted,
             "p_known": self.p_known,
             "distance": self.distance,

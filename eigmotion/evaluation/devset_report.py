@@ -4,7 +4,8 @@ Markdown tables and JSON.
 Per mode (:func:`summarise`): top-1 and top-3 over the distinct ranked labels, per
 label and overall, with counts (:func:`eigmotion.evaluation.scoring.score`: clips of the
 label ``unknown`` are out of the library and count only as rejected or not), the
-confusion matrix (truth × answer), the median and 90th percentile of the query time,
+confusion matrix (truth × answer), where the true label stands among the ranked labels
+(:func:`truth_ranks`), the median and 90th percentile of the query time,
 the queries that raised (wrong, listed with their message), for the unknown clips how
 many came back ``accepted: false`` and their ``p_known``, and for ``bg``/``nobg`` the
 mean intersection over union of the query's silhouettes with the true masks, per label
@@ -27,6 +28,9 @@ from eigmotion.evaluation.statistics import format_percent, json_rate, markdown_
 
 #: Off-diagonal cells of the confusion matrix the summary names, most frequent first.
 CONFUSIONS_LISTED = 6
+#: Ranks of the true label counted one by one in the summary; lower ranks are counted
+#: together.
+RANKS_LISTED = 3
 
 
 def outcome(answer: ClipAnswer) -> QueryOutcome:
@@ -63,6 +67,8 @@ class ModeSummary:
         the mode has no IoU.
     iou : float
         The mean over every clip with an IoU (NaN without any).
+    ranks : dict of str to int
+        :func:`truth_ranks` of the answers.
     """
 
     mode: str
@@ -73,6 +79,7 @@ class ModeSummary:
     unknown: tuple[ClipAnswer, ...]
     iou_per_label: dict[str, tuple[float, int]]
     iou: float
+    ranks: dict[str, int]
 
     @property
     def unknown_rejected(self) -> int:
@@ -91,10 +98,38 @@ class ModeSummary:
                 "rejected": self.unknown_rejected,
                 "p_known": {a.clip_id: a.p_known for a in self.unknown},
             },
+            "truth_ranks": dict(self.ranks),
             "iou": json_rate(self.iou),
             "iou_per_label": {k: {"iou": json_rate(v), "n": n} for k, (v, n) in
                               self.iou_per_label.items()},
         }  # fmt: skip
+
+
+def truth_ranks(answers: Sequence[ClipAnswer]) -> dict[str, int]:
+    """How many in-library answers ranked their true label first, second, …, lower.
+
+    Parameters
+    ----------
+    answers : sequence of ClipAnswer
+
+    Returns
+    -------
+    dict of str to int
+        ``"1"`` … ``str(RANKS_LISTED)``: the answers whose ranked labels hold the true
+        label at that place (:attr:`ClipAnswer.truth_rank`); ``"lower"``: further down;
+        ``"not ranked"``: not among them, or the query raised.  Every key is present.
+    """
+    counts = dict.fromkeys([str(r) for r in range(1, RANKS_LISTED + 1)], 0)
+    counts.update({"lower": 0, "not ranked": 0})
+    for answer in answers:
+        if not answer.in_library:
+            continue
+        rank = answer.truth_rank
+        if rank is None:
+            counts["not ranked"] += 1
+        else:
+            counts[str(rank) if rank <= RANKS_LISTED else "lower"] += 1
+    return counts
 
 
 def summarise(mode: str, answers: Sequence[ClipAnswer]) -> ModeSummary:
@@ -123,6 +158,7 @@ def summarise(mode: str, answers: Sequence[ClipAnswer]) -> ModeSummary:
         tuple(a for a in answers if not a.in_library),
         per_label,
         float(np.mean([a.iou for a in with_iou])) if with_iou else float("nan"),
+        truth_ranks(answers),
     )
 
 
@@ -148,6 +184,11 @@ def format_mode(summary: ModeSummary) -> str:
     if confused:
         lines.append(
             "most confused (truth → answer): " + ", ".join(f"{t} → {a} {c}" for t, a, c in confused)
+        )
+    if any(summary.ranks.values()):
+        lines.append(
+            "true label ranked (of the in-library clips): "
+            + ", ".join(f"{place} {count}" for place, count in summary.ranks.items())
         )
     lines.append(
         f"query time: median {summary.median_s:.2f} s, 90th percentile {summary.p90_s:.2f} s"

@@ -93,7 +93,7 @@ SEQUENCE_WEIGHT = 2.0
 #: Distinct motions of the whole clip's nearest entries that are ranked again (and
 #: beyond them the nearest motion of each further label,
 #: :func:`eigmotion.retrieval.database.candidate_motions`).
-CANDIDATE_MOTIONS = 10
+CANDIDATE_MOTIONS = 20
 #: Half-width of the band around the diagonal that the time warping's path keeps to,
 #: as a share of the longer sequence's frames (Sakoe–Chiba); 1 or more: no band.
 WARP_BAND = 0.3
