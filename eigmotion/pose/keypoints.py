@@ -25,7 +25,6 @@ It runs through LiteRT only (the optional ``ai-edge-litert`` package: ``pip inst
 from __future__ import annotations
 
 import os
-import sys
 import time
 from dataclasses import dataclass
 from functools import cache
@@ -42,7 +41,7 @@ from eigmotion.segmentation.learned import (
     crop_input,
     stored_frame,
 )
-from eigmotion.segmentation.networks import N_POSE_LANDMARKS, POSE_PATH
+from eigmotion.segmentation.networks import N_POSE_LANDMARKS, POSE_PATH, litert_interpreter
 
 #: Development-set limb joint -> the pose network's landmark index (MediaPipe's order;
 #: left and right are the person's).
@@ -113,24 +112,10 @@ def keypoints_available() -> bool:
 
 @cache
 def _interpreter():
-    """The pose network's LiteRT interpreter, tensors allocated; ``None`` without
-    LiteRT."""
-    try:
-        from ai_edge_litert.interpreter import Interpreter
-    except ImportError:
-        return None
-    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    sys.stderr.flush()
-    saved = os.dup(2)  # LiteRT announces its CPU delegate on stderr: sent to /dev/null
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-        interpreter = Interpreter(model_path=str(POSE_PATH), num_threads=max(1, threads))
-        interpreter.allocate_tensors()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-    return interpreter
+    """The pose network's LiteRT interpreter, tensors allocated (on the threads
+    :func:`~eigmotion.segmentation.networks.set_network_threads` gives); ``None``
+    without LiteRT."""
+    return litert_interpreter(POSE_PATH)
 
 
 def _run(interpreter, square: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -100,7 +100,7 @@ def _threads() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 
 
-def _litert_interpreter(path: Path):
+def litert_interpreter(path: Path):
     """A LiteRT interpreter of ``path`` with its tensors allocated, or ``None`` when
     LiteRT is not installed."""
     try:
@@ -123,7 +123,7 @@ def selfie_network() -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
     """(runtime name, function from one (256, 256, 3) float32 RGB input in [0, 1] to
     the (256, 256) float32 probabilities of "person")."""
     _check_file(SELFIE_PATH)
-    interpreter = _litert_interpreter(SELFIE_PATH)
+    interpreter = litert_interpreter(SELFIE_PATH)
     if interpreter is not None:
         source = interpreter.get_input_details()[0]["index"]
         target = interpreter.get_output_details()[0]["index"]
@@ -148,7 +148,7 @@ def pose_network() -> Callable[[np.ndarray], PoseOutput] | None:
     """Function from one (256, 256, 3) float32 RGB input in [0, 1] (a square centred
     on the person) to its :class:`PoseOutput`; ``None`` without LiteRT."""
     _check_file(POSE_PATH)
-    interpreter = _litert_interpreter(POSE_PATH)
+    interpreter = litert_interpreter(POSE_PATH)
     if interpreter is None:
         return None
     source = interpreter.get_input_details()[0]["index"]
