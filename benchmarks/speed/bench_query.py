@@ -1,11 +1,11 @@
 """Query time of the bundled sample clips, in process, end to end and stage by stage.
 
-For each sample clip (``database/samples/*.mp4``; ``walk_3s`` is the 3 s, 320×240 clip
-of the ≤ 50 ms target), with its background image and without, prints the median
-wall time over ``--repeat`` runs of :meth:`MotionDatabase.query_clip` — reading the
-video, cutting the person out, motion images, exact search through the tree — with
-the default front end (``auto``: fused with the background image, learned without)
-and with the classical subtraction, for our settings (only the frames the motion
+For each sample clip (``database/samples/*.mp4``; ``walk_3s`` is a 3 s, 320×240
+clip), with its background image and without, prints the median wall time over
+``--repeat`` runs of :meth:`MotionDatabase.query_clip` — reading the video, cutting
+the person out, motion images, exact search through the tree — with the default
+front end (``auto``: fused with the background image, learned without) and with the
+classical subtraction, for our settings (only the frames the motion
 image samples, segmented at ``QUERY_SILHOUETTE_SIDE_PX``) beside the baseline of the
 same run (every frame, subtraction at the video's full resolution, searched by brute
 force), with the ratio.
