@@ -240,11 +240,7 @@ def load_clip_masks(
     if segmenter == "learned":
         return _learned_clip_masks(path, config, sample_fps, progress)
     if segmenter == "fused":
-        cut = _learned_clip_masks(path, config, sample_fps, progress)
-        subtracted = load_clip_masks(path, background_path, config, sample_fps, progress)
-        return replace(
-            cut, masks=fuse_masks(cut.masks, subtracted.masks, config), segmenter="fused"
-        )
+        return _learned_clip_masks(path, config, sample_fps, progress, background_path)
     start_colour_tables()  # while the video opens
 
     def to_working_size(frame: np.ndarray) -> np.ndarray:
@@ -278,17 +274,32 @@ def load_clip_masks(
 
 
 def _learned_clip_masks(
-    path: Path, config: SilhouetteConfig, sample_fps: float | None, progress: bool
+    path: Path,
+    config: SilhouetteConfig,
+    sample_fps: float | None,
+    progress: bool,
+    background_path: str | Path | None = None,
 ) -> ClipMasks:
     """:func:`load_clip_masks` of a video through the learned segmenter: each frame is
     kept at most :data:`~eigmotion.segmentation.learned.STORE_MAX_SIDE_PX` on its longer
     side as soon as it is decoded, and cut out once the clip is read (the network's
-    second pass and its outlier rule look at the neighbouring frames)."""
+    second pass and its outlier rule look at the neighbouring frames).  With
+    ``background_path`` (the fused front end) each decoded frame is also shrunk to the
+    working size and cut out against the image of the empty scene, and the two are
+    fused (:func:`~eigmotion.segmentation.fused.fuse_masks`): the clip is decoded once."""
     sizes = []
+    working: list[np.ndarray] = []
+    background = None
+    if background_path is not None:
+        start_colour_tables()  # while the video opens
+        background = read_background(background_path)
 
     def keep_frame(frame: np.ndarray) -> np.ndarray:
         if not sizes:
             sizes.append(frame.shape[:2])
+        if background is not None:
+            _check_size(frame.shape[:2], background)
+            working.append(shrink(frame[None], config)[0])
         return stored_frame(frame)
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
@@ -299,9 +310,17 @@ def _learned_clip_masks(
             f"no person found in {len(masks)} frame(s): the person segmenter found no one "
             f"covering {config.min_person_frac:.2%} of the image"
         )
+    segmenter = "learned"
+    if background is not None:
+        small = shrink(background[None], config)[0]
+        chunks = (
+            np.stack(working[i : i + CHUNK_FRAMES]) for i in range(0, len(working), CHUNK_FRAMES)
+        )
+        subtracted = _person_found(segment_chunks(chunks, small, config), config)
+        masks, segmenter = fuse_masks(masks, subtracted, config), "fused"
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
-        people_in_view(people), "learned",
+        people_in_view(people), segmenter,
     )  # fmt: skip
 
 
