@@ -96,7 +96,7 @@ def test_the_second_pass_finds_a_distant_person():
 
 @pytest.mark.skipif(
     importlib.util.find_spec("ai_edge_litert") is None,
-    reason="the pose network runs through LiteRT (pip install -e '.[segmenter]')",
+    reason="the pose network runs through LiteRT (pip install ai-edge-litert)",
 )
 def test_pose_landmarks_lie_on_the_person():
     """The kick sample: the pose network's landmarks, mapped back to the frame, land on
@@ -220,7 +220,7 @@ def test_probabilities_lie_in_0_1_and_a_blank_frame_has_no_person():
 
 @pytest.mark.skipif(
     importlib.util.find_spec("ai_edge_litert") is None,
-    reason="the optional LiteRT runtime (pip install -e '.[segmenter]') is not installed",
+    reason="the LiteRT runtime (pip install ai-edge-litert) is not installed",
 )
 def test_litert_and_opencv_runtimes_agree():
     """Both runtimes read the one shipped file: the same probabilities."""

@@ -251,7 +251,12 @@ class MotionDatabase:
 
     @opencv_in_calling_threads()
     def query_masks(
-        self, masks: np.ndarray, fps: float, top_k: int = 3, false_rejection: float | None = None
+        self,
+        masks: np.ndarray,
+        fps: float,
+        top_k: int = 3,
+        false_rejection: float | None = None,
+        hidden_below_px: int = 0,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -271,6 +276,10 @@ class MotionDatabase:
             In (0, 1): judge ``accepted`` at the threshold that turns away this share
             of new performances of the library's motions (:meth:`threshold_at`);
             default the database's own threshold (5 %).
+        hidden_below_px : int
+            Rows of the body below the frames' bottom edge
+            (:attr:`~eigmotion.segmentation.video.ClipMasks.hidden_below_px`): the motion
+            images continue the silhouettes down by as many rows.
 
         Returns
         -------
@@ -285,7 +294,7 @@ class MotionDatabase:
         t0 = time.perf_counter()
         cfg = self.config
         windows = window_bounds(len(masks), fps, cfg.window_s, cfg.window_step_s)
-        images = ClipMotionImages(masks, cfg.motion_image, clip_fps=fps)
+        images = ClipMotionImages(masks, cfg.motion_image, fps, hidden_below_px)
         whole_vector = images.window(*windows[0])  # no person or no motion: raised here
         # The windows' search and the clip's silhouette sequence do not wait for the
         # whole clip's search: they run beside it.
@@ -487,7 +496,9 @@ class MotionDatabase:
         sample_fps = self.config.motion_image.sample_fps
         clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
         t1 = time.perf_counter()
-        result = self.query_masks(clip.masks, clip.fps, top_k, false_rejection)
+        result = self.query_masks(
+            clip.masks, clip.fps, top_k, false_rejection, clip.hidden_below_px
+        )
         # Segments come in mask indices; a mask's successor starts the next segment.
         starts = np.append(clip.frame_indices, clip.n_frames)
         segments = [

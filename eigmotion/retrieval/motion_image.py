@@ -71,6 +71,7 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import FRAME_RATE_FPS, sample_indices
+from eigmotion.segmentation.cut_bodies import continued_below
 from eigmotion.validation import Interval, Options, validate, validate_params
 
 FRAMES = ("image", "person")
@@ -270,6 +271,11 @@ class ClipMotionImages:
     ----------
     masks, config, clip_fps
         As for :func:`motion_image`, for the whole clip.
+    hidden_below_px : int
+        Rows of the person's body below the frames' bottom edge (feet out of the
+        picture, :func:`eigmotion.segmentation.cut_bodies.hidden_rows_below`): every
+        silhouette is continued down by as many copies of its bottom row first, so
+        that the body's height and centre are measured on the whole body.
     """
 
     def __init__(
@@ -277,8 +283,9 @@ class ClipMotionImages:
         masks: np.ndarray,
         config: MotionImageConfig = MotionImageConfig(),  # noqa: B008 - frozen, immutable
         clip_fps: float | None = None,
+        hidden_below_px: int = 0,
     ):
-        stack = _check_masks(masks)
+        stack = continued_below(_check_masks(masks), int(hidden_below_px))
         if clip_fps is not None:
             validate("clip_fps", clip_fps, FRAME_RATE_FPS)
         self.config, self.clip_fps = config, clip_fps

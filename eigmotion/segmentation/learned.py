@@ -301,7 +301,8 @@ def learned_masks_and_landmarks(
         )
     if second_look == "pose" and pose is None:
         raise InvalidParameterError(
-            "the pose network runs through LiteRT only: pip install 'eigmotion[segmenter]'"
+            "the pose network runs through LiteRT only: pip install ai-edge-litert "
+            "(installed with eigmotion where LiteRT has a wheel)"
         )
     h, w = size
     frame_size = frames.shape[1:3]

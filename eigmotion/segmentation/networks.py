@@ -4,10 +4,10 @@ Two of MediaPipe's networks (Apache-2.0) ship in ``eigmotion/data/segmenter/`` b
 their licence; nothing is downloaded:
 
 * the selfie segmentation network (general model): a 256×256 RGB image in, the
-  probability of "person" per pixel out.  It runs through the LiteRT interpreter when
-  the optional ``ai-edge-litert`` package is installed (``pip install
-  'eigmotion[segmenter]'``), else through OpenCV's DNN module, which reads the same file
-  and gives the same probabilities, several times slower;
+  probability of "person" per pixel out.  It runs through the LiteRT interpreter
+  (``ai-edge-litert``, installed with eigmotion on the platforms LiteRT has wheels
+  for: Linux x86_64, Windows AMD64, macOS arm64), else through OpenCV's DNN module,
+  which reads the same file and gives the same probabilities, several times slower;
 * the pose landmark network (full model): a 256×256 RGB square centred on one person
   in, out the person's segmentation (logits per pixel), 33 body landmarks (plus 6
   auxiliary points) with their visibility and presence, and a flag that a person is in

@@ -30,11 +30,12 @@ from eigmotion.imaging.media import (
 from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.cut_bodies import hidden_rows_below
 from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_tables
 from eigmotion.segmentation.fused import fuse_masks
 from eigmotion.segmentation.learned import (
     count_people,
-    learned_masks,
+    learned_masks_and_landmarks,
     people_in_view,
     resolve_segmenter,
     stored_frame,
@@ -168,6 +169,10 @@ class ClipMasks:
     segmenter : str
         The front end that cut them: ``"learned"``, ``"subtraction"``, ``"fused"``, or
         ``"masks"`` for an ``.npz`` of masks.
+    hidden_below_px : int
+        Rows of the person's body below the frame's bottom edge, at the masks' scale
+        (feet out of the picture; :func:`~eigmotion.segmentation.cut_bodies.
+        hidden_rows_below`); 0 when the body ends in the frame or nothing tells.
     """
 
     masks: np.ndarray
@@ -177,6 +182,7 @@ class ClipMasks:
     clip_fps: float
     people: int = 1
     segmenter: str = "subtraction"
+    hidden_below_px: int = 0
 
 
 def load_clip_masks(
@@ -304,7 +310,10 @@ def _learned_clip_masks(
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
-    masks, people = learned_masks(inputs, working_size(*sizes[0], config), config)
+    masks, people, landmarks = learned_masks_and_landmarks(
+        inputs, working_size(*sizes[0], config), config
+    )
+    hidden_below = hidden_rows_below(masks, landmarks, masks.shape[1] / inputs.shape[1])
     if not masks.any():
         raise VideoError(
             f"no person found in {len(masks)} frame(s): the person segmenter found no one "
@@ -320,7 +329,7 @@ def _learned_clip_masks(
         masks, segmenter = fuse_masks(masks, subtracted, config), "fused"
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
-        people_in_view(people), segmenter,
+        people_in_view(people), segmenter, hidden_below,
     )  # fmt: skip
 
 
