@@ -2210,6 +2210,36 @@ def wave_both_arms_crossing() -> Motion:
     )
 
 
+def wave_big_arcs_right() -> Motion:
+    """Waving to someone far away: the right arm almost straight, swung in big arcs
+    across the side of the body, from out at shoulder height to above the head."""
+    return _waving(
+        "wave_big_arcs_right",
+        0.5,
+        3.35,
+        3.9,
+        1.1,
+        {"RightArm": (-5, 0, -140), "RightForeArm": (0, 0, -8)},
+        ({"RightArm": (-5, 0, -152)}, {"RightArm": (-5, 0, -45)}),
+        {"LowerBack": (0, 0, 2), "Head": (-5, 0, 0)},
+    )
+
+
+def wave_big_arcs_both() -> Motion:
+    """Both arms almost straight, swung together in big arcs from out at shoulder height
+    to above the head, where the hands nearly meet, and down again."""
+    return _waving(
+        "wave_big_arcs_both",
+        0.55,
+        3.4,
+        3.9,
+        1.2,
+        _raised(-5, 140, 8),
+        (_raised(-5, 155), _raised(-5, 45)),
+        {"Neck": (-6, 0, 0), "Head": (-6, 0, 0)},
+    )
+
+
 # -- pick up ----------------------------------------------------------------------------------
 
 
@@ -2971,6 +3001,8 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "wave_left_hand": wave_left_hand,
     "wave_both_hands": wave_both_hands,
     "wave_both_arms_crossing": wave_both_arms_crossing,
+    "wave_big_arcs_right": wave_big_arcs_right,
+    "wave_big_arcs_both": wave_big_arcs_both,
     "pick_up_squatting": pick_up_squatting,
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
