@@ -80,12 +80,8 @@ from eigmotion.retrieval.neighbours import (
     check_points,
     check_queries,
     check_top_k,
-    kernels,
 )
-
-#: Relative slack on pruning comparisons; bounds are exact lower bounds in floating
-#: point already, this only guards against a different summation order.
-_SLACK = 1.0 + 1e-9
+from eigmotion.retrieval.walk import box_codes, node_refs, walk_kernels
 
 
 def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -95,38 +91,6 @@ def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(counts) - counts
     return np.repeat(starts - offsets, counts) + np.arange(total)
-
-
-def _tile_index(starts: np.ndarray, n: int, n_dims: int) -> tuple[np.ndarray, np.ndarray]:
-    """Where row ``i`` of (n, k) rows cut into runs at ``starts`` lies in the tiles:
-    (n,) position of its coordinate 0 and (n,) stride between its coordinates."""
-    sizes = np.diff(np.append(starts, n))
-    run_start = np.repeat(starts, sizes)
-    return run_start * (n_dims - 1) + np.arange(n), np.repeat(sizes, sizes)
-
-
-def _tiles(rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
-    """(n * k,) float32: the (n, k) ``rows`` cut into runs at ``starts`` (ascending,
-    from 0), each run stored by coordinate — coordinate ``a`` of row ``s + j`` of the
-    run ``s … s + m − 1`` at ``s·k + a·m + j`` — so a run is one contiguous tile whose
-    loop over rows runs in vector registers."""
-    n, n_dims = rows.shape
-    out = np.empty(n * n_dims, dtype=np.float32)
-    if n:
-        base, stride = _tile_index(starts, n, n_dims)
-        for a in range(n_dims):
-            out[base + a * stride] = rows[:, a]
-    return out
-
-
-def _untile(tiles: np.ndarray, starts: np.ndarray, n: int, n_dims: int) -> np.ndarray:
-    """The (n, k) rows of :func:`_tiles`."""
-    out = np.empty((n, n_dims), dtype=np.float32)
-    if n:
-        base, stride = _tile_index(starts, n, n_dims)
-        for a in range(n_dims):
-            out[:, a] = tiles[base + a * stride]
-    return out
 
 
 def _check_keys(keys: np.ndarray, points: np.ndarray, ids: np.ndarray, quantizer) -> None:
@@ -348,11 +312,24 @@ class TreeIndex:
         self._edges = np.ascontiguousarray(self.quantizer.edges_, dtype=np.float64)
         self._boxes(points, starts, seg_node, level_first)
         self._flatten()
-        self._tiles = _tiles(points, starts)
-        # The children's boxes in tiles too: a node's children are bounded together.
-        runs = np.sort(self._child_first[self._child_count > 0])
-        self._child_lo = _tiles(self._lo[self._child_list], runs)
-        self._child_hi = _tiles(self._hi[self._child_list], runs)
+        self._points = points
+        # The walk's tables: each search-tree child's box (low corner, high corner) in
+        # child-list order, so a node's children's boxes lie together, and per node
+        # its entries, its search-tree children and its base-tree children.
+        parents = np.flatnonzero(self._child_count > 0)
+        self._frames, self._codes = box_codes(
+            self._lo, self._hi, parents, self._child_first, self._child_count, self._child_list
+        )
+        frame = np.zeros(self._size.size, dtype=np.int64)
+        frame[parents] = np.arange(parents.size)
+        refs = (self._start, self._end, self._child_first, self._child_count, frame)
+        self._kid_a, self._kid_b = node_refs(self._child_list, *refs)
+        (root_a,), (root_b,) = node_refs(np.zeros(1, dtype=np.int64), *refs)
+        self._root = (int(root_a), int(root_b))
+        self._nodes = np.ascontiguousarray(
+            np.stack([self._start, self._end, self._base_first, self._base_count], axis=1),
+            dtype=np.int64,
+        )
 
     def _boxes(self, points, starts, leaf_of_segment, level_first) -> None:
         """Tight boxes: leaves from their entries, then every parent from its children."""
@@ -415,8 +392,7 @@ class TreeIndex:
     @property
     def points(self) -> np.ndarray:
         """(N, k) float32 entry points in tree order (gathered from the leaves' tiles)."""
-        self._tree()
-        return _untile(self._tiles, self._leaf_starts, self._n_entries, self._n_dims)
+        return self._tree()._points
 
     @property
     def ids(self) -> np.ndarray:
@@ -593,11 +569,10 @@ class TreeIndex:
         ids = np.empty((n, top_k), dtype=np.int64)
         distances = np.empty((n, top_k), dtype=np.float64)
         examined = np.empty(n, dtype=np.int64)
-        kernels().best_first(
-            self._tiles, self.ids, self._lo, self._hi, self._child_lo, self._child_hi,
-            self._child_first, self._child_count, self._child_list, self._is_leaf, self._start,
-            self._end, queries, self._edges, self._prefix_digits, self._prefix_nodes,
-            self._prefix_first, self._size, self._base_first, self._base_count,
-            self._widest, _SLACK, max_sq, ids, distances, examined,
+        walk_kernels().walk(
+            self._points, self._ids, self._codes, self._frames, self._kid_a, self._kid_b,
+            *self._root, self._nodes, self._lo, self._hi, queries, self._edges,
+            self._prefix_digits, self._prefix_nodes, self._prefix_first, max_sq, ids,
+            distances, examined,
         )  # fmt: skip
         return NearestEntries(ids, distances, examined)
