@@ -249,6 +249,7 @@ def _walk(points, ids, codes, frames, kid_a, kid_b, root_a, root_b, nodes, lo, h
                     heap_a[i], heap_b[i] = heap_a[child], heap_b[child]
                     i = child
                 heap_bound[i], heap_a[i], heap_b[i] = last_bound, last_a, last_b
+                _prefetch_visit(heap_a[0], heap_b[0], points, ids, codes, frames, kid_a, kid_b)
             if bound > sq_row[last] * slack:
                 break  # every bound left is at least as far
             if item_b < 0:  # a leaf: entries item_a … -item_b - 2
@@ -276,12 +277,70 @@ def _walk(points, ids, codes, frames, kid_a, kid_b, root_a, root_b, nodes, lo, h
                     heap_a[i], heap_b[i] = heap_a[parent], heap_b[parent]
                     i = parent
                 heap_bound[i], heap_a[i], heap_b[i] = kid_bound, kid_a[slot], kid_b[slot]
+                if i == 0:  # the next visit
+                    _prefetch_visit(heap_a[0], heap_b[0], points, ids, codes, frames, kid_a,
+                                    kid_b)  # fmt: skip
         examined[qi] = measured
         for t in range(top_k):
             if id_row[t] == SENTINEL:
                 out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
             else:
                 out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
+
+
+def _prefetch_visit(item_a, item_b, points, ids, codes, frames, kid_a, kid_b):  # pragma: no cover - JIT
+    """Ask the memory for what the visit of heap item ``(item_a, item_b)`` reads (a
+    leaf's points and ids; an inner node's frame, children's codes and references), so
+    that it arrives while the current visit runs."""
+    if item_b < 0:
+        n_dims = points.shape[1]
+        stop = -item_b - 1
+        for offset in range(item_a * n_dims, stop * n_dims, 16):  # 16 float32: 64 bytes
+            _prefetch(points, offset)
+        _prefetch(points, stop * n_dims - 1)
+        _prefetch(ids, item_a)
+        _prefetch(ids, stop - 1)
+        return
+    count, frame = item_b >> _COUNT_SHIFT, item_b & _FRAME_MASK
+    width = frames.shape[1] * frames.shape[2]
+    for offset in range(frame * width, (frame + 1) * width, 16):
+        _prefetch(frames, offset)
+    width = codes.shape[1] * codes.shape[2]
+    for offset in range(item_a * width, (item_a + count) * width, 64):  # 64 bytes
+        _prefetch(codes, offset)
+    _prefetch(codes, (item_a + count) * width - 1)
+    _prefetch(kid_a, item_a)
+    _prefetch(kid_a, item_a + count - 1)
+    _prefetch(kid_b, item_a)
+    _prefetch(kid_b, item_a + count - 1)
+
+
+def _prefetch_intrinsic():
+    """``_prefetch(array, offset)``: a compiled hint to bring the cache line holding
+    item ``offset`` of a C-contiguous ``array`` (counted flat) into the caches."""
+    from numba.core import cgutils, types
+    from numba.extending import intrinsic
+
+    ir = cgutils.ir  # llvmlite's IR builder, as numba uses it
+
+    @intrinsic
+    def prefetch(typingctx, array, offset):
+        if not isinstance(array, types.Array) or not isinstance(offset, types.Integer):
+            return None
+
+        def codegen(context, builder, signature, args):
+            data = context.make_array(signature.args[0])(context, builder, args[0]).data
+            pointer = builder.bitcast(builder.gep(data, [args[1]]), cgutils.voidptr_t)
+            suffix = "p0" if str(pointer.type) == "ptr" else "p0i8"
+            i32 = ir.IntType(32)
+            fnty = ir.FunctionType(ir.VoidType(), [pointer.type, i32, i32, i32])
+            fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch." + suffix)
+            builder.call(fn, [pointer, i32(0), i32(3), i32(1)])  # read, keep, data
+            return context.get_dummy_value()
+
+        return types.void(array, offset), codegen
+
+    return prefetch
 
 
 def _grown(array, size):  # pragma: no cover - JIT
@@ -293,7 +352,7 @@ def _grown(array, size):  # pragma: no cover - JIT
 
 # The shared in-order distance and the running best's insertion
 # (:mod:`eigmotion.retrieval.neighbours`), compiled: set by :func:`_compiled`.
-_exact_sq = _offer = None
+_exact_sq = _offer = _prefetch = None
 
 _COMPILING = threading.Lock()
 
@@ -312,7 +371,8 @@ def _compiled() -> SimpleNamespace:
     from numba import njit
 
     global _screen_box, _screen_point, _measure, _key_start, _walk, _grown
-    global _exact_sq, _offer
+    global _exact_sq, _offer, _prefetch, _prefetch_visit
+    _prefetch = _prefetch_intrinsic()
     shared = kernels()
     _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
     plain = njit(cache=True, nogil=True)
@@ -322,5 +382,6 @@ def _compiled() -> SimpleNamespace:
     _measure = plain(_measure)
     _key_start = plain(_key_start)
     _grown = plain(_grown)
+    _prefetch_visit = plain(_prefetch_visit)
     _walk = plain(_walk)
     return SimpleNamespace(walk=_walk)
