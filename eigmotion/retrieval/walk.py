@@ -116,15 +116,22 @@ def _screen_box(codes, slot, frames, frame, query):  # pragma: no cover - JIT
     parent's frame ``frame``."""
     total = np.float32(0.0)
     for a in range(query.shape[0]):
-        qa = query[a]
-        base, step = frames[frame, 0, a], frames[frame, 1, a]
-        near = base + np.float32(codes[slot, 0, a]) * step
-        near = near if near > qa else qa
-        high = base + np.float32(codes[slot, 1, a]) * step
-        near = near if near < high else high
-        d = near - qa
+        d = _box_gap(frames[frame, 0, a], frames[frame, 1, a], codes[slot, 0, a],
+                     codes[slot, 1, a], query[a])  # fmt: skip
         total += d * d
     return total
+
+
+def _box_gap(base, step, code_low, code_high, q):  # pragma: no cover - JIT
+    """``q``'s signed distance to the interval ``[base + code_low·step, base +
+    code_high·step]`` (0 inside), float32.  Compiled without fast-math, so inlined into
+    a screen its arithmetic is never reordered: the corners are exact, the difference
+    rounded once."""
+    low = base + np.float32(code_low) * step
+    high = base + np.float32(code_high) * step
+    near = low if low > q else q
+    near = near if near < high else high
+    return near - q
 
 
 def _screen_point(points, row, query):  # pragma: no cover - JIT
@@ -370,13 +377,14 @@ def walk_kernels() -> SimpleNamespace:
 def _compiled() -> SimpleNamespace:
     from numba import njit
 
-    global _screen_box, _screen_point, _measure, _key_start, _walk, _grown
+    global _box_gap, _screen_box, _screen_point, _measure, _key_start, _walk, _grown
     global _exact_sq, _offer, _prefetch, _prefetch_visit
     _prefetch = _prefetch_intrinsic()
     shared = kernels()
     _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
     plain = njit(cache=True, nogil=True)
     screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
+    _box_gap = plain(_box_gap)
     _screen_box = screen(_screen_box)
     _screen_point = screen(_screen_point)
     _measure = plain(_measure)
