@@ -179,6 +179,15 @@ def check_ids(ids, n: int) -> np.ndarray:
 
 
 def check_queries(queries, n_dims: int) -> np.ndarray:
+    if (
+        type(queries) is np.ndarray
+        and queries.dtype == np.float32
+        and queries.shape[-1:] == (n_dims,)
+        and queries.ndim <= 2
+        and queries.flags.c_contiguous
+        and np.isfinite(queries).all()
+    ):  # the common case, checked quickly: one query costs little
+        return queries if queries.ndim == 2 else queries[None, :]
     q = np.asarray(queries)
     if q.ndim == 1:
         q = q[None, :]

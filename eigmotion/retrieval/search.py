@@ -208,6 +208,7 @@ class TreeIndex:
         self._built = False
         self._building = threading.Lock()  # one thread builds; the others wait for it
         self._keys_checked = bool(check_keys)
+        self._kernel = None  # the compiled walk, fetched on the first walk
         if n > self.scan_entries:  # every search walks: build now
             self._tree()
         return self
@@ -569,7 +570,9 @@ class TreeIndex:
         ids = np.empty((n, top_k), dtype=np.int64)
         distances = np.empty((n, top_k), dtype=np.float64)
         examined = np.empty(n, dtype=np.int64)
-        walk_kernels().walk(
+        if self._kernel is None:
+            self._kernel = walk_kernels().walk
+        self._kernel(
             self._points, self._ids, self._codes, self._frames, self._kid_a, self._kid_b,
             *self._root, self._nodes, self._lo, self._hi, queries, self._edges,
             self._prefix_digits, self._prefix_nodes, self._prefix_first, max_sq, ids,

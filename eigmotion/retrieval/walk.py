@@ -47,7 +47,11 @@ _SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
 
 
 def box_codes(
-    lo: np.ndarray, hi: np.ndarray, parents: np.ndarray, first: np.ndarray, count: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    parents: np.ndarray,
+    first: np.ndarray,
+    count: np.ndarray,
     children: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The search-tree children's boxes, one byte per corner coordinate.
@@ -97,7 +101,11 @@ def box_codes(
 
 
 def node_refs(
-    nodes: np.ndarray, start: np.ndarray, end: np.ndarray, first: np.ndarray, count: np.ndarray,
+    nodes: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    first: np.ndarray,
+    count: np.ndarray,
     frame: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """What a visit of each of ``nodes`` reads, as two (n,) int64 references ``a``,
@@ -295,7 +303,8 @@ def _walk(points, ids, codes, frames, kid_a, kid_b, root_a, root_b, nodes, lo, h
                 out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
 
 
-def _prefetch_visit(item_a, item_b, points, ids, codes, frames, kid_a, kid_b):  # pragma: no cover - JIT
+def _prefetch_visit(item_a, item_b, points, ids, codes, frames, kid_a,
+                    kid_b):  # fmt: skip  # pragma: no cover - JIT
     """Ask the memory for what the visit of heap item ``(item_a, item_b)`` reads (a
     leaf's points and ids; an inner node's frame, children's codes and references), so
     that it arrives while the current visit runs."""
