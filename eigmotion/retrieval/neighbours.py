@@ -6,9 +6,9 @@ same :class:`NearestEntries`, check their arguments alike, keep each query's run
 best in a :class:`RunningBest`, and measure every distance with the one compiled
 function here (:func:`pair_sq_distances`, the coordinates' squared differences summed
 in order in float32), so that equal pairs give bit-identical distances and the tree's
-answers equal brute force's bit for bit.  The compiled loops (numba, compiled on first
-use) are all here, the tree's best-first walk among them: they call one another's
-compiled forms.
+answers equal brute force's bit for bit.  The compiled loops here (numba, compiled on
+first use) are the shared distance and the running best's insertion; the tree's walk
+(:mod:`eigmotion.retrieval.walk`) calls their compiled forms.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ class NearestEntries:
         slots.
     examined : (Q,) int64
         Entries the query was compared with: their distance summed, or (in the key
-        tree) dropped once the sum over the first axes exceeded the k-th best.
+        tree) an estimate of it that showed they could not enter the k best.
     """
 
     ids: np.ndarray

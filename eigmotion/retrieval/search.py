@@ -25,9 +25,10 @@ record):
 * for searching, each node's children are its highest descendants holding at most
   1/8 of its entries (or leaves).
 
-A query (one compiled loop per batch, which releases the GIL; Python only checks the
-arguments and allocates the answer, so one query at a time costs little more than in a
-batch):
+A query (one compiled loop per batch, :mod:`eigmotion.retrieval.walk`, which releases
+the GIL; Python only checks the arguments and allocates the answer, so one query at a
+time costs little more than in a batch; a batch is walked in key order, so that one
+query leaves in the caches much of what the next reads):
 
 1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
    deepest occupied key prefix; below it the child with the smallest bound is
@@ -37,11 +38,21 @@ batch):
    does not exceed the current k-th best go on the heap; the search ends when the
    nearest bound left exceeds the k-th best.
 
-Leaves' points and each node's children's boxes are stored as *tiles*, coordinate by
-coordinate (coordinate ``a`` of item ``j`` of a tile of ``m`` items at ``a·m + j``), so
-one leaf's distances or one node's children's bounds are summed axis by axis over the
-whole tile; after the first 16 axes (the eigenspace's widest) the rest is skipped when
-every partial sum already exceeds the k-th best (the terms are >= 0).
+The walk's memory (1,021,440 real motion-image points: 1,283 entries and about 560
+nodes visited, 4,100 child boxes bounded per query) decides its speed more than its
+arithmetic, so:
+
+* each node's children's boxes are stored one byte per corner coordinate, in a frame
+  of the node's own (:func:`~eigmotion.retrieval.walk.box_codes`: a power-of-two step
+  per axis, so every decoded corner is a float32 exactly and the decoded box holds the
+  child's box), next to one another: a node's visit reads its frame, its children's
+  codes and their references, three runs of memory;
+* a heap item carries what its visit reads (a leaf's entry range; an inner node's
+  children's slots and frame), so those loads wait on no table look-up, and the next
+  item's memory is asked for (prefetched) while the current item is visited;
+* bounds and a first estimate of each entry's distance are summed in SIMD registers in
+  any order (see the arithmetic below); an entry whose estimate may enter the k best is
+  measured again exactly.
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
@@ -56,10 +67,13 @@ a scanned search's ``examined`` is N.  The tree is built only when something wal
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
 ``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
 :class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
-(:mod:`eigmotion.retrieval.neighbours`), and a bound is the same sum with each ``p_a``
-replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance
-holds in floating point (a partial sum too), no entry that brute force would return is
-ever pruned, and the answers agree bit for bit.
+(:mod:`eigmotion.retrieval.neighbours`); only such distances enter the answer.  A
+bound (the same sum with each ``p_a`` replaced by the decoded box's nearest
+coordinate) and an entry's estimate are summed in any order, within a factor
+``1 + 2⁻¹⁴`` (:data:`~eigmotion.retrieval.walk.SLACK`, far above float32's worst case
+for these sums) of the in-order sum they stand for, and every cutoff they are
+compared with is multiplied by that factor; so no entry that brute force would return
+is ever pruned, and the answers agree bit for bit.
 """
 
 from __future__ import annotations
@@ -392,7 +406,7 @@ class TreeIndex:
     # -- description ----------------------------------------------------------------
     @property
     def points(self) -> np.ndarray:
-        """(N, k) float32 entry points in tree order (gathered from the leaves' tiles)."""
+        """(N, k) float32 entry points in tree order."""
         return self._tree()._points
 
     @property
@@ -493,7 +507,8 @@ class TreeIndex:
             raise InvalidParameterError("; ".join(problems[:5]))
 
     # -- searching --------------------------------------------------------------------
-    #: Queries searched together (bounds the size of the working arrays).
+    #: Queries walked in one call of the compiled walk (in key order, see the module
+    #: docstring).
     query_block = 512
     #: A search over at most ``scan_entries`` entries is answered by scanning every
     #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
@@ -529,8 +544,8 @@ class TreeIndex:
         NearestEntries
             ``ids`` and ``distances`` (Q, top_k) equal to
             :func:`~eigmotion.retrieval.brute_force.brute_force`'s; ``examined`` counts the
-            entries the query was compared with (its distance summed, or dropped once
-            the sum over the first axes exceeded the k-th best): N for every query of
+            entries the query was compared with (its distance summed, or an estimate
+            of it that showed it could not enter the k best): N for every query of
             a batch answered by scanning (see ``scan_entries``).
         """
         q = check_queries(queries, self.n_dims)
@@ -553,23 +568,26 @@ class TreeIndex:
 
     def _walk(self, q: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
         self._tree()
-        parts = [
-            self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
-            for lo in range(0, q.shape[0], self.query_block)
-        ]
-        if len(parts) == 1:
-            return parts[0]
-        return NearestEntries(
-            np.concatenate([p.ids for p in parts]),
-            np.concatenate([p.distances for p in parts]),
-            np.concatenate([p.examined for p in parts]),
-        )
-
-    def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
-        n = queries.shape[0]
+        n = q.shape[0]
         ids = np.empty((n, top_k), dtype=np.int64)
         distances = np.empty((n, top_k), dtype=np.float64)
         examined = np.empty(n, dtype=np.int64)
+        if n == 1:
+            self._search_block(q, max_sq, ids, distances, examined)
+            return NearestEntries(ids, distances, examined)
+        # Queries in key order: one query's visits leave in the caches much of what
+        # the next one, near it, reads.
+        order = np.argsort(self.quantizer.keys(q), kind="stable")
+        for lo in range(0, n, self.query_block):
+            rows = order[lo : lo + self.query_block]
+            block = [np.empty((rows.size, top_k), np.int64), np.empty((rows.size, top_k))]
+            block.append(np.empty(rows.size, np.int64))
+            self._search_block(q[rows], max_sq, *block)
+            ids[rows], distances[rows], examined[rows] = block
+        return NearestEntries(ids, distances, examined)
+
+    def _search_block(self, queries, max_sq, ids, distances, examined) -> None:
+        """Fill ``ids``, ``distances`` (Q, top_k) and ``examined`` (Q,) for ``queries``."""
         if self._kernel is None:
             self._kernel = walk_kernels().walk
         self._kernel(
@@ -578,4 +596,3 @@ class TreeIndex:
             self._prefix_digits, self._prefix_nodes, self._prefix_first, max_sq, ids,
             distances, examined,
         )  # fmt: skip
-        return NearestEntries(ids, distances, examined)
