@@ -69,11 +69,11 @@ Arithmetic: queries are rounded to float32 like the points; a squared distance i
 :class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
 (:mod:`eigmotion.retrieval.neighbours`); only such distances enter the answer.  A
 bound (the same sum with each ``p_a`` replaced by the decoded box's nearest
-coordinate) and an entry's estimate are summed in any order, within a factor
-``1 + 2⁻¹⁴`` (:data:`~eigmotion.retrieval.walk.SLACK`, far above float32's worst case
-for these sums) of the in-order sum they stand for, and every cutoff they are
-compared with is multiplied by that factor; so no entry that brute force would return
-is ever pruned, and the answers agree bit for bit.
+coordinate) and an entry's estimate are summed in any order, within about ``(2k +
+1)·2⁻²⁴`` of the in-order sum they stand for, and every cutoff they are compared with
+is multiplied by :func:`~eigmotion.retrieval.walk.slack` ``= 1 + (k + 2)·2⁻²¹``; so
+no entry that brute force would return is ever pruned, and the answers agree bit for
+bit.
 """
 
 from __future__ import annotations

@@ -6,11 +6,14 @@ of sums are taken:
 * *screens* — a box's lower bound and an entry's first estimate of its squared
   distance — are summed over the axes in any order, in SIMD registers
   (``fastmath`` reassociation and fused multiply-add, no assumption about infinities
-  or NaN).  A reordered float32 sum of ``n`` non-negative terms lies within a factor
-  ``1 ± γ_n`` (``γ_n = n·u / (1 − n·u)``, ``u = 2⁻²⁴``) of the exact sum of the
-  rounded terms, so a screen never exceeds the in-order sum it stands for by more than
-  ``(1 + γ_n) / (1 − γ_n)``: :data:`SLACK` (``1 + 2⁻¹⁴`` here, far above that for any
-  k below 1000 axes) multiplies every cutoff a screen is compared with.
+  or NaN).  A float32 sum of ``k`` non-negative terms, in any order, lies within a
+  factor ``1 ± γ_k`` (``γ_k = k·u / (1 − k·u)``, ``u = 2⁻²⁴``) of the exact sum of its
+  terms, and a fused term is at most ``1 + u`` times the rounded one; each term of a
+  screen is at most the in-order sum's term it stands for (a box's decoded corner is
+  exact and lies between the query and the entry, and rounding is monotonic).  So a
+  screen never exceeds the in-order sum by more than about ``(2k + 1)·u`` of it, and
+  every cutoff a screen is compared with is multiplied by :func:`slack` ``= 1 + (k +
+  2)·2⁻²¹``, four times that.
 * *distances* — an entry that passes its screen is measured again with the shared
   in-order sum (:func:`eigmotion.retrieval.neighbours.pair_sq_distances`'s), the
   very bits brute force computes, and only that distance enters the running best.
@@ -29,8 +32,15 @@ import numpy as np
 
 from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL, kernels
 
-#: Cutoffs compared with a screened sum are multiplied by this (see the module docstring).
-SLACK = 1.0 + 2.0**-14
+#: Relative slack per axis of the cutoffs a screen is compared with (see :func:`slack`).
+SLACK_PER_AXIS = 2.0**-21
+
+
+def slack(n_dims: int) -> float:
+    """The factor ``1 + (k + 2)·2⁻²¹`` every cutoff compared with a screen of ``k =
+    n_dims`` axes is multiplied by (see the module docstring)."""
+    return 1.0 + (n_dims + 2) * SLACK_PER_AXIS
+
 
 #: Columns of the per-node table ``nodes`` (int64): first entry, end entry, first
 #: base-tree child, base-tree children (0 for a leaf).
@@ -221,7 +231,7 @@ def _walk(points, ids, codes, frames, kid_a, kid_b, root_a, root_b, nodes, lo, h
     (the frame, the children's codes and references, the leaf's points) do not wait
     on one another.
     """
-    slack = SLACK
+    slack = 1.0 + (queries.shape[1] + 2) * SLACK_PER_AXIS  # slack(k)
     top_k = out_ids.shape[1]
     last = top_k - 1
     sq_row = np.empty(top_k, np.float64)
