@@ -473,8 +473,10 @@ def main(argv=None) -> int:
         bench_eigenspace(*args.eigenspace, rng)
         return 0
     faiss_ok = have_faiss()
-    # The tree's search loops are compiled on first use: compile them before timing.
-    warm, points = Tree(), motion_like(CLUSTER, args.dims, np.random.default_rng(args.seed))
+    # The tree's walk is compiled on first use (and numba loaded, which decides how
+    # small sets are searched): walk once before timing.
+    warm = Tree(walk=True)
+    points = motion_like(CLUSTER, args.dims, np.random.default_rng(args.seed))
     warm.build(points, np.arange(CLUSTER))
     warm.search(points[:2])
 

@@ -6,9 +6,9 @@ same :class:`NearestEntries`, check their arguments alike, keep each query's run
 best in a :class:`RunningBest`, and measure every distance with the one compiled
 function here (:func:`pair_sq_distances`, the coordinates' squared differences summed
 in order in float32), so that equal pairs give bit-identical distances and the tree's
-answers equal brute force's bit for bit.  The compiled loops (numba, compiled on first
-use) are all here, the tree's best-first walk among them: they call one another's
-compiled forms.
+answers equal brute force's bit for bit.  The compiled loops here (numba, compiled on
+first use) are the shared distance and the running best's insertion; the tree's walk
+(:mod:`eigmotion.retrieval.walk`) calls their compiled forms.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ class NearestEntries:
         slots.
     examined : (Q,) int64
         Entries the query was compared with: their distance summed, or (in the key
-        tree) dropped once the sum over the first axes exceeded the k-th best.
+        tree) an estimate of it that showed they could not enter the k best.
     """
 
     ids: np.ndarray
@@ -100,246 +100,12 @@ def _row_sq_distance(point, query):  # pragma: no cover - JIT
     return total
 
 
-def _row_box_bound(lo, hi, query):  # pragma: no cover - JIT
-    """The same sum with each ``point_a`` replaced by the box ``[lo, hi]``'s coordinate
-    nearest the query's: never more than :func:`_row_sq_distance` to a point inside."""
-    total = np.float32(0.0)
-    for a in range(query.shape[0]):
-        near = min(max(lo[a], query[a]), hi[a])
-        d = near - query[a]
-        total += d * d
-    return total
-
-
-#: Entries measured together by :func:`_measure_leaf`.
-_BLOCK = 64
-#: Axes summed for every entry or box before the ones already too far are dropped.
-_HEAD = 16
-
-
 def _pair_sq_distances_kernel(points, queries, out):  # pragma: no cover - JIT
     """``out`` (m,) float32: :func:`_row_sq_distance` of each row of ``points`` (m, k)
     to the same row of ``queries`` (m, k), or to its one row (1, k)."""
     one = queries.shape[0] == 1
     for i in range(points.shape[0]):
         out[i] = _row_sq_distance(points[i], queries[0] if one else queries[i])
-
-
-def _measure_leaf(
-    tiles, ids, start, stop, query, scratch, sq_row, id_row
-):  # pragma: no cover - JIT
-    """Offer the entries ``start … stop-1`` of one leaf to the running best.
-
-    The leaf's points are one tile stored by coordinate (``tiles[start·k + a·m + j]``,
-    ``m`` entries), so each entry's :func:`_row_sq_distance` is taken axis by axis over
-    the leaf: the loop over entries runs in vector registers while every entry's own
-    sum keeps its order.  When after the first ``_HEAD`` axes (the eigenspace's
-    widest) every partial sum exceeds the k-th best, the rest is skipped: the terms
-    are >= 0, so none can enter.  ``scratch`` holds at least ``_BLOCK`` float32.
-    """
-    n_dims = query.shape[0]
-    head = min(_HEAD, n_dims)
-    last = sq_row.shape[0] - 1
-    m_all = stop - start
-    base = start * n_dims
-    for first in range(0, m_all, _BLOCK):
-        n = min(_BLOCK, m_all - first)
-        acc = scratch[:n]
-        acc[:] = np.float32(0.0)
-        _add_sq_terms(tiles, base + first, m_all, n, query, 0, head, acc)
-        worst = sq_row[last]
-        near = False
-        for j in range(n):
-            near |= acc[j] <= worst
-        if not near:
-            continue
-        _add_sq_terms(tiles, base + first, m_all, n, query, head, n_dims, acc)
-        for j in range(n):
-            if acc[j] <= sq_row[last]:
-                _offer(acc[j], ids[start + first + j], sq_row, id_row)
-
-
-def _add_sq_terms(tiles, offset, stride, n, query, a_first, a_stop, acc):  # pragma: no cover - JIT
-    """``acc[j] += (tiles[offset + a·stride + j] − query[a])²`` for axes ``a_first …
-    a_stop-1`` in order, each axis over the ``n`` entries at once."""
-    for a in range(a_first, a_stop):
-        qa = query[a]
-        row = tiles[offset + a * stride : offset + a * stride + n]
-        for j in range(n):
-            d = row[j] - qa
-            acc[j] += d * d
-
-
-def _add_box_terms(
-    lo_tiles, hi_tiles, offset, n, query, a_first, a_stop, acc
-):  # pragma: no cover - JIT
-    """:func:`_add_sq_terms` for boxes: the term of the box's coordinate nearest the
-    query's, for ``n`` boxes stored as a tile (stride ``n``)."""
-    for a in range(a_first, a_stop):
-        qa = query[a]
-        low = lo_tiles[offset + a * n : offset + a * n + n]
-        high = hi_tiles[offset + a * n : offset + a * n + n]
-        for c in range(n):
-            d = min(max(low[c], qa), high[c]) - qa
-            acc[c] += d * d
-
-
-def _block_box_bounds(lo_tiles, hi_tiles, first, n, query, cutoff, out):  # pragma: no cover - JIT
-    """``out[:n]``: lower bounds of the squared distance from ``query`` to a node's
-    ``n`` children, at ``first …`` of the child list.
-
-    The children's boxes are one tile stored by coordinate (as :func:`_measure_leaf`'s
-    points), bounded axis by axis over the children, so the loop runs in vector
-    registers while every box's own sum (:func:`_row_box_bound`'s terms) keeps its
-    order.  When after the first ``_HEAD`` axes every partial sum exceeds ``cutoff``
-    the rest is skipped (the partial sums are lower bounds too).
-    """
-    n_dims = query.shape[0]
-    head = min(_HEAD, n_dims)
-    acc = out[:n]
-    acc[:] = np.float32(0.0)
-    _add_box_terms(lo_tiles, hi_tiles, first * n_dims, n, query, 0, head, acc)
-    near = False
-    for c in range(n):
-        near |= acc[c] <= cutoff
-    if near:
-        _add_box_terms(lo_tiles, hi_tiles, first * n_dims, n, query, head, n_dims, acc)
-
-
-def _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf, base_first,
-               base_count, lo, hi):  # fmt: skip  # pragma: no cover - JIT
-    """A small node near ``query``, measured first for a first k-th best.
-
-    The query's own key (the patent's lookup: its section on each key axis, digit by
-    digit) finds the deepest occupied key prefix holding >= ``top_k`` entries; below it
-    the child with the smallest bound is followed while the node holds more than
-    ``budget`` entries.  ``digits`` / ``nodes`` list each level's key prefixes and their
-    nodes, level ``d`` in ``level_first[d] … level_first[d+1]-1``.
-    """
-    current = 0
-    prefix = 0
-    for depth in range(level_first.shape[0] - 1):
-        section = np.searchsorted(edges[depth], query[depth], side="right")
-        prefix = prefix * (edges.shape[1] + 1) + section
-        first, stop = level_first[depth], level_first[depth + 1]
-        if stop > first:
-            pos = first + np.searchsorted(digits[first:stop], prefix)
-            pos = min(pos, stop - 1)
-            if digits[pos] == prefix and size[nodes[pos]] >= top_k:
-                current = nodes[pos]
-    while not is_leaf[current]:
-        chosen = -1
-        chosen_bound = np.inf
-        for kid in range(base_first[current], base_first[current] + base_count[current]):
-            if size[kid] < top_k:
-                continue
-            kid_bound = _row_box_bound(lo[kid], hi[kid], query)
-            if kid_bound < chosen_bound:
-                chosen, chosen_bound = kid, kid_bound
-        if chosen < 0:
-            break
-        current = chosen
-    return current
-
-
-def _best_first(
-    tiles, ids, lo, hi, child_lo, child_hi, first, count, children, is_leaf, start, end,
-    queries, edges, digits, nodes, level_first, size, base_first, base_count, widest,
-    slack, max_sq, out_ids, out_distances, examined,
-):  # fmt: skip  # pragma: no cover - JIT
-    """Exact k nearest entries of each query, nearest lower bound first.
-
-    Fills ``out_ids`` (Q, k) int64 and ``out_distances`` (Q, k) float64 as
-    :meth:`RunningBest.result` does (nearest first; ``NO_ENTRY`` and inf in slots left
-    empty by the squared cutoff ``max_sq``) and ``examined`` (Q,) int64 with the
-    entries measured.  A query's running best starts as ``top_k`` empty slots (the
-    cutoff and ``_SENTINEL``).  Each query first measures the entries of the
-    node its key leads to (:func:`_key_start`), then pops nodes from a heap ordered by
-    lower bound, skipping what that node held, and stops when the nearest bound left
-    exceeds its k-th best.  An entry enters the best when its (squared distance, id)
-    is smaller than the k-th best's.
-    """
-    n_nodes = lo.shape[0]
-    top_k = out_ids.shape[1]
-    sq_row = np.empty(top_k, np.float64)
-    id_row = np.empty(top_k, np.int64)
-    # The heap grows (doubling) as needed: a query holds few nodes in it, and a small
-    # allocation per call keeps one query at a time cheap.
-    heap_bound = np.empty(min(n_nodes, 1024), np.float32)
-    heap_node = np.empty(min(n_nodes, 1024), np.int64)
-    scratch = np.empty(_BLOCK, np.float32)
-    bounds = np.empty(max(1, widest), np.float32)
-    for qi in range(queries.shape[0]):
-        query = queries[qi]
-        sq_row[:] = max_sq
-        id_row[:] = _SENTINEL
-        g = _key_start(query, top_k, edges, digits, nodes, level_first, size, is_leaf,
-                       base_first, base_count, lo, hi)  # fmt: skip
-        g_start, g_end = start[g], end[g]
-        measured = 0
-        if is_leaf[g]:
-            _measure_leaf(tiles, ids, g_start, g_end, query, scratch, sq_row, id_row)
-            measured = g_end - g_start
-        else:  # no leaf of >= top_k entries: nothing measured first
-            g_start, g_end = 0, 0
-        heap_bound[0], heap_node[0] = np.float32(0.0), 0  # the root
-        size_heap = 1
-        while size_heap > 0:
-            bound, node = heap_bound[0], heap_node[0]
-            size_heap -= 1
-            if size_heap > 0:  # the last item sifts down from the top
-                last_bound, last_node = heap_bound[size_heap], heap_node[size_heap]
-                i = 0
-                while True:
-                    child = 2 * i + 1
-                    if child >= size_heap:
-                        break
-                    if child + 1 < size_heap and heap_bound[child + 1] < heap_bound[child]:
-                        child += 1
-                    if heap_bound[child] >= last_bound:
-                        break
-                    heap_bound[i], heap_node[i] = heap_bound[child], heap_node[child]
-                    i = child
-                heap_bound[i], heap_node[i] = last_bound, last_node
-            if bound > sq_row[top_k - 1] * slack:
-                break  # every bound left is at least as far
-            if is_leaf[node]:
-                if start[node] >= g_start and end[node] <= g_end:
-                    continue  # measured first
-                _measure_leaf(tiles, ids, start[node], end[node], query, scratch, sq_row, id_row)
-                measured += end[node] - start[node]
-                continue
-            c_first = first[node]
-            cutoff = sq_row[top_k - 1] * slack
-            _block_box_bounds(child_lo, child_hi, c_first, count[node], query, cutoff, bounds)
-            for c in range(count[node]):
-                kid = children[c_first + c]
-                if start[kid] >= g_start and end[kid] <= g_end:
-                    continue
-                kid_bound = bounds[c]
-                if kid_bound > cutoff:
-                    continue
-                if size_heap == heap_bound.shape[0]:
-                    grown_bound = np.empty(2 * size_heap, np.float32)
-                    grown_node = np.empty(2 * size_heap, np.int64)
-                    grown_bound[:size_heap] = heap_bound
-                    grown_node[:size_heap] = heap_node
-                    heap_bound, heap_node = grown_bound, grown_node
-                i = size_heap  # sift up
-                size_heap += 1
-                while i > 0:
-                    parent = (i - 1) // 2
-                    if heap_bound[parent] <= kid_bound:
-                        break
-                    heap_bound[i], heap_node[i] = heap_bound[parent], heap_node[parent]
-                    i = parent
-                heap_bound[i], heap_node[i] = kid_bound, kid
-        examined[qi] = measured
-        for t in range(top_k):
-            if id_row[t] == _SENTINEL:
-                out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
-            else:
-                out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
 
 
 def _offer(sq, entry_id, sq_row, id_row):  # pragma: no cover - JIT
@@ -369,22 +135,18 @@ def kernels():
 def _compiled_kernels():
     """The row helpers are compiled first and put in place of their Python sources, so
     the kernels calling them find compiled functions.  No fast-math: every sum is
-    taken in order, the same in brute force and in the tree."""
+    taken in order, the same in brute force and in the tree's walk
+    (:mod:`eigmotion.retrieval.walk`, which calls ``row_sq_distance`` and ``offer``)."""
     from numba import njit
 
-    global _row_sq_distance, _row_box_bound, _offer, _measure_leaf, _key_start
-    global _block_box_bounds, _add_sq_terms, _add_box_terms
+    global _row_sq_distance, _offer
     jit = njit(cache=True, nogil=True)
     _row_sq_distance = jit(_row_sq_distance)
-    _row_box_bound = jit(_row_box_bound)
     _offer = jit(_offer)
-    _measure_leaf = jit(_measure_leaf)
-    _key_start = jit(_key_start)
-    _add_sq_terms = jit(_add_sq_terms)
-    _add_box_terms = jit(_add_box_terms)
-    _block_box_bounds = jit(_block_box_bounds)
     return SimpleNamespace(
-        pair_sq_distances=jit(_pair_sq_distances_kernel), best_first=jit(_best_first)
+        pair_sq_distances=jit(_pair_sq_distances_kernel),
+        row_sq_distance=_row_sq_distance,
+        offer=_offer,
     )
 
 
@@ -417,6 +179,15 @@ def check_ids(ids, n: int) -> np.ndarray:
 
 
 def check_queries(queries, n_dims: int) -> np.ndarray:
+    if (
+        type(queries) is np.ndarray
+        and queries.dtype == np.float32
+        and queries.shape[-1:] == (n_dims,)
+        and queries.ndim <= 2
+        and queries.flags.c_contiguous
+        and np.isfinite(queries).all()
+    ):  # the common case, checked quickly: one query costs little
+        return queries if queries.ndim == 2 else queries[None, :]
     q = np.asarray(queries)
     if q.ndim == 1:
         q = q[None, :]
@@ -453,13 +224,13 @@ def check_top_k(top_k, n_entries: int) -> int:
 #: Id of an empty slot in a result (fewer than top_k entries within max_distance).
 NO_ENTRY = -1
 
-_SENTINEL = np.iinfo(np.int64).max
+SENTINEL = np.iinfo(np.int64).max
 
 
 class RunningBest:
     """Running k best (squared distance, id) per query, ties by smaller id.
 
-    Empty slots hold ``(max_sq, _SENTINEL)``, which sorts after any entry at the same
+    Empty slots hold ``(max_sq, SENTINEL)``, which sorts after any entry at the same
     distance, so entries at exactly ``max_distance`` are kept.
     """
 
@@ -467,7 +238,7 @@ class RunningBest:
         self.top_k = top_k
         self.max_sq = max_sq
         self.sq = np.full((n_queries, top_k), max_sq)
-        self.ids = np.full((n_queries, top_k), _SENTINEL, dtype=np.int64)
+        self.ids = np.full((n_queries, top_k), SENTINEL, dtype=np.int64)
         self.examined = np.zeros(n_queries, dtype=np.int64)
 
     def bound(self) -> np.ndarray:
@@ -500,7 +271,7 @@ class RunningBest:
         q, sq, ids = q[better], sq[better], ids[better]
         rows = np.unique(q)
         old_sq, old_ids = self.sq[rows], self.ids[rows]
-        have = old_ids != _SENTINEL
+        have = old_ids != SENTINEL
         old_q = np.broadcast_to(rows[:, None], old_sq.shape)[have]
         all_q = np.concatenate([old_q, q])
         all_sq = np.concatenate([old_sq[have], sq])
@@ -510,12 +281,12 @@ class RunningBest:
         rank = _rank_in_groups(all_q)
         keep = rank < self.top_k
         self.sq[rows] = self.max_sq
-        self.ids[rows] = _SENTINEL
+        self.ids[rows] = SENTINEL
         self.sq[all_q[keep], rank[keep]] = all_sq[keep]
         self.ids[all_q[keep], rank[keep]] = all_ids[keep]
 
     def result(self) -> NearestEntries:
-        empty = self.ids == _SENTINEL
+        empty = self.ids == SENTINEL
         ids = np.where(empty, NO_ENTRY, self.ids)
         distances = np.where(empty, np.inf, np.sqrt(self.sq))
         return NearestEntries(ids, distances, self.examined.copy())

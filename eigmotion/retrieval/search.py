@@ -25,9 +25,10 @@ record):
 * for searching, each node's children are its highest descendants holding at most
   1/8 of its entries (or leaves).
 
-A query (one compiled loop per batch, which releases the GIL; Python only checks the
-arguments and allocates the answer, so one query at a time costs little more than in a
-batch):
+A query (one compiled loop per batch, :mod:`eigmotion.retrieval.walk`, which releases
+the GIL; Python only checks the arguments and allocates the answer, so one query at a
+time costs little more than in a batch; a batch is walked in key order, so that one
+query leaves in the caches much of what the next reads):
 
 1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
    deepest occupied key prefix; below it the child with the smallest bound is
@@ -37,11 +38,21 @@ batch):
    does not exceed the current k-th best go on the heap; the search ends when the
    nearest bound left exceeds the k-th best.
 
-Leaves' points and each node's children's boxes are stored as *tiles*, coordinate by
-coordinate (coordinate ``a`` of item ``j`` of a tile of ``m`` items at ``a·m + j``), so
-one leaf's distances or one node's children's bounds are summed axis by axis over the
-whole tile; after the first 16 axes (the eigenspace's widest) the rest is skipped when
-every partial sum already exceeds the k-th best (the terms are >= 0).
+The walk's memory (1,021,440 real motion-image points: 1,283 entries and about 560
+nodes visited, 4,100 child boxes bounded per query) decides its speed more than its
+arithmetic, so:
+
+* each node's children's boxes are stored one byte per corner coordinate, in a frame
+  of the node's own (:func:`~eigmotion.retrieval.walk.box_codes`: a power-of-two step
+  per axis, so every decoded corner is a float32 exactly and the decoded box holds the
+  child's box), next to one another: a node's visit reads its frame, its children's
+  codes and their references, three runs of memory;
+* a heap item carries what its visit reads (a leaf's entry range; an inner node's
+  children's slots and frame), so those loads wait on no table look-up, and the next
+  item's memory is asked for (prefetched) while the current item is visited;
+* bounds and a first estimate of each entry's distance are summed in SIMD registers in
+  any order (see the arithmetic below); an entry whose estimate may enter the k best is
+  measured again exactly.
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
@@ -56,10 +67,13 @@ a scanned search's ``examined`` is N.  The tree is built only when something wal
 Arithmetic: queries are rounded to float32 like the points; a squared distance is
 ``Σ_a (p_a − h_a)²`` summed in order in float32, the order shared with
 :class:`~eigmotion.retrieval.brute_force.BruteForceIndex`
-(:mod:`eigmotion.retrieval.neighbours`), and a bound is the same sum with each ``p_a``
-replaced by the box's nearest coordinate.  Rounding is monotonic, so bound ≤ distance
-holds in floating point (a partial sum too), no entry that brute force would return is
-ever pruned, and the answers agree bit for bit.
+(:mod:`eigmotion.retrieval.neighbours`); only such distances enter the answer.  A
+bound (the same sum with each ``p_a`` replaced by the decoded box's nearest
+coordinate) and an entry's estimate are summed in any order, within about ``(2k +
+1)·2⁻²⁴`` of the in-order sum they stand for, and every cutoff they are compared with
+is multiplied by :func:`~eigmotion.retrieval.walk.slack` ``= 1 + (k + 2)·2⁻²¹``; so
+no entry that brute force would return is ever pruned, and the answers agree bit for
+bit.
 """
 
 from __future__ import annotations
@@ -80,12 +94,8 @@ from eigmotion.retrieval.neighbours import (
     check_points,
     check_queries,
     check_top_k,
-    kernels,
 )
-
-#: Relative slack on pruning comparisons; bounds are exact lower bounds in floating
-#: point already, this only guards against a different summation order.
-_SLACK = 1.0 + 1e-9
+from eigmotion.retrieval.walk import box_codes, node_refs, walk_kernels
 
 
 def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -95,38 +105,6 @@ def _expand_ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     offsets = np.cumsum(counts) - counts
     return np.repeat(starts - offsets, counts) + np.arange(total)
-
-
-def _tile_index(starts: np.ndarray, n: int, n_dims: int) -> tuple[np.ndarray, np.ndarray]:
-    """Where row ``i`` of (n, k) rows cut into runs at ``starts`` lies in the tiles:
-    (n,) position of its coordinate 0 and (n,) stride between its coordinates."""
-    sizes = np.diff(np.append(starts, n))
-    run_start = np.repeat(starts, sizes)
-    return run_start * (n_dims - 1) + np.arange(n), np.repeat(sizes, sizes)
-
-
-def _tiles(rows: np.ndarray, starts: np.ndarray) -> np.ndarray:
-    """(n * k,) float32: the (n, k) ``rows`` cut into runs at ``starts`` (ascending,
-    from 0), each run stored by coordinate — coordinate ``a`` of row ``s + j`` of the
-    run ``s … s + m − 1`` at ``s·k + a·m + j`` — so a run is one contiguous tile whose
-    loop over rows runs in vector registers."""
-    n, n_dims = rows.shape
-    out = np.empty(n * n_dims, dtype=np.float32)
-    if n:
-        base, stride = _tile_index(starts, n, n_dims)
-        for a in range(n_dims):
-            out[base + a * stride] = rows[:, a]
-    return out
-
-
-def _untile(tiles: np.ndarray, starts: np.ndarray, n: int, n_dims: int) -> np.ndarray:
-    """The (n, k) rows of :func:`_tiles`."""
-    out = np.empty((n, n_dims), dtype=np.float32)
-    if n:
-        base, stride = _tile_index(starts, n, n_dims)
-        for a in range(n_dims):
-            out[:, a] = tiles[base + a * stride]
-    return out
 
 
 def _check_keys(keys: np.ndarray, points: np.ndarray, ids: np.ndarray, quantizer) -> None:
@@ -244,6 +222,7 @@ class TreeIndex:
         self._built = False
         self._building = threading.Lock()  # one thread builds; the others wait for it
         self._keys_checked = bool(check_keys)
+        self._kernel = None  # the compiled walk, fetched on the first walk
         if n > self.scan_entries:  # every search walks: build now
             self._tree()
         return self
@@ -348,11 +327,24 @@ class TreeIndex:
         self._edges = np.ascontiguousarray(self.quantizer.edges_, dtype=np.float64)
         self._boxes(points, starts, seg_node, level_first)
         self._flatten()
-        self._tiles = _tiles(points, starts)
-        # The children's boxes in tiles too: a node's children are bounded together.
-        runs = np.sort(self._child_first[self._child_count > 0])
-        self._child_lo = _tiles(self._lo[self._child_list], runs)
-        self._child_hi = _tiles(self._hi[self._child_list], runs)
+        self._points = points
+        # The walk's tables: each search-tree child's box (low corner, high corner) in
+        # child-list order, so a node's children's boxes lie together, and per node
+        # its entries, its search-tree children and its base-tree children.
+        parents = np.flatnonzero(self._child_count > 0)
+        self._frames, self._codes = box_codes(
+            self._lo, self._hi, parents, self._child_first, self._child_count, self._child_list
+        )
+        frame = np.zeros(self._size.size, dtype=np.int64)
+        frame[parents] = np.arange(parents.size)
+        refs = (self._start, self._end, self._child_first, self._child_count, frame)
+        self._kid_a, self._kid_b = node_refs(self._child_list, *refs)
+        (root_a,), (root_b,) = node_refs(np.zeros(1, dtype=np.int64), *refs)
+        self._root = (int(root_a), int(root_b))
+        self._nodes = np.ascontiguousarray(
+            np.stack([self._start, self._end, self._base_first, self._base_count], axis=1),
+            dtype=np.int64,
+        )
 
     def _boxes(self, points, starts, leaf_of_segment, level_first) -> None:
         """Tight boxes: leaves from their entries, then every parent from its children."""
@@ -414,9 +406,8 @@ class TreeIndex:
     # -- description ----------------------------------------------------------------
     @property
     def points(self) -> np.ndarray:
-        """(N, k) float32 entry points in tree order (gathered from the leaves' tiles)."""
-        self._tree()
-        return _untile(self._tiles, self._leaf_starts, self._n_entries, self._n_dims)
+        """(N, k) float32 entry points in tree order."""
+        return self._tree()._points
 
     @property
     def ids(self) -> np.ndarray:
@@ -516,7 +507,8 @@ class TreeIndex:
             raise InvalidParameterError("; ".join(problems[:5]))
 
     # -- searching --------------------------------------------------------------------
-    #: Queries searched together (bounds the size of the working arrays).
+    #: Queries walked in one call of the compiled walk (in key order, see the module
+    #: docstring).
     query_block = 512
     #: A search over at most ``scan_entries`` entries is answered by scanning every
     #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
@@ -552,8 +544,8 @@ class TreeIndex:
         NearestEntries
             ``ids`` and ``distances`` (Q, top_k) equal to
             :func:`~eigmotion.retrieval.brute_force.brute_force`'s; ``examined`` counts the
-            entries the query was compared with (its distance summed, or dropped once
-            the sum over the first axes exceeded the k-th best): N for every query of
+            entries the query was compared with (its distance summed, or an estimate
+            of it that showed it could not enter the k best): N for every query of
             a batch answered by scanning (see ``scan_entries``).
         """
         q = check_queries(queries, self.n_dims)
@@ -576,28 +568,31 @@ class TreeIndex:
 
     def _walk(self, q: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
         self._tree()
-        parts = [
-            self._search_block(q[lo : lo + self.query_block], top_k, max_sq)
-            for lo in range(0, q.shape[0], self.query_block)
-        ]
-        if len(parts) == 1:
-            return parts[0]
-        return NearestEntries(
-            np.concatenate([p.ids for p in parts]),
-            np.concatenate([p.distances for p in parts]),
-            np.concatenate([p.examined for p in parts]),
-        )
-
-    def _search_block(self, queries: np.ndarray, top_k: int, max_sq: float) -> NearestEntries:
-        n = queries.shape[0]
+        n = q.shape[0]
         ids = np.empty((n, top_k), dtype=np.int64)
         distances = np.empty((n, top_k), dtype=np.float64)
         examined = np.empty(n, dtype=np.int64)
-        kernels().best_first(
-            self._tiles, self.ids, self._lo, self._hi, self._child_lo, self._child_hi,
-            self._child_first, self._child_count, self._child_list, self._is_leaf, self._start,
-            self._end, queries, self._edges, self._prefix_digits, self._prefix_nodes,
-            self._prefix_first, self._size, self._base_first, self._base_count,
-            self._widest, _SLACK, max_sq, ids, distances, examined,
-        )  # fmt: skip
+        if n == 1:
+            self._search_block(q, max_sq, ids, distances, examined)
+            return NearestEntries(ids, distances, examined)
+        # Queries in key order: one query's visits leave in the caches much of what
+        # the next one, near it, reads.
+        order = np.argsort(self.quantizer.keys(q), kind="stable")
+        for lo in range(0, n, self.query_block):
+            rows = order[lo : lo + self.query_block]
+            block = [np.empty((rows.size, top_k), np.int64), np.empty((rows.size, top_k))]
+            block.append(np.empty(rows.size, np.int64))
+            self._search_block(q[rows], max_sq, *block)
+            ids[rows], distances[rows], examined[rows] = block
         return NearestEntries(ids, distances, examined)
+
+    def _search_block(self, queries, max_sq, ids, distances, examined) -> None:
+        """Fill ``ids``, ``distances`` (Q, top_k) and ``examined`` (Q,) for ``queries``."""
+        if self._kernel is None:
+            self._kernel = walk_kernels().walk
+        self._kernel(
+            self._points, self._ids, self._codes, self._frames, self._kid_a, self._kid_b,
+            *self._root, self._nodes, self._lo, self._hi, queries, self._edges,
+            self._prefix_digits, self._prefix_nodes, self._prefix_first, max_sq, ids,
+            distances, examined,
+        )  # fmt: skip
