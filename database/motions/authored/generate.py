@@ -3174,11 +3174,6 @@ KICK_EXTEND_S = 0.12
 KICK_RETRACT_S = 0.15
 KICK_DOWN_S = 0.22
 
-#: Seconds the guard is held, standing still, before the kicking foot leaves the floor
-#: (the kicks start in the guard: fists raised from the sides would draw the arms into
-#: the motion image as a wave or a punch does).
-KICK_LIFT_S = 0.5
-
 #: The right thigh at rest, hip to knee (body frame: x left, y up, z forward).
 RIGHT_THIGH_REST = tuple(
     rest_positions_m(canonical_skeleton())["RightLeg"]
@@ -3236,19 +3231,6 @@ def _right_leg(
     }
 
 
-def _in_boxing_guard() -> list[Key]:
-    """The first key of a kick: standing in the orthodox stance, in the guard, side-on
-    (where :func:`_into_boxing_guard` ends)."""
-    return [
-        Key(
-            0.0,
-            {**_guard_arms(), **BOXING_GUARD_BODY},
-            _stance(),
-            {**_boxing_feet(), **_guard(BOXING_GUARD)},
-        )
-    ]
-
-
 #: The right leg standing at the back of the orthodox stance (the IK plants the foot,
 #: this sets the way the knee bends).
 REAR_LEG_STANDING = _right_leg((0.0, -1.0, 0.05), (0.0, 0.0, 1.0), 10.0)
@@ -3275,18 +3257,18 @@ KickPhase = tuple[dict, dict, tuple[float, float, float], float, float]
 def _rear_leg_kick(
     name: str, chamber: KickPhase, hit: KickPhase, rechamber: KickPhase | None = None
 ) -> Motion:
-    """A kick with the rear (right) leg from the orthodox guard: stand in the guard,
+    """A kick with the rear (right) leg from the orthodox guard: settle in the guard,
     weight onto the front foot and the rear heel up, knee up (``chamber``), leg out
     (``hit``), knee back (``rechamber``, default the chamber), the foot down where it
     started, back in the guard; the standing foot pivots on its ball as each phase
     turns it.  Times from :data:`KICK_CHAMBER_S` and the rest."""
     rechamber = rechamber or chamber
     guard_body = _kick_body(STANCE_TURN_DEG, chest_deg=-10.0)
-    lift = KICK_LIFT_S
+    lift = 0.75
     times = np.cumsum([lift, KICK_CHAMBER_S, KICK_EXTEND_S, KICK_RETRACT_S])
     keys = [
-        *_in_boxing_guard(),
-        Key(0.3, {**REAR_LEG_STANDING, **guard_body}, _stance(), {**_rear_foot(), **_support()}),
+        *_into_boxing_guard(0.4),
+        Key(0.6, {**REAR_LEG_STANDING, **guard_body}, _stance(), {**_rear_foot(), **_support()}),
         Key(
             lift,
             _kick_body(STANCE_TURN_DEG + 5.0, chest_deg=-10.0),
@@ -3354,9 +3336,9 @@ def kick_roundhouse() -> Motion:
     pivots on its ball until the heel points at the target, the hip turns over (the
     kicking hip above the other), the knee comes up sideways and the shin whips round
     horizontally at chest height, striking with the instep; back the same way."""
-    chamber = _right_leg((-1.0, 0.15, 0.45), (0.0, 0.2, 1.0), 115.0, 40.0)
+    chamber = _right_leg((-1.0, 0.15, 0.45), (0.0, 0.2, 1.0), 125.0, 40.0)
     hit = _right_leg((-1.0, 0.25, 0.2), (0.0, 0.2, 1.0), 8.0, 45.0)
-    rechamber = _right_leg((-1.0, 0.1, 0.4), (0.0, 0.2, 1.0), 95.0, 40.0)
+    rechamber = _right_leg((-1.0, 0.1, 0.4), (0.0, 0.2, 1.0), 120.0, 40.0)
     return _rear_leg_kick(
         "kick_roundhouse",
         (_kick_body(45.0, 0.0, -20.0, -35.0, 4.0), chamber, (0.08, -0.02, 0.12), 50.0, 20.0),
@@ -3403,13 +3385,13 @@ def kick_axe() -> Motion:
     chop = _right_leg((-0.02, -0.1, 1.0), (0.0, 1.0, 0.1), 8.0, -15.0)
     guard_body = _kick_body(STANCE_TURN_DEG, chest_deg=-10.0)
     switched = _kick_body(-STANCE_TURN_DEG + 10.0, chest_deg=10.0)
-    lift = KICK_LIFT_S
+    lift = 0.75
     t_up, t_top, t_chop = lift + 0.2, lift + 0.36, lift + 0.52
     return _animate(
         [
-            *_in_boxing_guard(),
+            *_into_boxing_guard(0.4),
             Key(
-                0.3,
+                0.6,
                 {**REAR_LEG_STANDING, **guard_body},
                 _stance(),
                 {**_rear_foot(), **_support()},
