@@ -34,7 +34,17 @@ AUTHORED = REPO / "database" / "motions" / "authored"
 #: Motions in which both feet stay planted from start to end: those of these labels
 #: but the ones that step.
 PLANTED_PREFIXES = ("lift_", "sit_down_", "cover_head_", "pick_up_", "wave_")
-STEPPING = ("cover_head_stepping_back", "cover_head_kneeling_on_one_knee")
+STEPPING = (
+    "cover_head_stepping_back",
+    "cover_head_kneeling_on_one_knee",
+    "pick_up_walking_in",
+    "pick_up_walking_in_crouching",
+    "pick_up_jogging_in",
+)
+
+#: Motions with phases in which nothing touches the floor: jumps, runs and a pick-up
+#: jogged up to.
+FLYING_PREFIXES = ("jump_", "run_", "pick_up_jogging_")
 
 #: Labels with authored motions.
 AUTHORED_LABELS = (
@@ -48,6 +58,7 @@ AUTHORED_LABELS = (
     "wave",
     "pick_up",
     "punch",
+    "kick",
 )
 
 #: A foot point this close to the floor touches it, metres.
@@ -150,12 +161,12 @@ def _airborne(pose):
 
 def test_feet_on_the_floor_while_standing(authored_poses):
     """Standing phase: the hips above 0.5 m, i.e. the legs bear the weight; only the
-    flight of a jump or a running stride leaves the floor."""
+    flight of a jump or a running (jogging) stride leaves the floor."""
     for name, (_, pose) in authored_poses.items():
         standing = _joint(pose, "Hips")[:, 1] > 0.5
         assert standing[0], name
         flying = _airborne(pose) & standing
-        assert not flying.any() or name.startswith(("jump_", "run_")), name
+        assert not flying.any() or name.startswith(FLYING_PREFIXES), name
         lowest_foot = _feet_points(pose)[standing & ~flying, :, 1].min(axis=1)
         assert lowest_foot.max() <= TOUCHING_M, name
 
@@ -170,7 +181,7 @@ def test_jumps_and_runs_fly_under_gravity(authored_poses):
     """In flight the hips fall with g: second differences of their height -g dt²."""
     checked = 0
     for name, (motion, pose) in authored_poses.items():
-        if not name.startswith(("jump_", "run_")):
+        if not name.startswith(FLYING_PREFIXES):
             continue
         flights = [(a, b) for a, b in _runs(_airborne(pose)) if b - a >= 3]
         assert flights, name

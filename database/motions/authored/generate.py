@@ -3,10 +3,11 @@
 No free motion capture shows some basic motions (covering the head, falling, lifting a
 heavy load, sitting down holding the stomach), and the CMU clips show the others done
 one way; these motions and the other ways of doing them (jumps, turns, waves, pick-ups,
-punches, lifts, sitting down, covering the head) are authored on the default avatar's
+punches, kicks, lifts, sitting down, covering the head) are authored on the default avatar's
 skeleton (:func:`eigmotion.mocap.canonical.canonical_skeleton`) with
 :mod:`eigmotion.synth.authoring`: a few key poses each, interpolated at 30 fps, feet planted
-by two-bone IK, every frame resting on the floor except in the flight of a jump.
+by two-bone IK, every frame resting on the floor except in the flight of a jump or a
+running stride.
 Motions made of steps key each foot, the hips and the joints on their own times
 (tracks) and are sampled into a key per frame; a single step among key poses is keyed
 as foot targets (heel up, swing, down flat).
@@ -2491,6 +2492,243 @@ def pick_up_reaching_forwards() -> Motion:
     )
 
 
+def _walking_pick_up(
+    name: str,
+    steps: list[Step],
+    pick: tuple[float, float, float],
+    reach: dict[str, tuple],
+    root_low_m: tuple[float, float, float],
+    end_s: float,
+    arm_swing_deg: float = 14.0,
+    dip_m: tuple[float, float] = (0.045, 0.012),
+    flights_s: tuple[tuple[float, float], ...] = (),
+    approach_elbow_deg: float = 0.0,
+) -> Motion:
+    """Walking (or jogging) up to a small object on the floor and taking it up with the
+    right hand in stride, then walking on.
+
+    ``steps`` as :func:`_walking`; the right foot of the step landing at ``pick[0]`` is
+    planted beside the object, the body bends over it until ``pick[1]`` (the hand at the
+    floor, the left heel coming up behind) and is up again by ``pick[2]``, when the left
+    foot has started its step through; ``reach`` is the pose at the bottom (back, arms,
+    head) and ``root_low_m`` the hips' offset from standing there.  The right hand
+    holds the object at the side afterwards.  ``flights_s`` are the phases of a jogging
+    approach with both feet off the floor (see :func:`eigmotion.synth.authoring.animate`),
+    ``approach_elbow_deg`` the elbows' bend on the way in (0: hanging as in a walk).
+    """
+    land_at, bottom, up = pick
+    w = WALK_HALF_WIDTH_M
+    feet = {side: _stand(_footprint(side, (0.0, 0.0), 0.0, w)) for side in (1.0, -1.0)}
+    root: Track = [(0.0, (0.0, 0.0, 0.0))]
+    upright = {
+        "Hips": (0, 0, 0),
+        "LowerBack": (0, 0, 0),
+        "Spine": (0, 0, 0),
+        "Spine1": (0, 0, 0),
+        "Neck": (0, 0, 0),
+        "Head": (0, 0, 0),
+    }
+    arm_keys: list[tuple[float, dict[str, tuple]]] = [
+        (0.0, {**_standing_upright(), **upright, "RightHand": (0, 0, 0)})
+    ]
+    holding = {
+        "RightArm": _arm(-1.0, -10.0, 18.0),
+        "RightForeArm": (45, 0, 0),
+        "RightHand": (0, 0, 0),
+    }
+    # The forearms on the way in (bent further when jogging) and walking on.
+    approach = {
+        "LeftForeArm": _elbow(1.0, approach_elbow_deg) if approach_elbow_deg else (30, 0, 0),
+        "RightForeArm": _elbow(-1.0, approach_elbow_deg) if approach_elbow_deg else (30, 0, 0),
+    }
+    walk_arms = {"LeftForeArm": (30, 0, 0)}
+    planted = None
+    for side, take_off, land, to, lift in steps:
+        swing = arm_swing_deg if land <= land_at else 14.0
+        stance = feet[-side][-1][1]
+        if land_at < take_off < up:
+            # The step through out of the bend: the back foot rolls onto its ball as the
+            # body goes down, and leaves from it.
+            x0, z0, yaw0, _, _ = feet[side][-1][1]
+            feet[side] += [
+                (land_at + 0.1, (x0, z0, yaw0, 10.0, 0.0)),
+                (bottom, (x0, z0, yaw0, 45.0, 0.0)),
+            ]
+            roll = take_off - bottom
+            _step(feet[side], take_off, land, to, lift_m=lift, heel_deg=45.0, roll_s=roll)
+        else:
+            _step(feet[side], take_off, land, to, lift_m=lift)
+        mid = 0.5 * (take_off + land)
+        if mid < land_at or mid > up:
+            root.append((mid, (stance[0] - side * 0.3 * w, -dip_m[1], stance[1])))
+        if land <= land_at or land >= up:
+            root.append((land, (0.5 * (stance[0] + to[0]), -dip_m[0], 0.5 * (stance[1] + to[1]))))
+            arm_keys.append(
+                (
+                    land,
+                    {
+                        **upright,
+                        **(approach if land <= land_at else walk_arms),
+                        "LeftArm": _arm(1.0, side * swing),
+                        **(holding if land > up else {"RightArm": _arm(-1.0, -side * swing)}),
+                    },
+                )
+            )
+        if land == land_at:
+            planted = to
+    low_x, low_y, low_z = root_low_m
+    root += [
+        (land_at + 0.1, (planted[0] + 0.5 * low_x, 0.4 * low_y, planted[1] + 0.5 * low_z)),
+        (bottom, (planted[0] + low_x, low_y, planted[1] + low_z)),
+        (bottom + 0.15, (planted[0] + low_x, low_y + 0.01, planted[1] + low_z + 0.02)),
+    ]
+    root.sort(key=lambda k: k[0])
+    arm_keys += [
+        (land_at + 0.1, {"LeftArm": _arm(1.0, -10.0), "RightArm": _arm(-1.0, 0.0)}),
+        (bottom, reach),
+        (bottom + 0.15, {}),
+        (
+            up,
+            {
+                **upright,
+                "LowerBack": (5, 0, 0),
+                "LeftArm": _arm(1.0, -15.0),
+                "LeftForeArm": (30, 0, 0),
+                **holding,
+            },
+        ),
+    ]
+    arm_keys.sort(key=lambda k: k[0])
+    root.append((end_s, (root[-1][1][0], 0.0, root[-1][1][2])))
+    joints = [
+        "Hips",
+        "LowerBack",
+        "Spine",
+        "Spine1",
+        "Neck",
+        "Head",
+        "LeftArm",
+        "RightArm",
+        "LeftForeArm",
+        "RightForeArm",
+        "RightHand",
+    ]
+    return _tracked(
+        name,
+        _keyed(joints, arm_keys),
+        root,
+        {"LeftFoot": feet[1.0], "RightFoot": feet[-1.0]},
+        flights_s,
+    )
+
+
+def pick_up_walking_in() -> Motion:
+    """Walk up to a small object on the floor, plant the right foot beside it and,
+    without stopping, bend from the hips and knees and take it up with the right hand
+    outside the right foot, the left heel rising behind; straighten up stepping
+    through and walk on two steps holding it at the side."""
+    w = WALK_HALF_WIDTH_M
+    steps = [
+        (-1.0, 0.10, 0.50, _footprint(-1.0, (0.0, 0.45), 0.0, w), 0.08),
+        (1.0, 0.58, 0.98, _footprint(1.0, (0.0, 1.05), 0.0, w), 0.08),
+        (-1.0, 1.06, 1.46, _footprint(-1.0, (0.0, 1.60), 0.0, w), 0.08),
+        (1.0, 2.05, 2.50, _footprint(1.0, (0.0, 2.20), 0.0, w), 0.08),
+        (-1.0, 2.58, 2.98, _footprint(-1.0, (0.0, 2.75), 0.0, w), 0.08),
+        (1.0, 3.06, 3.40, _footprint(1.0, (0.0, 2.75), 0.0, w), 0.05),
+    ]
+    reach = {
+        "Hips": (50, 0, 0),
+        "LowerBack": (28, -5, 5),
+        "Spine": (14, 0, 3),
+        "Spine1": (5, 0, 0),
+        "Neck": (-15, 0, 0),
+        "Head": (-5, 0, 0),
+        "RightArm": _arm(-1.0, -45.0, 20.0),
+        "RightForeArm": (5, 0, 0),
+        "LeftArm": _arm(1.0, -30.0, 25.0),
+        "LeftForeArm": (40, 0, 0),
+    }
+    return _walking_pick_up(
+        "pick_up_walking_in", steps, (1.46, 1.80, 2.35), reach, (-0.03, -0.30, -0.32), 3.8
+    )
+
+
+def pick_up_walking_in_crouching() -> Motion:
+    """Walk up to a small object, plant the right foot just past it and sink low on
+    bent knees, back fairly upright, the left knee dropping behind, to take it up with
+    the right hand beside the right foot; rise stepping through and walk on."""
+    w = WALK_HALF_WIDTH_M
+    steps = [
+        (-1.0, 0.10, 0.50, _footprint(-1.0, (0.0, 0.45), 0.0, w), 0.08),
+        (1.0, 0.58, 0.98, _footprint(1.0, (0.0, 1.05), 0.0, w), 0.08),
+        (-1.0, 1.06, 1.46, _footprint(-1.0, (0.0, 1.62), 0.0, w), 0.08),
+        (1.0, 2.20, 2.65, _footprint(1.0, (0.0, 2.20), 0.0, w), 0.08),
+        (-1.0, 2.73, 3.13, _footprint(-1.0, (0.0, 2.75), 0.0, w), 0.08),
+        (1.0, 3.21, 3.55, _footprint(1.0, (0.0, 2.75), 0.0, w), 0.05),
+    ]
+    reach = {
+        "Hips": (28, 0, 0),
+        "LowerBack": (28, -8, 6),
+        "Spine": (10, 0, 4),
+        "Spine1": (5, 0, 0),
+        "Neck": (-10, 0, 0),
+        "Head": (-5, 0, 0),
+        "RightArm": _arm(-1.0, -20.0, 25.0),
+        "RightForeArm": (10, 0, 0),
+        "LeftArm": _arm(1.0, -35.0, 25.0),
+        "LeftForeArm": (50, 0, 0),
+    }
+    return _walking_pick_up(
+        "pick_up_walking_in_crouching",
+        steps,
+        (1.46, 1.90, 2.50),
+        reach,
+        (-0.03, -0.45, -0.30),
+        3.95,
+    )
+
+
+def pick_up_jogging_in() -> Motion:
+    """Jog up to a small object on the floor (three strides with both feet off the floor,
+    about 2.4 m/s), brake on a last step, plant the right foot beside it and take it up
+    with the right hand without stopping, bending from the hips and knees; straighten
+    up stepping through and stop, the feet together, holding it at the side."""
+    w = WALK_HALF_WIDTH_M
+    steps = [
+        (-1.0, 0.10, 0.42, _footprint(-1.0, (0.0, 0.40), 0.0, w), 0.10),
+        (1.0, 0.58, 0.80, _footprint(1.0, (0.0, 1.15), 0.0, w), 0.14),
+        (-1.0, 0.64, 1.14, _footprint(-1.0, (0.0, 1.95), 0.0, w), 0.20),
+        (1.0, 1.02, 1.48, _footprint(1.0, (0.0, 2.75), 0.0, w), 0.20),
+        (-1.0, 1.36, 1.82, _footprint(-1.0, (0.0, 3.35), 0.0, w), 0.12),
+        (1.0, 2.40, 2.85, _footprint(1.0, (0.0, 3.95), 0.0, w), 0.08),
+        (-1.0, 2.93, 3.25, _footprint(-1.0, (0.0, 3.95), 0.0, w), 0.05),
+    ]
+    reach = {
+        "Hips": (50, 0, 0),
+        "LowerBack": (28, -5, 5),
+        "Spine": (14, 0, 3),
+        "Spine1": (5, 0, 0),
+        "Neck": (-15, 0, 0),
+        "Head": (-5, 0, 0),
+        "RightArm": _arm(-1.0, -45.0, 20.0),
+        "RightForeArm": (5, 0, 0),
+        "LeftArm": _arm(1.0, -30.0, 25.0),
+        "LeftForeArm": (40, 0, 0),
+    }
+    return _walking_pick_up(
+        "pick_up_jogging_in",
+        steps,
+        (1.82, 2.15, 2.70),
+        reach,
+        (-0.03, -0.30, -0.34),
+        3.45,
+        arm_swing_deg=28.0,
+        dip_m=(0.09, 0.04),
+        flights_s=((0.64, 0.80), (1.02, 1.14), (1.36, 1.48)),
+        approach_elbow_deg=60.0,
+    )
+
+
 # -- punch ------------------------------------------------------------------------------------
 
 #: Time a straight punch takes from the guard to full extension, seconds.
@@ -2955,6 +3193,277 @@ def punch_lunging() -> Motion:
     )
 
 
+# -- kick -------------------------------------------------------------------------------------
+
+#: Seconds from the kicking foot leaving the floor to the knee up (the chamber), from
+#: there to the leg out (the hit), back to the chamber, and down to the floor.  The CMU
+#: front and roundhouse kicks (135_04, 135_07) take 0.7-0.8 s from the foot leaving
+#: the floor to its setting down, the hit 0.3-0.4 s after it leaves.
+KICK_CHAMBER_S = 0.22
+KICK_EXTEND_S = 0.12
+KICK_RETRACT_S = 0.15
+KICK_DOWN_S = 0.22
+
+#: The right thigh at rest, hip to knee (body frame: x left, y up, z forward).
+RIGHT_THIGH_REST = tuple(
+    rest_positions_m(canonical_skeleton())["RightLeg"]
+    - rest_positions_m(canonical_skeleton())["RightUpLeg"]
+)
+
+
+def _body_deg(yaw_deg: float, lean_deg: float = 0.0, roll_deg: float = 0.0) -> tuple:
+    """Rotation ``(x, y, z)`` of a body part leaning forwards by ``lean_deg`` and rolling
+    by ``roll_deg`` about its own forward axis (positive raises the left side) and then
+    turned by ``yaw_deg`` about the vertical (positive to the left)."""
+    m = (
+        euler_to_matrix([0.0, yaw_deg, 0.0], "XYZ")
+        @ euler_to_matrix([lean_deg, 0.0, 0.0], "XYZ")
+        @ euler_to_matrix([0.0, 0.0, roll_deg], "XYZ")
+    )
+    z, x, y = matrix_to_euler(m, "ZXY")
+    return (float(x), float(y), float(z))
+
+
+def _kick_body(
+    yaw_deg: float,
+    lean_deg: float = 0.0,
+    roll_deg: float = 0.0,
+    chest_deg: float = 0.0,
+    back_deg: float = 6.0,
+) -> dict[str, tuple[float, float, float]]:
+    """Hips turned by ``yaw_deg`` (from facing +Z), leaning forwards ``lean_deg`` and
+    rolled ``roll_deg`` (negative lifts the right hip, the kicking one); the shoulders
+    turned ``chest_deg`` further over them and leaning ``back_deg`` forwards; the head
+    turned back to look where the body faced at the start, at the target."""
+    look = -(yaw_deg + chest_deg)
+    return {
+        "Hips": _body_deg(yaw_deg, lean_deg, roll_deg),
+        "LowerBack": (0.5 * back_deg, 0.35 * chest_deg, -0.3 * roll_deg),
+        "Spine": (0.3 * back_deg, 0.35 * chest_deg, -0.2 * roll_deg),
+        "Spine1": (0.2 * back_deg, 0.3 * chest_deg, 0.0),
+        "Neck": (-0.5 * back_deg - 0.3 * lean_deg, 0.5 * look, -0.2 * roll_deg),
+        "Head": (-0.3 * back_deg, 0.4 * look, -0.2 * roll_deg),
+    }
+
+
+def _right_leg(
+    thigh, kneecap, knee_deg: float, foot_deg: float = 0.0, toes_deg: float = 0.0
+) -> dict[str, tuple[float, float, float]]:
+    """Rotations of the right leg in the hips' frame (x left, y up, z forward): the thigh
+    pointing along ``thigh``, the kneecap facing ``kneecap`` (turned about the thigh only),
+    the knee bent ``knee_deg``, the foot pointed ``foot_deg`` (negative pulls the toes up,
+    a heel or a sole leading) and the toes bent ``toes_deg`` (negative up, onto the ball)."""
+    return {
+        "RightUpLeg": aim_deg([RIGHT_THIGH_REST, (0.0, 0.0, 1.0)], [thigh, kneecap]),
+        "RightLeg": (knee_deg, 0.0, 0.0),
+        "RightFoot": (foot_deg, 0.0, 0.0),
+        "RightToeBase": (toes_deg, 0.0, 0.0),
+    }
+
+
+#: The right leg standing at the back of the orthodox stance (the IK plants the foot,
+#: this sets the way the knee bends).
+REAR_LEG_STANDING = _right_leg((0.0, -1.0, 0.05), (0.0, 0.0, 1.0), 10.0)
+
+
+def _support(turn_deg: float = 0.0, heel_deg: float = 0.0) -> dict[str, Target]:
+    """The left foot, the standing one, turned on its ball by ``turn_deg`` from its
+    stance heading (positive to the left), heel up by ``heel_deg``."""
+    return {"LeftFoot": _foot_on_ball("LeftFoot", LEAD_BALL_XZ, LEAD_YAW_DEG + turn_deg, heel_deg)}
+
+
+def _rear_foot(heel_deg: float = 0.0) -> dict[str, Target]:
+    """The right foot on the floor at the back of the orthodox stance, heel up by
+    ``heel_deg`` (on its ball)."""
+    return {"RightFoot": _foot_on_ball("RightFoot", REAR_BALL_XZ, REAR_YAW_DEG, heel_deg)}
+
+
+#: One phase of a kick: the body (:func:`_kick_body`), the kicking leg
+#: (:func:`_right_leg`), the root's shift from the stance (metres) and the standing
+#: foot's turn and heel raise (degrees).
+KickPhase = tuple[dict, dict, tuple[float, float, float], float, float]
+
+
+def _rear_leg_kick(
+    name: str, chamber: KickPhase, hit: KickPhase, rechamber: KickPhase | None = None
+) -> Motion:
+    """A kick with the rear (right) leg from the orthodox guard: settle in the guard,
+    weight onto the front foot and the rear heel up, knee up (``chamber``), leg out
+    (``hit``), knee back (``rechamber``, default the chamber), the foot down where it
+    started, back in the guard; the standing foot pivots on its ball as each phase
+    turns it.  Times from :data:`KICK_CHAMBER_S` and the rest."""
+    rechamber = rechamber or chamber
+    guard_body = _kick_body(STANCE_TURN_DEG, chest_deg=-10.0)
+    lift = 0.75
+    times = np.cumsum([lift, KICK_CHAMBER_S, KICK_EXTEND_S, KICK_RETRACT_S])
+    keys = [
+        *_into_boxing_guard(0.4),
+        Key(0.6, {**REAR_LEG_STANDING, **guard_body}, _stance(), {**_rear_foot(), **_support()}),
+        Key(
+            lift,
+            _kick_body(STANCE_TURN_DEG + 5.0, chest_deg=-10.0),
+            _stance((0.05, -0.02, 0.07)),
+            {**_rear_foot(heel_deg=35.0), **_support()},
+        ),
+    ]
+    for t, (body, leg, shift, turn, heel) in zip(times[1:], (chamber, hit, rechamber), strict=True):
+        keys.append(
+            Key(
+                t,
+                {**body, **leg, "LeftToeBase": (-heel, 0.0, 0.0)},
+                _stance(shift),
+                {"RightFoot": None, **_support(turn, heel)},
+            )
+        )
+    down = times[-1] + KICK_DOWN_S
+    keys += [
+        Key(
+            down - 0.07,
+            {**_kick_body(STANCE_TURN_DEG + 10.0, chest_deg=-10.0), **REAR_LEG_STANDING},
+            _stance((0.04, -0.01, 0.05)),
+            {"RightFoot": _foot_on_ball("RightFoot", REAR_BALL_XZ, REAR_YAW_DEG, 20.0)},
+        ),
+        Key(
+            down,
+            {"LeftToeBase": (0.0, 0.0, 0.0)},
+            _stance((0.02, -0.02, 0.02)),
+            {**_rear_foot(), **_support()},
+        ),
+        Key(down + 0.35, guard_body, _stance()),
+        Key(down + 0.7, {}, _stance((0.0, 0.01, 0.0))),
+    ]
+    return _animate(keys, name)
+
+
+def kick_front_snap() -> Motion:
+    """Front snap kick with the rear leg: the knee comes up in front, the lower leg
+    snaps out at waist height striking with the ball of the foot (toes pulled back) and
+    snaps back; the hips square up, the standing foot turns out a little."""
+    chamber = _right_leg((0.05, 0.05, 1.0), (0.0, 1.0, 0.0), 120.0, 35.0, -40.0)
+    hit = _right_leg((0.05, 0.12, 1.0), (0.0, 1.0, 0.0), 8.0, 40.0, -40.0)
+    return _rear_leg_kick(
+        "kick_front_snap",
+        (_kick_body(-5.0, 0.0, -5.0, -10.0, 2.0), chamber, (0.07, -0.03, 0.12), -15.0, 0.0),
+        (_kick_body(0.0, -8.0, -5.0, -10.0, -4.0), hit, (0.07, -0.02, 0.14), -20.0, 10.0),
+    )
+
+
+def kick_push() -> Motion:
+    """Push kick (teep) with the rear leg: the knee comes up high to the chest, the hips
+    drive forwards as the leg pushes straight out with the sole, toes up, the body
+    leaning back; the leg comes back bent and down."""
+    chamber = _right_leg((0.05, 0.25, 1.0), (0.0, 1.0, -0.2), 125.0, -10.0, 0.0)
+    hit = _right_leg((0.02, 0.1, 1.0), (0.0, 1.0, 0.0), 5.0, -15.0, 0.0)
+    return _rear_leg_kick(
+        "kick_push",
+        (_kick_body(-5.0, -5.0, -3.0, -10.0, 0.0), chamber, (0.07, -0.02, 0.10), -15.0, 0.0),
+        (_kick_body(0.0, -18.0, -3.0, -5.0, -6.0), hit, (0.06, -0.03, 0.22), -20.0, 0.0),
+    )
+
+
+def kick_roundhouse() -> Motion:
+    """Roundhouse kick with the rear leg: the body turns over the standing foot, which
+    pivots on its ball until the heel points at the target, the hip turns over (the
+    kicking hip above the other), the knee comes up sideways and the shin whips round
+    horizontally at chest height, striking with the instep; back the same way."""
+    chamber = _right_leg((-1.0, 0.15, 0.45), (0.0, 0.2, 1.0), 125.0, 40.0)
+    hit = _right_leg((-1.0, 0.25, 0.2), (0.0, 0.2, 1.0), 8.0, 45.0)
+    rechamber = _right_leg((-1.0, 0.1, 0.4), (0.0, 0.2, 1.0), 120.0, 40.0)
+    return _rear_leg_kick(
+        "kick_roundhouse",
+        (_kick_body(45.0, 0.0, -20.0, -35.0, 4.0), chamber, (0.08, -0.02, 0.12), 50.0, 20.0),
+        (_kick_body(85.0, 0.0, -38.0, -45.0, 2.0), hit, (0.08, -0.04, 0.12), 95.0, 20.0),
+        (_kick_body(70.0, 0.0, -30.0, -40.0, 4.0), rechamber, (0.08, -0.03, 0.12), 80.0, 20.0),
+    )
+
+
+def kick_side() -> Motion:
+    """Side kick with the rear leg: the knee comes up across the front of the body, the
+    body turns side-on over the standing foot (pivoting on its ball, heel towards the
+    target), leans away and thrusts the leg straight out sideways at waist height, the
+    heel leading, the foot's edge horizontal; it comes back bent and down."""
+    chamber = _right_leg((-0.35, 0.35, 0.85), (0.0, 0.8, 0.6), 130.0, -10.0)
+    hit = _right_leg((-1.0, 0.15, 0.15), (0.0, 0.1, 1.0), 4.0, -20.0)
+    return _rear_leg_kick(
+        "kick_side",
+        (_kick_body(50.0, 0.0, -10.0, -30.0, 4.0), chamber, (0.08, -0.03, 0.10), 60.0, 15.0),
+        (_kick_body(85.0, 0.0, -40.0, -40.0, 0.0), hit, (0.07, -0.04, 0.10), 110.0, 15.0),
+        (_kick_body(70.0, 0.0, -20.0, -35.0, 4.0), chamber, (0.08, -0.03, 0.10), 90.0, 15.0),
+    )
+
+
+def kick_low() -> Motion:
+    """Low kick with the rear leg: a short roundhouse at thigh height, the body turning
+    half round over the standing foot and the shin swinging in almost straight to the
+    side of the target's thigh; back and down."""
+    chamber = _right_leg((-0.9, -0.2, 0.5), (0.0, 0.4, 1.0), 90.0, 30.0)
+    hit = _right_leg((-1.0, -0.12, 0.25), (0.0, 0.4, 1.0), 12.0, 35.0)
+    return _rear_leg_kick(
+        "kick_low",
+        (_kick_body(25.0, 5.0, -12.0, -25.0, 8.0), chamber, (0.07, -0.05, 0.10), 30.0, 15.0),
+        (_kick_body(55.0, 5.0, -22.0, -40.0, 8.0), hit, (0.07, -0.06, 0.10), 60.0, 15.0),
+    )
+
+
+def kick_axe() -> Motion:
+    """Axe kick with the rear leg: the straight leg swings up outside the body to above
+    head height, passes over in front and chops straight down with the heel; the foot
+    comes down ahead into the other stance (right foot in front)."""
+    land_ball = (-0.06, 0.52)
+    up = _right_leg((-0.55, 0.45, 0.7), (0.3, 0.3, 1.0), 12.0, 10.0)
+    top = _right_leg((-0.15, 0.85, 0.5), (0.0, 0.5, 1.0), 5.0, -10.0)
+    chop = _right_leg((-0.02, -0.1, 1.0), (0.0, 1.0, 0.1), 8.0, -15.0)
+    guard_body = _kick_body(STANCE_TURN_DEG, chest_deg=-10.0)
+    switched = _kick_body(-STANCE_TURN_DEG + 10.0, chest_deg=10.0)
+    lift = 0.75
+    t_up, t_top, t_chop = lift + 0.2, lift + 0.36, lift + 0.52
+    return _animate(
+        [
+            *_into_boxing_guard(0.4),
+            Key(
+                0.6,
+                {**REAR_LEG_STANDING, **guard_body},
+                _stance(),
+                {**_rear_foot(), **_support()},
+            ),
+            Key(
+                lift,
+                _kick_body(STANCE_TURN_DEG + 5.0, chest_deg=-10.0),
+                _stance((0.05, -0.02, 0.07)),
+                {**_rear_foot(heel_deg=35.0), **_support()},
+            ),
+            Key(
+                t_up,
+                {**_kick_body(0.0, -5.0, -8.0, -10.0, 0.0), **up},
+                _stance((0.08, -0.03, 0.10)),
+                {"RightFoot": None, **_support(-15.0)},
+            ),
+            Key(
+                t_top,
+                {**_kick_body(0.0, -15.0, -5.0, -5.0, -5.0), **top},
+                _stance((0.07, -0.02, 0.12)),
+            ),
+            Key(
+                t_chop,
+                {**_kick_body(-5.0, 5.0, -3.0, -5.0, 8.0), **chop},
+                _stance((0.05, -0.06, 0.16)),
+            ),
+            Key(
+                t_chop + 0.12,
+                {
+                    **_kick_body(-8.0, 3.0, 0.0, 0.0, 6.0),
+                    **_right_leg((-0.02, -0.9, 0.45), (0.0, 0.3, 1.0), 15.0),
+                },
+                _stance((0.0, -0.06, 0.22)),
+                {"RightFoot": _foot_on_ball("RightFoot", land_ball, 5.0)},
+            ),
+            Key(t_chop + 0.5, switched, _stance((0.0, -0.04, 0.28))),
+            Key(t_chop + 0.9, {}, _stance((0.0, -0.03, 0.28))),
+        ],
+        "kick_axe",
+    )
+
+
 MOTIONS: dict[str, Callable[[], Motion]] = {
     "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
@@ -3007,12 +3516,21 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
     "pick_up_reaching_forwards": pick_up_reaching_forwards,
+    "pick_up_walking_in": pick_up_walking_in,
+    "pick_up_walking_in_crouching": pick_up_walking_in_crouching,
+    "pick_up_jogging_in": pick_up_jogging_in,
     "punch_straight_alternating": punch_straight_alternating,
     "punch_jab_cross": punch_jab_cross,
     "punch_hooks": punch_hooks,
     "punch_uppercuts": punch_uppercuts,
     "punch_stepping_in": punch_stepping_in,
     "punch_lunging": punch_lunging,
+    "kick_front_snap": kick_front_snap,
+    "kick_push": kick_push,
+    "kick_roundhouse": kick_roundhouse,
+    "kick_side": kick_side,
+    "kick_low": kick_low,
+    "kick_axe": kick_axe,
 }
 
 
