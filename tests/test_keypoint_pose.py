@@ -131,9 +131,10 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
     assert ours < 130.0 and ours < 1.5 * before, (ours, before)
     # heading and sides counted (no rotation fitted): not turned or mirrored off the
     # silhouette cue, which here aligns the very motion
-    assert heading_error_mm(names_k, keypoints, truth) < heading_error_mm(
-        names_s, silhouette, truth
-    ) + 10.0
+    assert (
+        heading_error_mm(names_k, keypoints, truth)
+        < heading_error_mm(names_s, silhouette, truth) + 10.0
+    )
 
 
 @needs_litert
