@@ -242,9 +242,9 @@ def test_fit_keeps_a_pose_the_landmarks_agree_with(aligned_kick):
 def test_frames_where_the_network_lost_the_person_do_not_turn_the_body(aligned_kick):
     """Another posture's landmarks, but in a few frames the network lost the person and
     answered with landmarks bunched into a few pixels (a weak-perspective scale near 0,
-    whose residual over s² once outweighed the whole clip): the body keeps its heading
-    within 30° in every frame; counting those frames (``scale_band`` 1e6) turns it 60°
-    or more in some."""
+    whose residual over s² would otherwise outweigh the whole clip): the body keeps its
+    heading within 30° in every frame; counting those frames (``scale_band`` 1e6)
+    turns it 60° or more in some."""
     pose = aligned_kick
     shifted = np.concatenate([pose.positions[8:], pose.positions[-1:].repeat(8, 0)])
     target = shifted - shifted[:, :1] + pose.positions[:, :1]

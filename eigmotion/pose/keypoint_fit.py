@@ -15,7 +15,8 @@ network's landmarks:
    joints).  A frame whose landmarks fit the reference only at a scale off the clip's
    median by more than ``scale_band`` (the network lost the person: its landmarks
    bunched or scattered) carries no weight; such frames, whose residual divided by a
-   tiny ``s²`` is huge, once decided the mirror image and heading of a whole clip.
+   tiny ``s²`` is huge, would otherwise decide the mirror image and heading of the
+   whole clip.
    When the reference already lies on the landmarks (the median over frames of its
    mean joint miss is under ``agreement_m`` metres, about the network's own error on
    a body it sees well), the landmarks cannot tell more than the silhouettes did: the
