@@ -319,7 +319,6 @@ def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
         )
     if cue == "keypoints" and not keypoints_available():
         raise InvalidParameterError(
-            "the keypoints cue runs the pose network through LiteRT: "
-            "pip install ai-edge-litert"
+            "the keypoints cue runs the pose network through LiteRT: pip install ai-edge-litert"
         )
     return cue
