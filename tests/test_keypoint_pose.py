@@ -28,6 +28,7 @@ from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.library import load_library
+from eigmotion.mocap.rotations import axis_rotation
 from eigmotion.pose.continuous_pose import align_motion
 from eigmotion.pose.keypoint_fit import (
     LIMB_PAIRS,
@@ -85,6 +86,17 @@ def limb_error_mm(names, positions, truth) -> float:
     return float(pa_mpjpe_per_frame(est, true).mean())
 
 
+def heading_error_mm(names, positions, truth) -> float:
+    """Mean distance over the 12 limb joints, mm, both centred between the hips per
+    frame, the truth turned into the outputs' axes (the clip's camera, at azimuth 30°,
+    turned to azimuth 0): the body's heading and its left and right count."""
+    est, true, _ = match_joints(names, positions, LIMB_JOINTS, truth, LIMB_JOINTS)
+    hips = [LIMB_JOINTS.index("l_hip"), LIMB_JOINTS.index("r_hip")]
+    est = est - est[:, hips].mean(1, keepdims=True)
+    true = (true - true[:, hips].mean(1, keepdims=True)) @ axis_rotation("Y", -30.0).T
+    return float(1000 * np.linalg.norm(est - true, axis=-1).mean())
+
+
 def query_pose(db_path, video, tmp_path, cue):
     clip, background, _ = video
     pose_path, bvh_path = tmp_path / f"{cue}.npz", tmp_path / f"{cue}.bvh"
@@ -117,6 +129,12 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
     ours = limb_error_mm(names_k, keypoints, truth)
     before = limb_error_mm(names_s, silhouette, truth)
     assert ours < 130.0 and ours < 1.5 * before, (ours, before)
+    # heading and sides counted (no rotation fitted): not turned or mirrored off the
+    # silhouette cue, which here aligns the very motion
+    assert (
+        heading_error_mm(names_k, keypoints, truth)
+        < heading_error_mm(names_s, silhouette, truth) + 10.0
+    )
 
 
 @needs_litert
@@ -170,7 +188,7 @@ def test_fit_lays_the_joints_on_the_keypoints():
     # the target: the aligned pose played 8 frames later (another posture, same body)
     shifted = np.concatenate([pose.positions[8:], pose.positions[-1:].repeat(8, 0)])
     target = shifted - shifted[:, :1] + pose.positions[:, :1]
-    config = KeypointFitConfig(prior=0.01)
+    config = KeypointFitConfig(prior=0.01, agreement_m=0.0)  # fitted even where close
     fitted = fit_keypoints(pose, _turned_truth(pose, target, False), config)
     with_world = fit_keypoints(pose, _turned_truth(pose, target, True), config)
     limbs = [pose.names.index(n) for n, _ in LIMB_PAIRS]
@@ -186,6 +204,70 @@ def test_fit_lays_the_joints_on_the_keypoints():
     assert "keypoints_fit" in fitted.timings_s
 
 
+@pytest.fixture(scope="module")
+def aligned_kick():
+    """A kick aligned to its own rendered silhouettes from 30° (the continuous pose)."""
+    motion = {m.name: m for m in load_library()}[MOTIONS[0]].motion
+    body = AVATAR.decimated(4000)
+    anim = retarget(motion.resample(CLIP_FPS), body)
+    vertices = pose_avatar(body, anim)
+    camera = virtual_rig([30.0], [10.0], 160, 120).fitted(hull_points(vertices))[0]
+    masks = render_masks(vertices, body.faces, camera)
+    return align_motion(motion, (0, motion.n_frames), 30.0, 10.0, masks, CLIP_FPS)
+
+
+def _facing_deg(positions, names):
+    """(F,) the body's heading about the vertical, degrees: the direction of its hips'
+    left-to-right line."""
+    hips = positions[:, names.index("LeftUpLeg")] - positions[:, names.index("RightUpLeg")]
+    return np.degrees(np.arctan2(hips[:, 2], hips[:, 0]))
+
+
+def test_fit_keeps_a_pose_the_landmarks_agree_with(aligned_kick):
+    """Landmarks on the pose's own joints, 3 cm of noise on each: nothing to correct,
+    the pose comes back as it was (with ``agreement_m`` 0 it is moved)."""
+    pose = aligned_kick
+    keypoints = _turned_truth(pose, pose.positions, True)
+    noise = np.random.default_rng(3).normal(0.0, 0.03 * 40.0 / np.sqrt(2), keypoints.image_px.shape)
+    noisy = ClipKeypoints(
+        keypoints.image_px + noise, keypoints.visibility, keypoints.world_m, keypoints.found, 0.0
+    )
+    kept = fit_keypoints(pose, noisy)
+    np.testing.assert_array_equal(kept.positions, pose.positions)
+    assert "keypoints_fit" in kept.timings_s
+    moved = fit_keypoints(pose, noisy, KeypointFitConfig(agreement_m=0.0))
+    assert np.abs(moved.positions - pose.positions).max() > 0.01
+
+
+def test_frames_where_the_network_lost_the_person_do_not_turn_the_body(aligned_kick):
+    """Another posture's landmarks, but in a few frames the network lost the person and
+    answered with landmarks bunched into a few pixels (a weak-perspective scale near 0,
+    whose residual over s² would otherwise outweigh the whole clip): the body keeps its
+    heading within 30° in every frame; counting those frames (``scale_band`` 1e6)
+    turns it 60° or more in some."""
+    pose = aligned_kick
+    shifted = np.concatenate([pose.positions[8:], pose.positions[-1:].repeat(8, 0)])
+    target = shifted - shifted[:, :1] + pose.positions[:, :1]
+    keypoints = _turned_truth(pose, target, False)
+    image = keypoints.image_px.copy()
+    lost = np.arange(5, pose.n_frames, 12)
+    marks = [m for _, m in LIMB_PAIRS]
+    rng = np.random.default_rng(5)
+    image[lost[:, None], marks] = [80.0, 60.0] + rng.normal(0.0, 0.3, (len(lost), len(marks), 2))
+    bunched = ClipKeypoints(image, keypoints.visibility, keypoints.world_m, keypoints.found, 0.0)
+    before = _facing_deg(pose.positions, pose.names)
+
+    def turned_deg(config):
+        fitted = fit_keypoints(pose, bunched, config)
+        after = _facing_deg(fitted.positions, fitted.names)
+        return np.abs((after - before + 180.0) % 360.0 - 180.0)
+
+    kept, counted = (
+        turned_deg(KeypointFitConfig(agreement_m=0.0, scale_band=band)) for band in (0.5, 1e6)
+    )
+    assert kept.max() <= 30.0 and counted.max() >= 60.0, (kept.max(), counted.max())
+
+
 def test_sphere_directions_are_unit_and_spread():
     d = sphere_directions(500)
     np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
@@ -198,7 +280,7 @@ def test_sphere_directions_are_unit_and_spread():
 @pytest.mark.parametrize(
     "change",
     [{"prior": -1.0}, {"directions": 10}, {"rounds": 0}, {"min_visibility": 2.0},
-     {"heading_step_deg": 0.0}],
+     {"heading_step_deg": 0.0}, {"scale_band": 0.0}, {"agreement_m": -0.1}],
 )  # fmt: skip
 def test_fit_config_rejects_out_of_range_values(change):
     with pytest.raises(InvalidParameterError):

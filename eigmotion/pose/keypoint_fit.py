@@ -8,10 +8,19 @@ and right told apart.  Starting from the continuous pose's aligned reference pos
 limbs bent so that its joints, seen by the matched view's camera, fall on the
 network's landmarks:
 
-1. **Camera.** The clip's camera stands at azimuth 0 (on +Z) at the view's elevation
-   and is far from the person (weak perspective): a joint ``X`` (metres) is seen at
-   ``s · Π X + t`` pixels, ``Π`` the camera's right and down axes, the scale ``s`` and
-   offset ``t`` fitted per frame (weighted least squares over the 12 limb joints).
+1. **Camera and trust.** The clip's camera stands at azimuth 0 (on +Z) at the view's
+   elevation and is far from the person (weak perspective): a joint ``X`` (metres) is
+   seen at ``s · Π X + t`` pixels, ``Π`` the camera's right and down axes, the scale
+   ``s`` and offset ``t`` fitted per frame (weighted least squares over the 12 limb
+   joints).  A frame whose landmarks fit the reference only at a scale off the clip's
+   median by more than ``scale_band`` (the network lost the person: its landmarks
+   bunched or scattered) carries no weight; such frames, whose residual divided by a
+   tiny ``s²`` is huge, would otherwise decide the mirror image and heading of the
+   whole clip.
+   When the reference already lies on the landmarks (the median over frames of its
+   mean joint miss is under ``agreement_m`` metres, about the network's own error on
+   a body it sees well), the landmarks cannot tell more than the silhouettes did: the
+   continuous pose is returned unchanged.
 2. **Mirror image and heading.** The silhouette does not tell a body seen from the
    front from its mirror image seen from behind: the reference or its mirror image
    (``mirror``), whichever lays its joints better on the keypoints, is kept for the
@@ -23,7 +32,8 @@ network's landmarks:
 3. **Trunk and limbs.** The trunk (the lower back, from the hips' middle to the
    shoulders'), then the upper arms, forearms, thighs and shins are bent in turn.
    Each bone keeps its length ``L``; its direction ``u`` (a unit vector searched among
-   ``directions`` spread evenly over the sphere) minimises, per frame::
+   ``directions`` spread evenly over the sphere, and the bone's own direction, kept
+   exactly when it is best) minimises, per frame::
 
        w |Π L u - b / s|²  +  prior L² |u - u_ref|²  +  smooth L² |u - ū|²
 
@@ -116,6 +126,14 @@ class KeypointFitConfig:
         Also try the reference's mirror image (left and right swapped), kept for the
         whole clip when its joints lie better on the keypoints: a silhouette seen from
         behind is that of the mirrored body seen from the front.
+    scale_band : float
+        A frame whose landmarks fit the reference at a scale ``s`` with
+        ``|log(s / median s)| > log(1 + scale_band)`` carries no weight (> 0; ``inf``:
+        every frame counts).
+    agreement_m : float
+        When the median over frames of the reference's mean joint miss from the
+        landmarks (visibility-weighted, metres, after the scale and offset fit) is
+        below this, the pose is kept as it is (≥ 0; 0: always fitted).
     """
 
     prior: float = 0.3
@@ -129,6 +147,8 @@ class KeypointFitConfig:
     directions: int = 4000
     rounds: int = 1
     mirror: bool = True
+    scale_band: float = 0.5
+    agreement_m: float = 0.08
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`).
     _parameter_constraints: ClassVar[dict] = {
@@ -143,6 +163,8 @@ class KeypointFitConfig:
         "directions": Interval(Integral, 100, None),
         "rounds": Interval(Integral, 1, None),
         "mirror": Options(bool, (True, False)),
+        "scale_band": Interval(Real, 0.0, None, closed="neither", noun=""),
+        "agreement_m": _NOT_NEGATIVE,
     }
 
     def __post_init__(self):
@@ -191,6 +213,41 @@ def _fit_view(
     residual = ((s[..., None, None] * a - b) ** 2).sum(-1)
     cost = (weights * residual).sum(-1) / s**2
     return s, tm - s[..., None] * pm, cost
+
+
+@dataclass(frozen=True)
+class ReferenceMiss:
+    """How the reference's limb joints lie on the landmarks, per frame.
+
+    Attributes
+    ----------
+    scale_off : (F,) float64
+        ``|log(s / median s)|`` of the weak-perspective scale ``s`` fitted per frame
+        (the median over frames with a visible landmark; 0 in frames without).
+    frame_miss_m : (F,) float64
+        Visibility-weighted mean distance between the reference's projected joints and
+        the landmarks, metres (pixels divided by ``s``; 0 without a visible landmark).
+    """
+
+    scale_off: np.ndarray
+    frame_miss_m: np.ndarray
+
+
+def reference_miss(
+    points: np.ndarray, image: np.ndarray, visibility: np.ndarray, axes: np.ndarray
+) -> ReferenceMiss:
+    """The reference's agreement with the landmarks (:class:`ReferenceMiss`).
+
+    points : (F, K, 3) joints, metres; image : (F, K, 2) landmarks, pixels;
+    visibility : (F, K) weights; axes : (2, 3) the camera's right and down axes."""
+    scale, offset, _ = _fit_view(points, image, visibility, axes)
+    seen = visibility.sum(1) > 0
+    typical = np.median(scale[seen]) if seen.any() else 1.0
+    scale_off = np.where(seen, np.abs(np.log(scale / typical)), 0.0)
+    drawn = scale[:, None, None] * (points @ axes.T) + offset[:, None]
+    miss = np.linalg.norm(drawn - image, axis=-1) / scale[:, None]
+    frame_miss = (visibility * miss).sum(1) / np.maximum(visibility.sum(1), 1e-9)
+    return ReferenceMiss(scale_off, np.where(seen, frame_miss, 0.0))
 
 
 def _headings(
@@ -270,6 +327,17 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
     joints = [index[name] for name, _ in LIMB_PAIRS]
     marks = [m for _, m in LIMB_PAIRS]
 
+    # 1. which frames the landmarks are trusted in, and whether they tell anything new
+    reference = forward_kinematics(motion, length_unit_m=1.0, ground=False).positions
+    miss = reference_miss(reference[:, joints], image[:, marks], vis[:, marks], axes)
+    odd = miss.scale_off > np.log1p(config.scale_band)
+    vis[odd] = 0.0
+    kept = vis[:, marks].sum(1) > 0
+    if not kept.any() or np.median(miss.frame_miss_m[kept]) < config.agreement_m:
+        timings = dict(pose.timings_s)
+        timings["keypoints_fit"] = time.perf_counter() - started
+        return dataclasses.replace(pose, timings_s=timings)
+
     # 2. heading about the vertical through the root, of the posture or its mirror image
     angles = np.deg2rad(np.arange(-180.0, 180.0, config.heading_step_deg))
     turns = axis_rotation("Y", np.rad2deg(angles))  # (A, 3, 3)
@@ -303,7 +371,6 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
         scale = np.where(vis[:, marks].sum(1) > 0, scale, np.nan)
         scale = np.nan_to_num(scale, nan=np.nanmedian(scale) if np.isfinite(scale).any() else 1.0)
         directions = sphere_directions(config.directions)
-        seen = directions @ axes.T  # (N, 2)
         to_scene = np.stack([axes[0], axes[1], np.cross(axes[0], axes[1])])  # camera -> rows
 
         # 3. limbs, parents first
@@ -317,23 +384,31 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
             drawn = image[:, far_m].mean(1) - image[:, near_m].mean(1)
             target = drawn / scale[:, None]  # metres
             w = np.minimum(vis[:, far_m].min(1), vis[:, near_m].min(1))
-            data = w[:, None] * (((length * seen)[None] - target[:, None]) ** 2).sum(-1)
-            fixed = data - 2 * config.prior * length**2 * (u_ref @ directions.T)
+            # the searched directions and, last, the bone's own: kept exactly when best
+            candidates = np.concatenate(
+                [np.broadcast_to(directions, (len(u_ref), *directions.shape)), u_ref[:, None]], 1
+            )  # (F, N + 1, 3)
+            miss_m = length * (candidates @ axes.T) - target[:, None]
+            data = w[:, None] * (miss_m**2).sum(-1)
+            along_ref = np.einsum("fk,fnk->fn", u_ref, candidates)
+            fixed = data - 2 * config.prior * length**2 * along_ref
             if config.world_weight > 0:
                 world = keypoints.world_m[:, far_m].mean(1) - keypoints.world_m[:, near_m].mean(1)
                 world = np.nan_to_num(world @ to_scene)
                 norm = np.linalg.norm(world, axis=-1, keepdims=True)
                 u_world = np.where(norm > 1e-6, world / np.maximum(norm, 1e-9), 0.0)
-                fixed -= 2 * config.world_weight * w[:, None] * length**2 * (u_world @ directions.T)
+                along_world = np.einsum("fk,fnk->fn", u_world, candidates)
+                fixed -= 2 * config.world_weight * w[:, None] * length**2 * along_world
+            frames = np.arange(len(u_ref))
             chosen = fixed.argmin(1)
             for _ in range(config.smooth_passes if config.smooth > 0 else 0):
-                u = directions[chosen]
+                u = candidates[frames, chosen]
                 neighbours = np.zeros_like(u)
                 neighbours[1:] += u[:-1]
                 neighbours[:-1] += u[1:]
-                pull = 2 * config.smooth * length**2 * (neighbours @ directions.T)
-                chosen = (fixed - pull).argmin(1)
-            swing = rotation_between(u_ref, directions[chosen])
+                along = np.einsum("fk,fnk->fn", neighbours, candidates)
+                chosen = (fixed - 2 * config.smooth * length**2 * along).argmin(1)
+            swing = rotation_between(u_ref, candidates[frames, chosen])
             new_global = swing @ rotations[:, j]
             parent_global = rotations[:, parents[j]]
             local_r[:, j] = np.swapaxes(parent_global, -1, -2) @ new_global

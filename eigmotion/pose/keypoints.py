@@ -18,8 +18,8 @@ CROP_MIN_SIDE_PX` pixels), and answers with:
 :data:`LIMB_LANDMARKS` names the landmarks of the 12 limb joints (shoulders, elbows,
 wrists, hips, knees, ankles) in the development set's names.
 
-It runs through LiteRT only (the optional ``ai-edge-litert`` package: ``pip install
-'eigmotion[segmenter]'``); :func:`keypoints_available` says whether it can.
+It runs through LiteRT only (``ai-edge-litert``, installed with eigmotion where LiteRT
+has a wheel); :func:`keypoints_available` says whether it can.
 """
 
 from __future__ import annotations
@@ -199,7 +199,7 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
     interpreter = _interpreter()
     if interpreter is None:
         raise InvalidParameterError(
-            "the pose network runs through LiteRT only: pip install 'eigmotion[segmenter]'"
+            "the pose network runs through LiteRT only: pip install ai-edge-litert"
         )
     frames, masks = np.asarray(frames), np.asarray(masks, bool)
     if len(frames) != len(masks) or frames.ndim != 4 or masks.ndim != 3:
@@ -319,7 +319,6 @@ def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
         )
     if cue == "keypoints" and not keypoints_available():
         raise InvalidParameterError(
-            "the keypoints cue runs the pose network through LiteRT: "
-            "pip install 'eigmotion[segmenter]'"
+            "the keypoints cue runs the pose network through LiteRT: pip install ai-edge-litert"
         )
     return cue
