@@ -172,6 +172,25 @@ def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
         fuse_masks(learned_mask, subtracted[:1], config)
 
 
+def test_where_the_network_lost_part_of_the_person_the_subtraction_s_pieces_come_whole():
+    """Three frames of one person; in the last the network found only the upper body
+    (colours like the scene's): there the subtraction's piece that touches it comes
+    whole (the legs), a piece apart from it (a shadow) does not, and the other frames
+    keep the two-pixel rule."""
+    config = SilhouetteConfig()
+    learned_mask = np.zeros((3, 120, 160), bool)
+    learned_mask[:2, 20:100, 60:85] = True  # the whole body
+    learned_mask[2, 20:55, 60:85] = True  # the upper body only
+    subtracted = np.zeros_like(learned_mask)
+    subtracted[:, 20:100, 61:84] = True  # the whole body, every frame
+    subtracted[:, 40:44, 84:110] = True  # an arm
+    subtracted[:, 104:110, 100:150] = True  # a shadow apart from the body
+    fused = fuse_masks(learned_mask, subtracted, config)
+    assert fused[2, 20:100, 61:84].all() and fused[2, 40:44, 84:110].all()
+    assert not fused[:, 104:110, 100:150].any()
+    assert not fused[:2, :, 88:].any()  # the two-pixel rule where nothing was lost
+
+
 def test_fused_masks_follow_the_person_the_background_image_shows():
     """The kick sample with its background image: the fused masks keep what the learned
     ones find and overlap the subtraction's at least as well."""

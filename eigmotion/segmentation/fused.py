@@ -10,7 +10,10 @@ subtraction finds within :data:`NEAR_PX` pixels (working size) of it is added:
     person = learned | (subtracted & grown(learned, NEAR_PX))
 
 then the largest blob and the big pieces beside it, as everywhere
-(:func:`~eigmotion.segmentation.learned.person_in_frame`).  A frame where the learned
+(:func:`~eigmotion.segmentation.learned.person_in_frame`).  In a frame where the
+learned mask is much smaller than usual in the clip (under :data:`LOST_SHARE` of its
+median area: the network lost part of a person dressed like the scene), every piece
+the subtraction finds that touches it is added whole instead.  A frame where the learned
 front end finds no one stays empty (the subtraction alone there is the shadow or the
 scene that moved).  ``docs/segmentation.md`` compares this with the other ways of
 combining them, measured on the development set.
@@ -28,6 +31,11 @@ from eigmotion.segmentation.learned import person_in_frame
 #: What the subtraction finds is kept within this many pixels (working size) of the
 #: learned mask.
 NEAR_PX = 2
+
+#: In a frame where the learned mask covers less than this share of the clip's median
+#: learned area, the network has lost part of the person (colours like the scene's):
+#: every piece of the subtraction that touches the learned mask is kept whole.
+LOST_SHARE = 0.7
 
 
 def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
@@ -54,10 +62,16 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
             f"and {subtracted.shape}"
         )
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * NEAR_PX + 1, 2 * NEAR_PX + 1))
+    areas = learned.sum(axis=(1, 2))
+    typical = float(np.median(areas[areas > 0])) if areas.any() else 0.0
     fused = np.zeros_like(learned)
     for i, (mine, theirs) in enumerate(zip(learned, subtracted, strict=True)):
         if not mine.any():
             continue
         near = cv2.dilate(mine.view(np.uint8), kernel).view(bool)
+        if areas[i] < LOST_SHARE * typical:  # whole pieces of the subtraction touching it
+            _, labels = cv2.connectedComponents(theirs.view(np.uint8), connectivity=8)
+            touching = np.unique(labels[near & theirs])
+            near = np.isin(labels, touching[touching > 0])
         fused[i] = person_in_frame(mine | (theirs & near), config)[0]
     return fused
