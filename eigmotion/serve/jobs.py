@@ -144,15 +144,16 @@ class JobPool:
         return status
 
     def close(self, exit_timeout_s: float = 30.0) -> None:
-        """Stop the workers: jobs still queued are dropped, running ones finish; a worker
-        not gone ``exit_timeout_s`` after that is terminated (nothing of a job is left
-        in it then)."""
+        """Stop the workers: jobs still queued are dropped, running ones get
+        ``exit_timeout_s`` to finish; a worker not gone by then is terminated with the
+        job it was running, so Ctrl-C stops the server within about ``exit_timeout_s``
+        however long a job would take."""
         with self._lock:
             running = [future for future in self._futures.values() if future.running()]
         processes = list((getattr(self._executor, "_processes", None) or {}).values())
         self._executor.shutdown(wait=False, cancel_futures=True)
-        wait(running)
         deadline = time.monotonic() + exit_timeout_s
+        wait(running, timeout=exit_timeout_s)
         for process in processes:
             process.join(max(0.0, deadline - time.monotonic()))
             if process.is_alive():
