@@ -66,7 +66,7 @@ def server(db_path, tmp_path_factory):
             break
     assert url, process.stderr.read()
     yield url, work_dir
-    process.send_signal(signal.SIGINT)
+    process.send_signal(signal.SIGTERM)  # SIGINT is ignored when pytest runs in the background
     assert process.wait(timeout=60) == 0, process.stderr.read()
 
 

@@ -9,13 +9,15 @@ Open the address it prints in a browser, upload a clip (and, if you have one, an
 of the empty scene) and the page shows the answer, the parts of the clip on a timeline,
 the side-by-side replay and the 3D motion; see docs/serve.md for the page and the API.
 Uploads and answers are kept under the working folder (a new temporary folder, removed
-at exit, unless ``--work-dir`` is given).  Ctrl-C stops the server.
+at exit, unless ``--work-dir`` is given).  Ctrl-C or SIGTERM (``kill``, ``docker
+stop``) stops the server.
 """
 
 from __future__ import annotations
 
 import argparse
 import shutil
+import signal
 import tempfile
 from pathlib import Path
 
@@ -53,6 +55,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _stop(signum, frame) -> None:
+    """SIGTERM handler: stop as Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
 def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise InvalidParameterError(f"--workers must be >= 1, got {args.workers}")
@@ -78,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
                 (args.host, args.port), pool, db_uri, int(args.max_upload_mb * 1e6)
             )
             print(f"serving on {server.url}  (work folder {work_dir}; Ctrl-C stops)", flush=True)
+            signal.signal(signal.SIGTERM, _stop)
             try:
                 server.serve_forever()
             except KeyboardInterrupt:
