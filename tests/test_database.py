@@ -40,7 +40,14 @@ from eigmotion.retrieval.calibration import (
 )
 from eigmotion.retrieval.database import MotionDatabase, brute_force_check, candidate_motions
 from eigmotion.retrieval.library_views import BuildConfig, window_bounds
-from eigmotion.retrieval.query_windows import clip_segments, search_windows, window_label_path
+from eigmotion.retrieval.query_windows import (
+    FILLER_CANDIDATES,
+    WINDOW_CANDIDATES,
+    clip_segments,
+    search_windows,
+    specific_window_entry,
+    window_label_path,
+)
 from eigmotion.retrieval.results import Match, Segment
 from eigmotion.retrieval.sequences import POSE_COMPONENTS
 
@@ -429,6 +436,41 @@ def test_an_action_over_several_windows_stays_and_a_runner_up_everywhere_does_no
         window_label_path(labels, distances[:3], 0.05)
 
 
+def test_a_walking_window_filled_by_one_specific_motion_does_not_override_walk():
+    """Three walking windows whose WINDOW_CANDIDATES nearest entries are all one
+    walked-up pick-up's (its bodies and views) do not make a walk a pick-up while a
+    walking entry lies among the FILLER_CANDIDATES nearest, less than 1/0.7 as far;
+    farther, or absent, they do."""
+    from eigmotion.retrieval.neighbours import NearestEntries
+
+    assert FILLER_CANDIDATES > WINDOW_CANDIDATES
+    k = FILLER_CANDIDATES
+    labels = {0: "pick_up", 1: "walk", 2: "sit_down"}
+    ids = np.zeros((3, k), dtype=np.int64)  # every window: pick-up entries first ...
+    ids[:, WINDOW_CANDIDATES] = 1  # ... and a walking entry just past the eighth
+    ids[:, WINDOW_CANDIDATES + 1 :] = 2
+    distances = np.tile(np.linspace(0.28, 0.36, k), (3, 1))
+
+    def windowed(walk_distance: float) -> NearestEntries:
+        found = distances.copy()
+        found[:, WINDOW_CANDIDATES] = walk_distance
+        order = np.argsort(found, axis=1, kind="stable")
+        return NearestEntries(
+            np.take_along_axis(ids, order, 1), np.take_along_axis(found, order, 1),
+            np.full(3, 100),
+        )  # fmt: skip
+
+    assert specific_window_entry("walk", windowed(0.33), labels.get, 0.5) is None
+    assert specific_window_entry("walk", windowed(0.45), labels.get, 0.5) == (0.28, 0)
+    # Not for a specific answer, nor beyond the threshold.
+    assert specific_window_entry("sit_down", windowed(0.45), labels.get, 0.5) is None
+    assert specific_window_entry("walk", windowed(0.45), labels.get, 0.2) is None
+    # Fewer than MIN_SPECIFIC_WINDOWS windows: one window is not enough.
+    one = windowed(0.45)
+    one = NearestEntries(one.ids[:1], one.distances[:1], one.examined[:1])
+    assert specific_window_entry("walk", one, labels.get, 0.5) is None
+
+
 def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, library, other_body):
     """One label along every window makes one segment, and its label is the clip's
     answer, whichever label the windows agreed on; several keep their own."""
@@ -444,6 +486,8 @@ def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, librar
             images = ClipMotionImages(masks, cfg.motion_image, clip_fps=30.0)
             windows = window_bounds(len(masks), 30.0, cfg.window_s, cfg.window_step_s)
             kept, windowed = search_windows(images, windows[1:], db.eigenspace, db.index)
+            # Enough entries per window for the filler rule, the first eight for labels.
+            assert windowed.ids.shape[1] == min(FILLER_CANDIDATES, db.n_entries)
             answer = dataclasses.replace(
                 db.query_masks(masks, 30.0).best, label="elsewhere", distance=0.5
             )

@@ -25,9 +25,15 @@ from eigmotion.retrieval.search import TreeIndex
 
 #: A window overrides a filler answer only when its nearest specific entry is nearer
 #: than this fraction of its nearest filler entry (specific motions such as a walking
-#: turn hold walking steps of their own), among :data:`WINDOW_CANDIDATES` nearest.
+#: turn hold walking steps of their own), among :data:`FILLER_CANDIDATES` nearest.
 SPECIFIC_MARGIN = 0.7
+#: Nearest entries of each window the segments' labels are chosen from
+#: (:func:`window_label_path`).
 WINDOW_CANDIDATES = 8
+#: Nearest entries of each window searched for a filler entry: a motion holds many
+#: entries of nearly one image (its bodies, outfits and neighbouring views), so a
+#: walked-up pick-up's window can fill the eight nearest of a walking window alone.
+FILLER_CANDIDATES = 32
 #: Windows that must show the same specific action for it to override filler: one
 #: window alone is as often a walk's stride matched to a walking turn's.
 MIN_SPECIFIC_WINDOWS = 2
@@ -95,7 +101,8 @@ def window_label_path(
 def search_windows(
     images: ClipMotionImages, windows: np.ndarray, eigenspace: Eigenspace, index: TreeIndex
 ) -> tuple[list[tuple[int, int]], NearestEntries | None]:
-    """The :data:`WINDOW_CANDIDATES` nearest entries of each window's motion image.
+    """The nearest entries of each window's motion image: as many as the segments
+    (:data:`WINDOW_CANDIDATES`) or the filler rule (:data:`FILLER_CANDIDATES`) read.
 
     Parameters
     ----------
@@ -125,7 +132,8 @@ def search_windows(
     if not vectors:
         return kept, None
     points = eigenspace.transform(np.asarray(vectors, dtype=np.float32))
-    return kept, index.search(points, top_k=min(WINDOW_CANDIDATES, index.n_entries))
+    top_k = max(WINDOW_CANDIDATES, FILLER_CANDIDATES)
+    return kept, index.search(points, top_k=min(top_k, index.n_entries))
 
 
 def specific_window_entry(
@@ -210,8 +218,9 @@ def clip_segments(
     """
     if windowed is None:
         return [Segment(0, n_frames, best.label, best.distance)]
-    labels = [[label_of(int(i)) for i in ids] for ids in windowed.ids]
-    path, costs = window_label_path(labels, windowed.distances, SEGMENT_SWITCH_COST * threshold)
+    ids, distances = windowed.ids[:, :WINDOW_CANDIDATES], windowed.distances[:, :WINDOW_CANDIDATES]
+    labels = [[label_of(int(i)) for i in row] for row in ids]
+    path, costs = window_label_path(labels, distances, SEGMENT_SWITCH_COST * threshold)
     if len(set(path)) == 1:
         return [Segment(kept[0][0], kept[-1][1], best.label, best.distance)]
     segments: list[Segment] = []
