@@ -132,6 +132,38 @@ def test_pose_landmarks_lie_on_the_person():
     assert people.max() == 1
 
 
+@pytest.mark.skipif(
+    importlib.util.find_spec("ai_edge_litert") is None,
+    reason="the pose network runs through LiteRT (pip install ai-edge-litert)",
+)
+def test_the_square_follows_the_whole_person_where_the_first_look_lost_the_legs(monkeypatch):
+    """Where the whole-frame look finds only the upper body (the selfie network, made
+    for faces and shoulders, loses legs in dark trousers when the arms go up), the
+    square around the box of the frame before, where the pose network saw the whole
+    person, still holds the feet.  Here the first look's boxes are cut at the hips in
+    every frame but the first."""
+    video = SAMPLES / "kick.mp4"
+    frames = np.stack([learned.stored_frame(f) for f in read_frame_sample(video, 15.0).frames])
+    size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
+    whole, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
+    boxes = learned._person_boxes  # the real first look, then its boxes cut
+
+    def upper_halves(probabilities, config, frame_size):
+        found = boxes(probabilities, config, frame_size)
+        return found[:1] + [
+            None if b is None else (b[0], b[1], b[2], (b[1] + b[3]) / 2) for b in found[1:]
+        ]
+
+    monkeypatch.setattr(learned, "_person_boxes", upper_halves)
+    followed, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
+    bottom = [
+        (np.flatnonzero(a.any(axis=1))[-1], np.flatnonzero(b.any(axis=1))[-1])
+        for a, b in zip(whole, followed, strict=True) if a.any() and b.any()
+    ]  # fmt: skip
+    reached = [b >= a - 0.05 * size[0] for a, b in bottom]
+    assert len(bottom) >= 0.8 * len(frames) and np.mean(reached) >= 0.8, bottom
+
+
 def test_without_the_pose_network_the_selfie_network_looks_twice(monkeypatch):
     """Where LiteRT is missing there is no pose network: the selfie network looks at
     the square too, no landmarks come back, and asking for the pose network says what

@@ -20,10 +20,14 @@ pose network when LiteRT is installed, else the selfie network again.  Its
 probabilities, put back in place, replace the first ones: a small or distant person
 fills the network's input instead of a few of its pixels.  Where the pose network's
 flag says no person (under :data:`PERSON_PROBABILITY`), the selfie network looks at the
-square instead.  A frame with no box takes the box of its neighbours (the median of
-those within :data:`BOX_NEIGHBOURS` frames, else the nearest frame's); a first pass
-that finds nothing above :data:`PERSON_PROBABILITY` is searched again at
-:data:`SEED_PROBABILITY`.  A square as large as the frame is not cut for the selfie
+square instead.  The frames are looked at in order, and each square also holds the
+person the pose network found in the frame before (its box joined to the frame's own):
+the selfie network, made for faces and shoulders, loses the legs of a person in dark
+trousers who raises the arms, and a square around the upper body alone would cut the
+legs off for the pose network too.  A frame with no box takes the box of its
+neighbours (the median of those within :data:`BOX_NEIGHBOURS` frames, else the nearest
+frame's); a first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched
+again at :data:`SEED_PROBABILITY`.  A square as large as the frame is not cut for the selfie
 network (the first pass stands); the pose network always sees a square centred on the
 person, black beyond the frame.  Then, as in the classical path, the largest blob and
 the big pieces beside it are the person (:func:`person_in_frame`), and a frame whose
@@ -313,10 +317,13 @@ def learned_masks_and_landmarks(
     boxes = _person_boxes(probabilities, config, frame_size)
     landmarks = np.full((len(frames), N_POSE_LANDMARKS, 4), np.nan, np.float32)
     longest = max(frame_size)
+    followed = None  # the box of the pose network's person in the frame before
     for i, box in enumerate(boxes):
         if box is None:
+            followed = None
             continue
-        x0, y0, x1, y1 = box
+        x0, y0, x1, y1 = box if followed is None else _union(box, followed)
+        followed = None
         side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
         if side >= longest and second_look == "selfie":
             continue
@@ -330,6 +337,9 @@ def learned_masks_and_landmarks(
                 probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
                 continue
             second = out.probabilities
+            followed = _blob_box(
+                crop_probabilities_back(second, matrix, frame_size, size), config, frame_size
+            )
             landmarks[i] = out.landmarks
             # the square's pixels (continuous) back to the frame's
             landmarks[i, :, 0] = (out.landmarks[:, 0] - 0.5 - matrix[0, 2]) / matrix[0, 0] + 0.5
@@ -381,6 +391,28 @@ def _person_boxes(
             box = np.median(own[near], axis=0)
         boxes.append(tuple(float(v) for v in box))
     return boxes
+
+
+def _union(
+    box: tuple[float, float, float, float], other: tuple[float, float, float, float]
+) -> tuple[float, float, float, float]:
+    """The smallest box (x0, y0, x1, y1) holding both."""
+    return (min(box[0], other[0]), min(box[1], other[1]), max(box[2], other[2]),
+            max(box[3], other[3]))  # fmt: skip
+
+
+def _blob_box(
+    probabilities: np.ndarray, config: SilhouetteConfig, frame_size: tuple[int, int]
+) -> tuple[float, float, float, float] | None:
+    """The box (x0, y0, x1, y1), pixels of frames of ``frame_size`` (H, W), around the
+    person in (H', W') probabilities at the working size; None when there is none."""
+    person, _ = person_in_frame(probabilities > PERSON_PROBABILITY, config)
+    if not person.any():
+        return None
+    h, w = probabilities.shape
+    ay, ax = frame_size[0] / h, frame_size[1] / w
+    ys, xs = np.nonzero(person)
+    return xs.min() * ax, ys.min() * ay, (xs.max() + 1) * ax, (ys.max() + 1) * ay
 
 
 def _largest_blob(mask: np.ndarray) -> np.ndarray:
