@@ -45,10 +45,10 @@ from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import (
     CANDIDATE_MOTIONS,
     fused_scores,
+    nearest_sequence_distances,
     pace_factors,
     pose_coordinates,
     pose_speeds,
-    sequence_distances,
     sequence_frames,
     view_reach,
 )
@@ -392,11 +392,15 @@ class MotionDatabase:
                     owners.append(np.full(run.size, candidate))
         compared = np.full(len(nearest), np.inf)
         if lengths:
-            found = sequence_distances(
-                query, np.concatenate(parts), np.concatenate(lengths), workers=worker_threads()
+            compared = nearest_sequence_distances(
+                query,
+                np.concatenate(parts),
+                np.concatenate(lengths),
+                np.concatenate(owners),
+                pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds)),
+                len(nearest),
+                workers=worker_threads(),
             )
-            found *= pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds))
-            np.minimum.at(compared, np.concatenate(owners), found)
         order = np.argsort(
             fused_scores(np.array([m.distance for m in nearest]), np.array(compared)),
             kind="stable",
