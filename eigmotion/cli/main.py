@@ -30,6 +30,15 @@ os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 # OpenCV's own bound on the pixels of an image it decodes (its default is 2**30).
 os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_FRAME_PIXELS))
 
+#: Sub-commands whose process keeps the BLAS library (NumPy's matrix products) on the
+#: thread that calls it, unless the user sets ``OPENBLAS_NUM_THREADS``: a query's
+#: products are small and already run side by side on its worker threads, and the
+#: library's own threads on top of them only contend for the same cores (the time
+#: warping's product of a 3 s clip took 16 ms on two BLAS threads against 2.2 ms on
+#: one on a busy two-core machine, ``docs/database.md``, "Cold").  Read when NumPy is
+#: first imported, so set before the command's module is.
+ONE_BLAS_THREAD = frozenset({"query"})
+
 #: Sub-commands in the order ``--help`` lists them, each with its one-line help.
 COMMANDS = {
     "build": "build a motion database from a basic-motion library and a camera rig",
@@ -130,7 +139,10 @@ def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, M
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     quiet_library_logs()
-    parser, module = build_parser(requested_command(argv))
+    command = requested_command(argv)
+    if command in ONE_BLAS_THREAD:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    parser, module = build_parser(command)
     args = parser.parse_args(argv)
     if not args.command:
         parser.print_help()
