@@ -134,7 +134,7 @@ class MotionDatabase:
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
         self._motions: dict[int, dict] = {}  # motion id → record, read on first use
-        self._sequences: dict = {}  # motion id → (MotionSequences, starts, speeds), on first use
+        self._sequences: dict = {}  # motion id → (MotionSequences, starts), on first use
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
@@ -378,9 +378,9 @@ class MotionDatabase:
             (:func:`~eigmotion.retrieval.sequences.pace_factors`) — in order of
             :func:`~eigmotion.retrieval.sequences.fused_scores`.
         """
-        parts, lengths, speeds, owners = [], [], [], []
+        parts, lengths, owners = [], [], []
         for candidate, match in enumerate(nearest):
-            stored, starts, stored_speeds = self._stored_sequences(match.motion_id)
+            stored, starts = self._stored_sequences(match.motion_id)
             near = np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg))
             # The renderings are kept in order of azimuth: those in reach are one run,
             # or two where the reach wraps around 0°.
@@ -388,16 +388,19 @@ class MotionDatabase:
                 if run.size:
                     parts.append(stored.frames[starts[run[0]] : starts[run[-1] + 1]])
                     lengths.append(stored.lengths[run])
-                    speeds.append(stored_speeds[run])
                     owners.append(np.full(run.size, candidate))
         compared = np.full(len(nearest), np.inf)
         if lengths:
+            frames, lengths = np.concatenate(parts), np.concatenate(lengths)
+            # Each rendering's pose speed is its own frames' alone: taken for the
+            # renderings in reach only, all at once.
+            speeds = pose_speeds(frames, lengths)
             compared = nearest_sequence_distances(
                 query,
-                np.concatenate(parts),
-                np.concatenate(lengths),
+                frames,
+                lengths,
                 np.concatenate(owners),
-                pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds)),
+                pace_factors(pose_speeds(query, [len(query)])[0], speeds),
                 len(nearest),
                 workers=worker_threads(),
             )
@@ -415,24 +418,23 @@ class MotionDatabase:
 
     def _stored_sequences(self, motion_id: int):
         """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences` with its renderings in
-        order of azimuth, the (R + 1,) first frame of each rendering (then the number
-        of frames), and their (R,) pose speeds (:func:`~eigmotion.retrieval.sequences.
-        pose_speeds`): read from the store once, then kept."""
+        order of azimuth, and the (R + 1,) first frame of each rendering (then the number
+        of frames): read from the store once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
             order = np.argsort(stored.azimuth_deg, kind="stable")
-            ends = np.cumsum(stored.lengths)
+            firsts = np.cumsum(stored.lengths) - stored.lengths
+            taken = np.concatenate(
+                [np.arange(firsts[r], firsts[r] + stored.lengths[r]) for r in order]
+            )
             stored = dataclasses.replace(
                 stored, azimuth_deg=stored.azimuth_deg[order],
                 elevation_deg=stored.elevation_deg[order], lengths=stored.lengths[order],
-                frames=np.concatenate(
-                    [stored.frames[ends[r] - stored.lengths[r] : ends[r]] for r in order]
-                ),
+                frames=stored.frames[taken],
             )  # fmt: skip
             starts = np.concatenate([[0], np.cumsum(stored.lengths)])
-            speeds = pose_speeds(stored.frames, stored.lengths)
-            found = self._sequences[motion_id] = (stored, starts, speeds)
+            found = self._sequences[motion_id] = (stored, starts)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:
