@@ -16,6 +16,7 @@ from eigmotion.retrieval.sequences import (
     RISE_WEIGHT,
     SEQUENCE_SIZE,
     SEQUENCE_WEIGHT,
+    SPEED_BLOCK_FRAMES,
     VIEW_REACH_DEG,
     _banded_costs,
     _frame_distances,
@@ -237,6 +238,21 @@ def test_pose_speeds_equal_their_definition_sequence_by_sequence():
     found = pose_speeds(np.concatenate(sequences), np.array([len(s) for s in sequences]))
     np.testing.assert_allclose(found, [reference_speed(s) for s in sequences], rtol=1e-12)
     assert found[0] == 0.0  # one frame: no step
+
+
+def test_pose_speeds_of_many_sequences_are_each_ones_own_to_the_bit():
+    # Enough frames for several blocks (SPEED_BLOCK_FRAMES), sequences across their
+    # edges included: each speed is the one of its sequence taken alone.
+    rng = np.random.default_rng(4)
+    lengths = rng.integers(1, 300, size=60)
+    frames = rng.normal(size=(int(lengths.sum()), 7)).astype(np.float32)
+    assert lengths.sum() > 5 * SPEED_BLOCK_FRAMES
+    found = pose_speeds(frames, lengths)
+    starts = np.concatenate([[0], np.cumsum(lengths)])
+    pairs = zip(starts[:-1], starts[1:], strict=True)
+    alone = [pose_speeds(frames[a:b], [b - a])[0] for a, b in pairs]
+    np.testing.assert_array_equal(found, alone)
+    np.testing.assert_array_equal(pose_speeds(frames[:0], []), np.empty(0))
 
 
 def test_pose_speed_doubles_with_the_pace_and_jitter_is_smoothed_away():

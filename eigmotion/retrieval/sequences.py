@@ -462,8 +462,30 @@ def pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         Mean Euclidean distance between consecutive smoothed frames, pose-coordinate
         units per frame (at the motion image's ``sample_fps``); 0 for a single frame.
     """
-    x = np.array(frames, dtype=np.float64)
+    frames = np.asarray(frames)
     lengths = np.asarray(lengths, dtype=np.int64)
+    if not len(lengths):
+        return np.empty(0)
+    stops = np.cumsum(lengths)
+    # Blocks of whole sequences, about SPEED_BLOCK_FRAMES frames each: each sequence's
+    # speed is its own frames' alone, and a block's arrays stay in the CPU's cache.
+    cuts = np.searchsorted(stops, np.arange(SPEED_BLOCK_FRAMES, stops[-1], SPEED_BLOCK_FRAMES))
+    bounds = np.unique(np.concatenate([[0], cuts + 1, [len(lengths)]]))
+    bounds = bounds[bounds <= len(lengths)]
+    speeds = np.empty(len(lengths))
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        first = stops[lo] - lengths[lo]
+        speeds[lo:hi] = _block_pose_speeds(frames[first : stops[hi - 1]], lengths[lo:hi])
+    return speeds
+
+
+#: Frames smoothed at a time by :func:`pose_speeds` (whole sequences of them).
+SPEED_BLOCK_FRAMES = 1024
+
+
+def _block_pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """:func:`pose_speeds` of sequences held in one block of frames."""
+    x = np.array(frames, dtype=np.float64)
     stops = np.cumsum(lengths)
     ends = np.zeros(len(x), dtype=bool)  # each sequence's first and last frame
     ends[stops - 1] = True
