@@ -97,6 +97,13 @@ def candidate_motions(nearest: Sequence[Match]) -> list[Match]:
     return chosen
 
 
+def _rows_of(firsts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(sum of lengths,) int64: the rows of sequences that start at rows ``firsts`` (R,)
+    and hold ``lengths`` (R,) frames each, one sequence after the other."""
+    ends = np.cumsum(lengths)
+    return np.arange(int(ends[-1])) + np.repeat(firsts - (ends - lengths), lengths)
+
+
 class MotionDatabase:
     """An open motion database, ready for queries (and, opened writable, indexing).
 
@@ -134,7 +141,7 @@ class MotionDatabase:
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
         self._motions: dict[int, dict] = {}  # motion id → record, read on first use
-        self._sequences: dict = {}  # motion id → (MotionSequences, starts), on first use
+        self._sequences: dict = {}  # motion id → (MotionSequences, order, firsts), on first use
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
@@ -378,20 +385,27 @@ class MotionDatabase:
             (:func:`~eigmotion.retrieval.sequences.pace_factors`) — in order of
             :func:`~eigmotion.retrieval.sequences.fused_scores`.
         """
-        parts, lengths, owners = [], [], []
+        taken, lengths, owners = [], [], []  # per candidate: (stored, its rows in order)
         for candidate, match in enumerate(nearest):
-            stored, starts = self._stored_sequences(match.motion_id)
-            near = np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg))
-            # The renderings are kept in order of azimuth: those in reach are one run,
-            # or two where the reach wraps around 0°.
+            stored, by_azimuth, firsts = self._stored_sequences(match.motion_id)
+            azimuths = stored.azimuth_deg[by_azimuth]
+            near = np.flatnonzero(view_reach(azimuths, match.azimuth_deg))
+            # In order of azimuth, the renderings in reach are one run, or two where the
+            # reach wraps around 0°: the first run's renderings come first.
             for run in np.split(near, np.flatnonzero(np.diff(near) > 1) + 1):
                 if run.size:
-                    parts.append(stored.frames[starts[run[0]] : starts[run[-1] + 1]])
-                    lengths.append(stored.lengths[run])
+                    chosen = by_azimuth[run]
+                    taken.append((stored, _rows_of(firsts[chosen], stored.lengths[chosen])))
+                    lengths.append(stored.lengths[chosen])
                     owners.append(np.full(run.size, candidate))
         compared = np.full(len(nearest), np.inf)
         if lengths:
-            frames, lengths = np.concatenate(parts), np.concatenate(lengths)
+            lengths = np.concatenate(lengths)
+            frames = np.empty((int(lengths.sum()), taken[0][0].frames.shape[1]), np.float32)
+            at = 0
+            for stored, rows in taken:
+                np.take(stored.frames, rows, axis=0, out=frames[at : at + len(rows)])
+                at += len(rows)
             # Each rendering's pose speed is its own frames' alone: taken for the
             # renderings in reach only, all at once.
             speeds = pose_speeds(frames, lengths)
@@ -417,24 +431,15 @@ class MotionDatabase:
         ]
 
     def _stored_sequences(self, motion_id: int):
-        """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences` with its renderings in
-        order of azimuth, and the (R + 1,) first frame of each rendering (then the number
-        of frames): read from the store once, then kept."""
+        """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences`, its renderings
+        in order of azimuth (R,) and the (R,) first frame of each rendering: read from
+        the store once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
-            order = np.argsort(stored.azimuth_deg, kind="stable")
+            by_azimuth = np.argsort(stored.azimuth_deg, kind="stable")
             firsts = np.cumsum(stored.lengths) - stored.lengths
-            taken = np.concatenate(
-                [np.arange(firsts[r], firsts[r] + stored.lengths[r]) for r in order]
-            )
-            stored = dataclasses.replace(
-                stored, azimuth_deg=stored.azimuth_deg[order],
-                elevation_deg=stored.elevation_deg[order], lengths=stored.lengths[order],
-                frames=stored.frames[taken],
-            )  # fmt: skip
-            starts = np.concatenate([[0], np.cumsum(stored.lengths)])
-            found = self._sequences[motion_id] = (stored, starts)
+            found = self._sequences[motion_id] = (stored, by_azimuth, firsts)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:
