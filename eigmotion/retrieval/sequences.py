@@ -25,7 +25,13 @@ around the diagonal, :data:`WARP_BAND` of the longer sequence wide on each side 
 Sakoe–Chiba band): on the holdout clips it answers as well as a free path, for less
 work.  The warping is NumPy over the anti-diagonals of every compared sequence at once
 (:func:`_warp`), or numba's compiled loop once numba is loaded in the process anyway
-(:func:`_warper`); both give the same distances to the bit.  A query compares its
+(:func:`_warper`); both give the same distances to the bit.  A query needs only each
+candidate motion's least distance over its renderings
+(:func:`nearest_sequence_distances`): a rendering whose lower bound
+(:func:`_lower_bounds`: every path passes each row and each column of the frame
+distances, so it costs at least the sum of their cheapest cells; exact in floating
+point) is not below its candidate's least distance so far is not warped, the least
+distances staying the same to the bit.  A query compares its
 sequence only with the renderings of each candidate motion seen from within
 :data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from: the
 motion image already found the viewing direction.
