@@ -12,13 +12,15 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 
-#: Runs the command line's ``main`` on ``--help`` of a command in a fresh process, then
-#: prints how many threads the BLAS library NumPy loaded will use.
+#: Runs the ``eigmotion`` command (:func:`~eigmotion.cli.main.entry`) on ``--help`` of a
+#: command in a fresh process, then prints how many threads the BLAS library NumPy
+#: loaded will use.
 _BLAS_THREADS_AFTER = """
 import json, sys
-from eigmotion.cli.main import main
+from eigmotion.cli.main import entry
+sys.argv = ["eigmotion", sys.argv[1], "--help"]
 try:
-    main([sys.argv[1], "--help"])
+    entry()
 except SystemExit:
     pass
 import numpy
@@ -26,9 +28,12 @@ from threadpoolctl import threadpool_info
 print(json.dumps([p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]))
 """
 
+#: What tells OpenBLAS how many threads to start, besides the command.
+_THREAD_SETTINGS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "GOTO_NUM_THREADS")
+
 
 def _blas_threads(command: str, **env: str) -> list[int]:
-    environ = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    environ = {k: v for k, v in os.environ.items() if k not in _THREAD_SETTINGS}
     environ.update(env, PYTHONPATH=str(REPO))
     done = subprocess.run(
         [sys.executable, "-c", _BLAS_THREADS_AFTER, command],
@@ -45,3 +50,12 @@ def test_a_query_keeps_blas_on_the_calling_thread_unless_the_user_says_otherwise
 @pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: BLAS has one thread anyway")
 def test_other_commands_leave_blas_its_threads():
     assert max(_blas_threads("build")) > 1
+
+
+def test_main_called_in_a_process_leaves_its_environment_alone():
+    from eigmotion.cli.main import main
+
+    before = os.environ.get("OPENBLAS_NUM_THREADS")
+    with pytest.raises(SystemExit):
+        main(["query", "--help"])
+    assert os.environ.get("OPENBLAS_NUM_THREADS") == before

@@ -36,7 +36,7 @@ os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_FRAME_PIXELS))
 #: library's own threads on top of them only contend for the same cores (the time
 #: warping's product of a 3 s clip took 16 ms on two BLAS threads against 2.2 ms on
 #: one on a busy two-core machine, ``docs/database.md``, "Cold").  Read when NumPy is
-#: first imported, so set before the command's module is.
+#: first imported, so set by :func:`entry` before the command's module is.
 ONE_BLAS_THREAD = frozenset({"query"})
 
 #: Sub-commands whose process, run as the ``eigmotion`` command (:func:`entry`), ends as
@@ -147,10 +147,7 @@ def build_parser(command: str | None = None) -> tuple[argparse.ArgumentParser, M
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     quiet_library_logs()
-    command = requested_command(argv)
-    if command in ONE_BLAS_THREAD:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    parser, module = build_parser(command)
+    parser, module = build_parser(requested_command(argv))
     args = parser.parse_args(argv)
     if not args.command:
         parser.print_help()
@@ -176,11 +173,16 @@ def main(argv: list[str] | None = None) -> int:
 
 def entry() -> None:
     """The ``eigmotion`` command (and ``python -m eigmotion``): :func:`main` on the
-    process's arguments, then its exit status; for a command of :data:`QUICK_EXIT`
-    the process ends at once once its output is flushed."""
+    process's arguments, then its exit status.  For a command of
+    :data:`ONE_BLAS_THREAD` the BLAS library is first kept to the calling thread, and
+    for one of :data:`QUICK_EXIT` the process ends as soon as its output is flushed;
+    :func:`main` itself, called in a process of its own, changes neither."""
     argv = sys.argv[1:]
+    command = requested_command(argv)
+    if command in ONE_BLAS_THREAD:  # the process's own setting, before NumPy loads
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     status = main(argv)
-    if requested_command(argv) not in QUICK_EXIT:
+    if command not in QUICK_EXIT:
         sys.exit(status)
     for stream in (sys.stdout, sys.stderr):
         try:
