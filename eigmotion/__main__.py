@@ -1,7 +1,5 @@
 """``python -m eigmotion``: the command line."""
 
-import sys
+from eigmotion.cli.main import entry
 
-from eigmotion.cli.main import main
-
-sys.exit(main())
+entry()

@@ -972,3 +972,32 @@ def test_list_cli_names_the_stored_motions(db_path, library, tmp_path, capsys):
     offered = json.loads(capsys.readouterr().out)["motions"]
     names = {m["name"] for m in offered}
     assert set(MOTIONS) <= names and {m["role"] for m in offered} == {"basic", "distractor"}
+
+
+def test_the_command_ends_at_once_with_its_whole_answer_and_its_status(
+    db_path, tmp_path, library, other_body
+):
+    from eigmotion.cli.main import QUICK_EXIT
+
+    assert "query" in QUICK_EXIT
+    masks = _masks(library[2].motion, other_body, azimuth_deg=200.0, elevation_deg=5.0)
+    clip = tmp_path / "clip.npz"
+    np.savez(clip, masks=masks, fps=30.0)
+    environ = dict(os.environ, PYTHONPATH=str(REPO))
+    command = [sys.executable, "-m", "eigmotion", "query", str(clip), "--db", str(db_path)]
+    done = subprocess.run([*command, "--json"], capture_output=True, text=True, env=environ)
+    assert done.returncode == 0, done.stderr
+    answer = json.loads(done.stdout)  # the whole answer, flushed before the exit
+    assert answer["label"] and answer["db_entries"] > 0
+    # bad input: one line and status 2, as ever
+    done = subprocess.run(
+        [*command[:4], str(tmp_path / "none.npz"), *command[5:]],
+        capture_output=True, text=True, env=environ,
+    )  # fmt: skip
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    # a reader that goes away early: no traceback from the flush at the exit
+    with subprocess.Popen(
+        [*command, "--top", "3"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environ
+    ) as proc:
+        proc.stdout.close()
+        assert "Traceback" not in proc.stderr.read().decode()

@@ -16,11 +16,16 @@ from eigmotion.retrieval.sequences import (
     RISE_WEIGHT,
     SEQUENCE_SIZE,
     SEQUENCE_WEIGHT,
+    SPEED_BLOCK_FRAMES,
     VIEW_REACH_DEG,
-    _compiled_warp_loop,
+    _banded_costs,
+    _frame_distances,
+    _lower_bounds,
     _warp,
+    _warp_with_loop,
     fit_pose_space,
     fused_scores,
+    nearest_sequence_distances,
     pace_factors,
     pose_coordinates,
     pose_speeds,
@@ -101,7 +106,7 @@ def test_warping_on_two_threads_gives_the_same_distances_to_the_bit():
 
     rng = np.random.default_rng(3)
     query = rng.random((20, 8)).astype(np.float32)
-    lengths = rng.integers(1, 40, size=31)
+    lengths = rng.integers(1, 40, size=301)  # enough to be split over the threads
     frames = rng.random((int(lengths.sum()), 8)).astype(np.float32)
     with ThreadPoolExecutor(max_workers=1) as workers:
         both = sequence_distances(query, frames, lengths, workers=workers)
@@ -235,6 +240,21 @@ def test_pose_speeds_equal_their_definition_sequence_by_sequence():
     assert found[0] == 0.0  # one frame: no step
 
 
+def test_pose_speeds_of_many_sequences_are_each_ones_own_to_the_bit():
+    # Enough frames for several blocks (SPEED_BLOCK_FRAMES), sequences across their
+    # edges included: each speed is the one of its sequence taken alone.
+    rng = np.random.default_rng(4)
+    lengths = rng.integers(1, 300, size=60)
+    frames = rng.normal(size=(int(lengths.sum()), 7)).astype(np.float32)
+    assert lengths.sum() > 5 * SPEED_BLOCK_FRAMES
+    found = pose_speeds(frames, lengths)
+    starts = np.concatenate([[0], np.cumsum(lengths)])
+    pairs = zip(starts[:-1], starts[1:], strict=True)
+    alone = [pose_speeds(frames[a:b], [b - a])[0] for a, b in pairs]
+    np.testing.assert_array_equal(found, alone)
+    np.testing.assert_array_equal(pose_speeds(frames[:0], []), np.empty(0))
+
+
 def test_pose_speed_doubles_with_the_pace_and_jitter_is_smoothed_away():
     t = np.arange(60) / 15.0
 
@@ -265,18 +285,86 @@ def test_pace_factors_grow_with_the_ratio_of_pose_speeds_from_one():
     assert pace_factors(0.05, np.array([0.0]))[0] < 1.0 + 0.15 * PACE_WEIGHT
 
 
+def _random_costs(seed: int, band: float, count: int = 40, dims: int = 6):
+    """(query, frames, lengths, starts, banded frame distances) of random sequences."""
+    rng = np.random.default_rng(seed)
+    query = rng.standard_normal((17, dims)).astype(np.float32)
+    lengths = rng.integers(1, 50, size=count)
+    frames = rng.standard_normal((int(lengths.sum()), dims)).astype(np.float32)
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    cost = _banded_costs(_frame_distances(query, frames, starts, None), starts, band)
+    return query, frames, lengths, starts, cost
+
+
 @pytest.mark.parametrize("band", [1.0, 0.3, 0.05])
 def test_the_compiled_and_the_numpy_warping_give_the_same_distances_to_the_bit(band):
-    rng = np.random.default_rng(5)
-    query = rng.standard_normal((17, 6)).astype(np.float32)
-    lengths = rng.integers(1, 50, size=40)
-    frames = rng.standard_normal((int(lengths.sum()), 6)).astype(np.float32)
-    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    dots = query @ frames.T
-    query_norms = np.einsum("ij,ij->i", query, query)
-    frame_norms = np.einsum("ij,ij->i", frames, frames)
+    _, _, lengths, _, cost = _random_costs(5, band)
     compiled, vectorised = np.empty(len(lengths)), np.empty(len(lengths))
-    _compiled_warp_loop()(dots, query_norms, frame_norms, starts, band, compiled)
-    _warp(dots, query_norms, frame_norms, starts, band, vectorised)
+    _warp_with_loop(cost, lengths, compiled)
+    _warp(cost, lengths, vectorised)
     assert np.isfinite(vectorised).any()
     np.testing.assert_array_equal(vectorised, compiled)
+
+
+@pytest.mark.parametrize("band", [1.0, 0.3, 0.1, 0.02])
+@pytest.mark.parametrize("seed", range(4))
+def test_the_lower_bounds_are_never_above_the_warping_distance_to_the_bit(band, seed):
+    query, frames, lengths, _, cost = _random_costs(seed, band, count=200, dims=3 + seed)
+    bounds = _lower_bounds(cost, lengths)
+    distances = sequence_distances(query, frames, lengths, band=band)
+    assert np.all(bounds <= distances)  # inf where no path keeps to the band: inf <= inf
+    assert np.array_equal(np.isinf(bounds), np.isinf(distances))
+    finite = np.isfinite(distances)
+    assert finite.any()
+    # close enough to rule renderings out: most within a factor 2 of the distance
+    assert np.median(bounds[finite] / distances[finite]) > 0.5
+
+
+def _renderings_of_motions(seed: int, n_owners: int, per_owner: int):
+    """A query and ``per_owner`` noisy, retimed renderings of each of ``n_owners``
+    random pose paths (one of them the query's), with random pace factors."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, 30)
+    paths = [
+        np.stack([np.sin((2 + k) * t + k), np.cos((1 + k) * t), t * k], axis=1)
+        for k in range(n_owners)
+    ]
+    query = (paths[1] + 0.05 * rng.standard_normal(paths[1].shape)).astype(np.float32)
+    sequences, owners = [], []
+    for owner, path in enumerate(paths):
+        for _ in range(per_owner):
+            taken = np.sort(rng.integers(0, len(path), size=int(rng.integers(15, 45))))
+            noise = rng.uniform(0.01, 0.5) * rng.standard_normal((len(taken), 3))
+            sequences.append((path[taken] + noise).astype(np.float32))
+            owners.append(owner)
+    lengths = np.array([len(s) for s in sequences])
+    factors = 1.0 + rng.uniform(0.0, 0.5, size=len(lengths))
+    return query, np.concatenate(sequences), lengths, np.array(owners), factors
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_nearest_per_owner_is_the_plain_minimum_to_the_bit(seed, monkeypatch):
+    from concurrent.futures import ThreadPoolExecutor
+
+    import eigmotion.retrieval.sequences as sequences
+
+    query, frames, lengths, owners, factors = _renderings_of_motions(seed, 6, 40)
+    plain = np.full(7, np.inf)  # the last owner has no renderings: inf
+    np.minimum.at(plain, owners, sequence_distances(query, frames, lengths) * factors)
+    warped = []
+    original = sequences._warp_some
+
+    def counted(cost, lengths, which, workers):
+        warped.append(len(which))
+        return original(cost, lengths, which, workers)
+
+    monkeypatch.setattr(sequences, "_warp_some", counted)
+    nearest = nearest_sequence_distances(query, frames, lengths, owners, factors, 7)
+    np.testing.assert_array_equal(nearest, plain)
+    assert sum(warped) < len(lengths)  # the bounds ruled some renderings out
+    with ThreadPoolExecutor(max_workers=1) as workers:
+        threaded = nearest_sequence_distances(
+            query, frames, lengths, owners, factors, 7, workers=workers
+        )
+    np.testing.assert_array_equal(threaded, plain)
+    assert np.all(np.isinf(nearest_sequence_distances(query, frames[:0], [], [], [], 3)))

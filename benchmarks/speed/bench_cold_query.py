@@ -42,7 +42,10 @@ SAMPLES = REPO / "database" / "samples"
 PREVIOUS_REVISION = "e463ba8"
 
 _STAGES = """
-import json, sys, time
+import json, os, sys, time
+import eigmotion.cli.main as command_line
+if "query" in getattr(command_line, "ONE_BLAS_THREAD", ()):  # as the command sets it
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 t0 = time.perf_counter()
 import eigmotion.cli.query
 t1 = time.perf_counter()

@@ -30,6 +30,23 @@ os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
 # OpenCV's own bound on the pixels of an image it decodes (its default is 2**30).
 os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_FRAME_PIXELS))
 
+#: Sub-commands whose process keeps the BLAS library (NumPy's matrix products) on the
+#: thread that calls it, unless the user sets ``OPENBLAS_NUM_THREADS``: a query's
+#: products are small and already run side by side on its worker threads, and the
+#: library's own threads on top of them only contend for the same cores (the time
+#: warping's product of a 3 s clip took 16 ms on two BLAS threads against 2.2 ms on
+#: one on a busy two-core machine, ``docs/database.md``, "Cold").  Read when NumPy is
+#: first imported, so set by :func:`entry` before the command's module is.
+ONE_BLAS_THREAD = frozenset({"query"})
+
+#: Sub-commands whose process, run as the ``eigmotion`` command (:func:`entry`), ends as
+#: soon as the command has returned and its output is flushed, without Python's teardown
+#: of every loaded module: for a query that teardown (NumPy, OpenCV, ZODB) took about
+#: 60 ms of a cold run on a busy two-core machine, against 8 ms without it
+#: (``docs/database.md``, "Cold").  Every file such a command writes is closed, and
+#: its temporary files removed, before it returns.
+QUICK_EXIT = frozenset({"query"})
+
 #: Sub-commands in the order ``--help`` lists them, each with its one-line help.
 COMMANDS = {
     "build": "build a motion database from a basic-motion library and a camera rig",
@@ -154,5 +171,26 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
 
+def entry() -> None:
+    """The ``eigmotion`` command (and ``python -m eigmotion``): :func:`main` on the
+    process's arguments, then its exit status.  For a command of
+    :data:`ONE_BLAS_THREAD` the BLAS library is first kept to the calling thread, and
+    for one of :data:`QUICK_EXIT` the process ends as soon as its output is flushed;
+    :func:`main` itself, called in a process of its own, changes neither."""
+    argv = sys.argv[1:]
+    command = requested_command(argv)
+    if command in ONE_BLAS_THREAD:  # the process's own setting, before NumPy loads
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    status = main(argv)
+    if command not in QUICK_EXIT:
+        sys.exit(status)
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (BrokenPipeError, ValueError):  # the reader went away, or it is closed
+            pass
+    os._exit(status)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry()

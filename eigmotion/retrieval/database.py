@@ -45,10 +45,10 @@ from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import (
     CANDIDATE_MOTIONS,
     fused_scores,
+    nearest_sequence_distances,
     pace_factors,
     pose_coordinates,
     pose_speeds,
-    sequence_distances,
     sequence_frames,
     view_reach,
 )
@@ -97,6 +97,13 @@ def candidate_motions(nearest: Sequence[Match]) -> list[Match]:
     return chosen
 
 
+def _rows_of(firsts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(sum of lengths,) int64: the rows of sequences that start at rows ``firsts`` (R,)
+    and hold ``lengths`` (R,) frames each, one sequence after the other."""
+    ends = np.cumsum(lengths)
+    return np.arange(int(ends[-1])) + np.repeat(firsts - (ends - lengths), lengths)
+
+
 class MotionDatabase:
     """An open motion database, ready for queries (and, opened writable, indexing).
 
@@ -134,7 +141,7 @@ class MotionDatabase:
         self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
         self._entry_labels: dict[int, str] = {}
         self._motions: dict[int, dict] = {}  # motion id → record, read on first use
-        self._sequences: dict = {}  # motion id → (MotionSequences, starts, speeds), on first use
+        self._sequences: dict = {}  # motion id → (MotionSequences, order, firsts), on first use
 
     @classmethod
     def open(cls, uri: str | os.PathLike = DEFAULT_DB_PATH, read_only: bool = True):
@@ -378,25 +385,39 @@ class MotionDatabase:
             (:func:`~eigmotion.retrieval.sequences.pace_factors`) — in order of
             :func:`~eigmotion.retrieval.sequences.fused_scores`.
         """
-        parts, lengths, speeds, owners = [], [], [], []
+        taken, lengths, owners = [], [], []  # per candidate: (stored, its rows in order)
         for candidate, match in enumerate(nearest):
-            stored, starts, stored_speeds = self._stored_sequences(match.motion_id)
-            near = np.flatnonzero(view_reach(stored.azimuth_deg, match.azimuth_deg))
-            # The renderings are kept in order of azimuth: those in reach are one run,
-            # or two where the reach wraps around 0°.
+            stored, by_azimuth, firsts = self._stored_sequences(match.motion_id)
+            azimuths = stored.azimuth_deg[by_azimuth]
+            near = np.flatnonzero(view_reach(azimuths, match.azimuth_deg))
+            # In order of azimuth, the renderings in reach are one run, or two where the
+            # reach wraps around 0°: the first run's renderings come first.
             for run in np.split(near, np.flatnonzero(np.diff(near) > 1) + 1):
                 if run.size:
-                    parts.append(stored.frames[starts[run[0]] : starts[run[-1] + 1]])
-                    lengths.append(stored.lengths[run])
-                    speeds.append(stored_speeds[run])
+                    chosen = by_azimuth[run]
+                    taken.append((stored, _rows_of(firsts[chosen], stored.lengths[chosen])))
+                    lengths.append(stored.lengths[chosen])
                     owners.append(np.full(run.size, candidate))
         compared = np.full(len(nearest), np.inf)
         if lengths:
-            found = sequence_distances(
-                query, np.concatenate(parts), np.concatenate(lengths), workers=worker_threads()
+            lengths = np.concatenate(lengths)
+            frames = np.empty((int(lengths.sum()), taken[0][0].frames.shape[1]), np.float32)
+            at = 0
+            for stored, rows in taken:
+                np.take(stored.frames, rows, axis=0, out=frames[at : at + len(rows)])
+                at += len(rows)
+            # Each rendering's pose speed is its own frames' alone: taken for the
+            # renderings in reach only, all at once.
+            speeds = pose_speeds(frames, lengths)
+            compared = nearest_sequence_distances(
+                query,
+                frames,
+                lengths,
+                np.concatenate(owners),
+                pace_factors(pose_speeds(query, [len(query)])[0], speeds),
+                len(nearest),
+                workers=worker_threads(),
             )
-            found *= pace_factors(pose_speeds(query, [len(query)])[0], np.concatenate(speeds))
-            np.minimum.at(compared, np.concatenate(owners), found)
         order = np.argsort(
             fused_scores(np.array([m.distance for m in nearest]), np.array(compared)),
             kind="stable",
@@ -410,25 +431,15 @@ class MotionDatabase:
         ]
 
     def _stored_sequences(self, motion_id: int):
-        """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences` with its renderings in
-        order of azimuth, the (R + 1,) first frame of each rendering (then the number
-        of frames), and their (R,) pose speeds (:func:`~eigmotion.retrieval.sequences.
-        pose_speeds`): read from the store once, then kept."""
+        """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences`, its renderings
+        in order of azimuth (R,) and the (R,) first frame of each rendering: read from
+        the store once, then kept."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id)
-            order = np.argsort(stored.azimuth_deg, kind="stable")
-            ends = np.cumsum(stored.lengths)
-            stored = dataclasses.replace(
-                stored, azimuth_deg=stored.azimuth_deg[order],
-                elevation_deg=stored.elevation_deg[order], lengths=stored.lengths[order],
-                frames=np.concatenate(
-                    [stored.frames[ends[r] - stored.lengths[r] : ends[r]] for r in order]
-                ),
-            )  # fmt: skip
-            starts = np.concatenate([[0], np.cumsum(stored.lengths)])
-            speeds = pose_speeds(stored.frames, stored.lengths)
-            found = self._sequences[motion_id] = (stored, starts, speeds)
+            by_azimuth = np.argsort(stored.azimuth_deg, kind="stable")
+            firsts = np.cumsum(stored.lengths) - stored.lengths
+            found = self._sequences[motion_id] = (stored, by_azimuth, firsts)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:

@@ -25,7 +25,13 @@ around the diagonal, :data:`WARP_BAND` of the longer sequence wide on each side 
 Sakoe–Chiba band): on the holdout clips it answers as well as a free path, for less
 work.  The warping is NumPy over the anti-diagonals of every compared sequence at once
 (:func:`_warp`), or numba's compiled loop once numba is loaded in the process anyway
-(:func:`_warper`); both give the same distances to the bit.  A query compares its
+(:func:`_warper`); both give the same distances to the bit.  A query needs only each
+candidate motion's least distance over its renderings
+(:func:`nearest_sequence_distances`): a rendering whose lower bound
+(:func:`_lower_bounds`: every path passes each row and each column of the frame
+distances, so it costs at least the sum of their cheapest cells; exact in floating
+point) is not below its candidate's least distance so far is not warped, the least
+distances staying the same to the bit.  A query compares its
 sequence only with the renderings of each candidate motion seen from within
 :data:`VIEW_REACH_DEG` of azimuth of the view the motion's nearest entry came from: the
 motion image already found the viewing direction.
@@ -152,33 +158,21 @@ def pose_coordinates(pose_space: Eigenspace, frames: np.ndarray) -> np.ndarray:
     )
 
 
-def _warp_loop(dots, query_norms, frame_norms, starts, band, out):  # pragma: no cover - JIT
+def _warp_loop(cost, lengths, out):  # pragma: no cover - JIT
     """:func:`_warp` as a loop over the cells, for numba: the same sums in the same
-    order (no fast-math), so the same distances to the bit."""
-    n = dots.shape[0]
-    minus_two = np.float32(-2.0)
-    zero = np.float32(0.0)
-    for r in range(len(starts) - 1):
-        lo, m = starts[r], starts[r + 1] - starts[r]
+    order (no fast-math), so the same distances to the bit.  ``cost`` is ``_warp``'s
+    laid out (R, n, m_max)."""
+    n = cost.shape[1]
+    for r in range(cost.shape[0]):
+        m = lengths[r]
         previous = np.full(m + 1, np.inf)
         current = np.full(m + 1, np.inf)
         previous[0] = 0.0
-        reach = band * max(n, m)
         for i in range(n):
-            first, last = 1, m
-            if band < 1.0:
-                centre = (i + 0.5) * m / n + 0.5
-                first = max(1, int(np.ceil(centre - reach)))
-                last = min(m, int(np.floor(centre + reach)))
-            for j in range(0, first):
-                current[j] = np.inf
-            for j in range(first, last + 1):
-                cost = dots[i, lo + j - 1] * minus_two + query_norms[i]
-                cost = np.sqrt(max(cost + frame_norms[lo + j - 1], zero))
+            current[0] = np.inf
+            for j in range(1, m + 1):
                 step = min(previous[j], current[j - 1], previous[j - 1])
-                current[j] = cost + step
-            for j in range(last + 1, m + 1):
-                current[j] = np.inf
+                current[j] = cost[r, i, j - 1] + step
             previous, current = current, previous
         out[r] = previous[m] / (n + m)
 
@@ -191,62 +185,97 @@ def _compiled_warp_loop():
     return njit(cache=True, nogil=True)(_warp_loop)
 
 
+def _warp_with_loop(cost: np.ndarray, lengths: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_warp` by numba's compiled loop over the cells."""
+    _compiled_warp_loop()(np.ascontiguousarray(cost.transpose(2, 0, 1)), lengths, out)
+
+
 def _warper():
     """The time warping to run: numba's compiled loop when numba is already loaded in
     the process (the tree search loads it), as it is then the quicker; else the NumPy
     one, which does not need numba's import and set-up (about 0.45 s of CPU in a new
     process).  The distances are the same to the bit either way."""
-    return _compiled_warp_loop() if "numba" in sys.modules else _warp
+    return _warp_with_loop if "numba" in sys.modules else _warp
 
 
-def _warp(
-    dots: np.ndarray, query_norms: np.ndarray, frame_norms: np.ndarray, starts: np.ndarray,
-    band: float, out: np.ndarray,
-) -> None:  # fmt: skip
-    """``out`` (R,): per sequence ``r`` (frames ``starts[r] … starts[r + 1]``), the
-    cheapest monotone alignment of the query's frames with its frames, summed frame
-    distances over ``n + m``.
+def _frame_distances(
+    query: np.ndarray, frames: np.ndarray, starts: np.ndarray, workers: Executor | None
+) -> np.ndarray:
+    """(n, M) float32: the Euclidean distance of every query frame to every frame,
+    ``sqrt(max(‖a‖² + ‖b‖² − 2 a·b, 0))`` in float32.
 
-    A frame distance is ``sqrt(max(‖a‖² + ‖b‖² − 2 a·b, 0))`` in float32, from
-    ``dots`` (n, M) float32 ``a·b`` and the squared norms (n,) and (M,).  Query frame
-    ``i`` is aligned only with frames ``j`` (1-based) within ``band · max(n, m)`` of
-    ``(i + ½) · m / n + ½``; inf when no path keeps to that band.
-
-    The cumulative costs (float64) are filled one anti-diagonal ``i + j`` at a time,
-    for every sequence at once: each cell needs only the two diagonals before its own,
-    and gets the same sum, ``cost + min(left, up, diagonal)``, as a loop over the cells.
+    ``‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b``: one matrix product for every pair of frames
+    (float32: distances of pose coordinates of order 1 come out within about 1e-3).
+    Always the same two products, the frames up to the sequence boundary nearest half
+    of them and the rest (the later one on ``workers`` when given): how a product's
+    sums are grouped can change its last bit, so the distances do not depend on the
+    threads or on which sequences are warped afterwards.
     """
-    n = dots.shape[0]
+    cost = np.empty((len(query), len(frames)), np.float32)
+    query_norms = np.einsum("ij,ij->i", query, query)
+
+    def fill(lo: int, hi: int) -> None:  # frames [lo, hi)
+        part = frames[lo:hi]
+        out = cost[:, lo:hi]
+        np.multiply(query @ part.T, np.float32(-2.0), out=out)
+        out += query_norms[:, None]
+        out += np.einsum("ij,ij->i", part, part)[None, :]
+        np.maximum(out, np.float32(0.0), out=out)
+        np.sqrt(out, out=out)
+
+    count = len(starts) - 1
+    half = int(np.searchsorted(starts, starts[-1] / 2.0))
+    if not 0 < half < count:
+        fill(0, len(frames))
+    elif workers is None:
+        fill(0, int(starts[half]))
+        fill(int(starts[half]), len(frames))
+    else:
+        later = workers.submit(fill, int(starts[half]), len(frames))
+        fill(0, int(starts[half]))
+        later.result()
+    return cost
+
+
+def _banded_costs(cost: np.ndarray, starts: np.ndarray, band: float) -> np.ndarray:
+    """(n, m_max, R) float32: sequence ``r``'s frame distances (from
+    :func:`_frame_distances`) at ``[:, j, r]``, inf where the path may not go.
+
+    Query frame ``i`` is aligned only with frames ``j`` (1-based) within ``band ·
+    max(n, m)`` of ``(i + ½) · m / n + ½``; beyond a sequence's end, inf too.
+    """
+    n = cost.shape[0]
     lengths = np.diff(starts)
-    count, longest = len(lengths), int(lengths.max())
-    # (n, M + 1) frame distances, inf outside each sequence's band and in the last column.
-    cost = np.empty((n, dots.shape[1] + 1), np.float32)
-    np.multiply(dots, np.float32(-2.0), out=cost[:, :-1])
-    cost[:, :-1] += query_norms[:, None]
-    cost[:, :-1] += frame_norms[None, :]
-    np.maximum(cost[:, :-1], np.float32(0.0), out=cost[:, :-1])
-    np.sqrt(cost[:, :-1], out=cost[:, :-1])
-    cost[:, -1] = np.inf
+    column = np.arange(int(lengths.max()))[:, None]  # j − 1
+    frame = np.minimum(starts[None, :-1] + column, cost.shape[1] - 1)
+    out = np.take(cost, frame, axis=1)
+    beyond = column >= lengths[None, :]  # (m_max, R)
     if band < 1.0:
-        # Per query frame, each sequence's frames [first, last] (1-based) in its band,
-        # marked by +1 at its first and −1 after its last frame, summed along the row.
         row = np.arange(n)[:, None]
         m = lengths[None, :]
         centre = (row + 0.5) * m / n + 0.5
         reach = band * np.maximum(n, m)
         first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)
         last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)
-        marks = np.zeros((n, dots.shape[1] + 1), np.int32)
-        rows = np.broadcast_to(row, first.shape)
-        keep = first <= last
-        np.add.at(marks, (rows[keep], (starts[:-1] + first - 1)[keep]), 1)
-        np.add.at(marks, (rows[keep], (starts[:-1] + last)[keep]), -1)
-        np.copyto(cost, np.float32(np.inf), where=np.cumsum(marks, axis=1) == 0)
-    # (n, m_max, R): sequence r's frame j at [:, j, r]; inf beyond its end.
-    column = np.arange(longest)[:, None]
-    frame = np.where(column < lengths[None, :], starts[None, :-1] + column, dots.shape[1])
-    cost = np.take(cost, frame, axis=1)
-    # A diagonal's cells by their row i (0 … n), each a row of the R sequences.
+        j = column[None] + 1
+        outside = (j < first[:, None, :]) | (j > last[:, None, :]) | beyond[None]
+    else:
+        outside = np.broadcast_to(beyond[None], out.shape)
+    np.copyto(out, np.float32(np.inf), where=outside)
+    return out
+
+
+def _warp(cost: np.ndarray, lengths: np.ndarray, out: np.ndarray) -> None:
+    """``out`` (R,): per sequence ``r``, the cheapest monotone alignment of the query's
+    n frames with its ``lengths[r]`` frames, summed frame distances over ``n + m``.
+
+    ``cost`` (n, m_max, R) float32 are the frame distances, inf where the path may not
+    go (:func:`_banded_costs`); inf when no path keeps to the band.  The cumulative
+    costs (float64) are filled one anti-diagonal ``i + j`` at a time, for every
+    sequence at once: each cell needs only the two diagonals before its own, and gets
+    the same sum, ``cost + min(left, up, diagonal)``, as a loop over the cells.
+    """
+    n, longest, count = cost.shape
     before = np.full((n + 1, count), np.inf)  # diagonal d − 2
     before[0] = 0.0  # the path's start, cell (0, 0)
     last_diagonal = np.full((n + 1, count), np.inf)  # diagonal d − 1
@@ -262,6 +291,62 @@ def _warp(
         if done.any():
             out[done] = current[n, done] / ends[done]
         before, last_diagonal = last_diagonal, current
+
+
+def _lower_bounds(cost: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(R,) float64: per sequence, a bound its :func:`_warp` distance is never below,
+    to the last bit.
+
+    A path passes through every query frame (row) and every frame of the sequence
+    (column), in order: its sum is at least the sum of each row's cheapest cell in
+    the band, and at least that of each column's.  Both are summed in float64 in
+    row (column) order, as the path's sum is, and rounding is monotone, so each
+    partial sum of the path is at least the bound's: the bound holds in floating
+    point too.  ``cost`` as for :func:`_warp`.
+    """
+    n, longest, _ = cost.shape
+    by_rows = np.add.accumulate(cost.min(axis=1), axis=0, dtype=np.float64)[-1]
+    columns = cost.min(axis=0).astype(np.float64)  # (m_max, R)
+    columns[np.arange(longest)[:, None] >= lengths[None, :]] = 0.0  # beyond the end
+    by_columns = np.add.accumulate(columns, axis=0)[-1]
+    return np.maximum(by_rows, by_columns) / (n + lengths)
+
+
+def _warp_some(
+    cost: np.ndarray, lengths: np.ndarray, which: np.ndarray, workers: Executor | None
+) -> np.ndarray:
+    """(len(which),) float64: :func:`_warp` of the sequences ``which`` of ``cost``,
+    half of them on ``workers`` when given and there are enough to pay for a thread."""
+    out = np.empty(len(which))
+    if not len(which):
+        return out
+    warper = _warper()
+
+    def warp(lo: int, hi: int) -> None:
+        chosen = which[lo:hi]
+        longest = int(lengths[chosen].max())
+        warper(cost[:, :longest, chosen], lengths[chosen], out[lo:hi])
+
+    half = len(which) // 2
+    if workers is None or half < _THREADED_WARP_MIN:
+        warp(0, len(which))
+    else:
+        later = workers.submit(warp, half, len(which))
+        warp(0, half)
+        later.result()
+    return out
+
+
+#: Fewest sequences per thread for :func:`_warp_some` to split its work over two
+#: threads: below it, one thread's interpreter overhead costs more than the split saves.
+_THREADED_WARP_MIN = 64
+
+
+def _checked_band(band: float | None) -> float:
+    band = float(WARP_BAND if band is None else band)
+    if not band > 0.0:
+        raise InvalidParameterError(f"band must be > 0, got {band}")
+    return band
 
 
 def sequence_distances(
@@ -282,10 +367,8 @@ def sequence_distances(
     lengths : (R,) int
         Frames of each of those R sequences, summing to ``M``; each >= 1.
     workers : Executor, optional
-        Threads to warp the later half of the sequences on (its matrix product
-        included) while the calling thread warps the first (BLAS and NumPy release
-        the GIL); the distances are the same either way.  Not to be
-        called from one of those threads.
+        Threads to share the work with (BLAS and NumPy release the GIL); the
+        distances are the same either way.  Not to be called from one of those threads.
     band : float, optional
         Half-width of the band around the diagonal the path keeps to, a share of the
         longer sequence's frames (:data:`WARP_BAND` when not given; 1 or more: none).
@@ -296,39 +379,72 @@ def sequence_distances(
         Per sequence, the cheapest monotone alignment's summed frame distances
         (Euclidean, computed in float32) over ``n + m``.
     """
-    band = float(WARP_BAND if band is None else band)
-    if not band > 0.0:
-        raise InvalidParameterError(f"band must be > 0, got {band}")
+    band = _checked_band(band)
     query = np.ascontiguousarray(query, dtype=np.float32)
     frames = np.ascontiguousarray(frames, dtype=np.float32)
+    lengths = np.asarray(lengths, dtype=np.int64)
     starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-    out = np.empty(len(lengths))
-    query_norms = np.einsum("ij,ij->i", query, query)
-    warper = _warper()
+    cost = _banded_costs(_frame_distances(query, frames, starts, workers), starts, band)
+    return _warp_some(cost, lengths, np.arange(len(lengths)), workers)
 
-    def warp(first: int, stop: int) -> None:  # sequences [first, stop)
-        # ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b: one matrix product for every pair of frames
-        # (float32: distances of pose coordinates of order 1 come out within about
-        # 1e-3); the rest of each frame distance is taken inside the warp, as needed.
-        part = frames[starts[first] : starts[stop]]
-        dots = query @ part.T
-        norms = np.einsum("ij,ij->i", part, part)
-        bounds = starts[first : stop + 1] - starts[first]
-        warper(dots, query_norms, norms, bounds, band, out[first:stop])
 
-    # Always the same two halves, whether or not the later one runs on a worker: the
-    # distances do not depend on the threads.
-    half = int(np.searchsorted(starts, starts[-1] / 2.0))
-    if not 0 < half < len(lengths):
-        warp(0, len(lengths))
-    elif workers is None:
-        warp(0, half)
-        warp(half, len(lengths))
-    else:
-        later = workers.submit(warp, half, len(lengths))
-        warp(0, half)
-        later.result()
-    return out
+def nearest_sequence_distances(
+    query: np.ndarray,
+    frames: np.ndarray,
+    lengths: np.ndarray,
+    owners: np.ndarray,
+    factors: np.ndarray,
+    n_owners: int,
+    workers: Executor | None = None,
+    band: float | None = None,
+) -> np.ndarray:
+    """Per owner, the least of its sequences' :func:`sequence_distances` times their
+    factors, to the bit, without warping the sequences that cannot be it.
+
+    Each sequence's distance has a lower bound (:func:`_lower_bounds`, from the same
+    frame distances, exact in floating point).  Each owner's sequence of least bound
+    is warped first; then only those whose bound (times their factor) lies below
+    their owner's least distance so far.  The rest could not have been the least.
+
+    Parameters
+    ----------
+    query, frames, lengths, workers, band
+        As for :func:`sequence_distances`.
+    owners : (R,) int
+        Owner of each sequence, in ``[0, n_owners)``.
+    factors : (R,) float
+        What each sequence's distance is multiplied by (> 0; :func:`pace_factors`).
+    n_owners : int
+
+    Returns
+    -------
+    (n_owners,) float64
+        ``np.minimum.at(inf, owners, sequence_distances(...) * factors)``: inf for an
+        owner without sequences (or with no path within the band).
+    """
+    band = _checked_band(band)
+    nearest = np.full(n_owners, np.inf)
+    if not len(lengths):
+        return nearest
+    query = np.ascontiguousarray(query, dtype=np.float32)
+    frames = np.ascontiguousarray(frames, dtype=np.float32)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    owners = np.asarray(owners, dtype=np.int64)
+    factors = np.asarray(factors, dtype=np.float64)
+    starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    cost = _banded_costs(_frame_distances(query, frames, starts, workers), starts, band)
+    bounds = _lower_bounds(cost, lengths) * factors
+    by_owner = np.lexsort((bounds, owners))  # each owner's, least bound first
+    first = np.ones(len(by_owner), dtype=bool)
+    first[1:] = owners[by_owner[1:]] != owners[by_owner[:-1]]
+    for which in (by_owner[first], None):
+        if which is None:  # the rest, unless their bound already rules them out
+            rest = by_owner[~first]
+            which = np.sort(rest[bounds[rest] < nearest[owners[rest]]])
+        found = _warp_some(cost, lengths, which, workers)
+        found *= factors[which]
+        np.minimum.at(nearest, owners[which], found)
+    return nearest
 
 
 def pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
@@ -352,8 +468,30 @@ def pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         Mean Euclidean distance between consecutive smoothed frames, pose-coordinate
         units per frame (at the motion image's ``sample_fps``); 0 for a single frame.
     """
-    x = np.array(frames, dtype=np.float64)
+    frames = np.asarray(frames)
     lengths = np.asarray(lengths, dtype=np.int64)
+    if not len(lengths):
+        return np.empty(0)
+    stops = np.cumsum(lengths)
+    # Blocks of whole sequences, about SPEED_BLOCK_FRAMES frames each: each sequence's
+    # speed is its own frames' alone, and a block's arrays stay in the CPU's cache.
+    cuts = np.searchsorted(stops, np.arange(SPEED_BLOCK_FRAMES, stops[-1], SPEED_BLOCK_FRAMES))
+    bounds = np.unique(np.concatenate([[0], cuts + 1, [len(lengths)]]))
+    bounds = bounds[bounds <= len(lengths)]
+    speeds = np.empty(len(lengths))
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        first = stops[lo] - lengths[lo]
+        speeds[lo:hi] = _block_pose_speeds(frames[first : stops[hi - 1]], lengths[lo:hi])
+    return speeds
+
+
+#: Frames smoothed at a time by :func:`pose_speeds` (whole sequences of them).
+SPEED_BLOCK_FRAMES = 1024
+
+
+def _block_pose_speeds(frames: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """:func:`pose_speeds` of sequences held in one block of frames."""
+    x = np.array(frames, dtype=np.float64)
     stops = np.cumsum(lengths)
     ends = np.zeros(len(x), dtype=bool)  # each sequence's first and last frame
     ends[stops - 1] = True
