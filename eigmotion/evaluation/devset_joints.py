@@ -168,7 +168,7 @@ def track_set(
     folder = Path(folder)
     try:
         calibration = load_calibration(folder / "cams.json")
-        masks, ious, fps = [], [], None
+        masks, landmarks, ious, fps = [], [], [], None
         for c, camera in enumerate(calibration.cameras):
             background = None if segmenter == "learned" else folder / f"background{c}.png"
             clip = load_clip_masks(folder / f"cam{c}.mp4", background, segmenter=segmenter)
@@ -177,6 +177,7 @@ def track_set(
                     f"{folder}/cam{c}.mp4: frames do not match camera {camera.name!r}"
                 )
             masks.append(clip.masks)
+            landmarks.append(clip.landmarks)
             fps = fps or clip.fps
             if (folder / f"masks{c}.npz").is_file():
                 with np.load(folder / f"masks{c}.npz") as stored:
@@ -184,7 +185,7 @@ def track_set(
         tracker = SilhouetteTracker(
             dictionary, calibration.cameras, config=config, pairs=calibration.pairs
         )
-        tracked = track_clip(tracker, masks, fps)
+        tracked = track_clip(tracker, masks, fps, landmarks=landmarks)
         true_names, truth = load_truth(folder)
         frames = tracked.result.frames
         keep = frames < len(truth)
