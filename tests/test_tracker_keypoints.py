@@ -3,6 +3,9 @@ exchanges, the skeleton's fit, and the switch that leaves the tracker alone."""
 
 from __future__ import annotations
 
+import importlib.util
+
+import cv2
 import numpy as np
 import pytest
 
@@ -10,8 +13,12 @@ from eigmotion.body.avatar import load_default_avatar
 from eigmotion.body.retarget import retarget
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.cameras import intrinsics, look_at
+from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.amc import read_amc
+from eigmotion.resources import samples_dir
+from eigmotion.segmentation.learned import STORE_MAX_SIDE_PX
+from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.dictionary import build_dictionary
 from eigmotion.tracking.keypoint_fit import KeypointFitter, rotation_between, smooth_targets
@@ -216,3 +223,41 @@ def test_the_stage_fits_the_tracker_and_switches_off(walk):
         TrackerConfig(keypoint_weight=1.5)
     with pytest.raises(InvalidParameterError, match="min_confidence"):
         TriangulationConfig(min_confidence=2.0)
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("ai_edge_litert") is None,
+    reason="the pose network runs through LiteRT (pip install ai-edge-litert)",
+)
+def test_the_front_end_hands_over_its_landmarks_in_frame_pixels(tmp_path):
+    """The fused front end's landmarks (the stage's input) lie on the person in the
+    clip's own pixels, also when the networks saw the frames shrunk (a clip larger
+    than :data:`~eigmotion.segmentation.learned.STORE_MAX_SIDE_PX`); background
+    subtraction gives none."""
+    small, _ = read_frames(samples_dir() / "walk_3s.mp4")
+    background = cv2.imread(str(samples_dir() / "walk_3s_background.png"))
+    clip_path = write_video(
+        np.stack([cv2.resize(f, (800, 600)) for f in small[30::2]]), tmp_path / "big.mp4", 12.5
+    )
+    cv2.imwrite(str(tmp_path / "big.png"), cv2.resize(background, (800, 600)))
+    fused = load_clip_masks(clip_path, tmp_path / "big.png", segmenter="auto")
+    height, width = 600, 800
+    assert max(height, width) > STORE_MAX_SIDE_PX
+    assert fused.landmarks.shape == (len(fused.masks), 33, 4)
+    assert fused.masks.shape[1:] == (height, width)
+    hips = fused.landmarks[:, 23:25]
+    seen = np.isfinite(hips[..., 0]) & (hips[..., 2] > 0.5)
+    assert seen.mean() > 0.6
+    cols = np.clip(hips[..., 0][seen].astype(int), 0, width - 1)
+    rows = np.clip(hips[..., 1][seen].astype(int), 0, height - 1)
+    frame_of = np.nonzero(seen)[0]
+    near = [fused.masks[f, max(r - 6, 0) : r + 7, max(c - 6, 0) : c + 7].any()
+            for f, r, c in zip(frame_of, rows, cols, strict=True)]  # fmt: skip
+    assert np.mean(near) > 0.9
+    # the person's middle: the hips' midpoint within the mask's extent, frame by frame
+    middle = hips[..., 0].mean(axis=1)
+    for f in np.flatnonzero(seen.all(axis=1)):
+        columns = np.flatnonzero(fused.masks[f].any(axis=0))
+        assert columns[0] <= middle[f] <= columns[-1] + 1
+    background_only = load_clip_masks(clip_path, tmp_path / "big.png", segmenter="subtraction")
+    assert background_only.landmarks is None

@@ -7,7 +7,8 @@ of a joint's whole subtree (so every bone keeps its length):
 
 1. root: the body is shifted so that the midpoint of its hips lies on the
    triangulated one (both hips trusted), then turned about it to fit the trusted hips
-   and shoulders best (least squares, at least three of them);
+   and shoulders best (least squares, at least three of them; not when that turn
+   exceeds :data:`MAX_ROOT_TURN_DEG`);
 2. spine: the upper body (from ``LowerBack``) turns so that the midpoint of the
    shoulders points at the triangulated one; each clavicle turns its shoulder toward
    the triangulated shoulder;
@@ -42,6 +43,10 @@ BONES = (
     ("RightForeArm", "RightHand"),
     ("Neck", "Head"),
 )
+
+#: The root turns at most this far, degrees: a larger turn is taken for a mistake of
+#: the landmarks (the silhouettes' heading stands).
+MAX_ROOT_TURN_DEG = 60.0
 
 #: The joints the root's turn is fitted to.
 TORSO = ("LeftUpLeg", "RightUpLeg", "LeftArm", "RightArm")
@@ -175,7 +180,8 @@ class KeypointFitter:
             if len(torso) >= 3:
                 source = np.stack([positions[joint[n]] for n in torso]) - centre
                 turn = best_rotation(source, np.stack([aim(n) for n in torso]) - centre)
-                self._turn(positions, rotations, 0, turn, centre)
+                if np.trace(turn) >= 1.0 + 2.0 * np.cos(np.radians(MAX_ROOT_TURN_DEG)):
+                    self._turn(positions, rotations, 0, turn, centre)
         shoulders = ("LeftArm", "RightArm")
         if all(ok(s) for s in shoulders):
             back = positions[joint["LowerBack"]].copy()

@@ -84,17 +84,22 @@ class TriangulationConfig:
         this fraction of that image's longer side.
     track_weight : float
         Weight of the distance to the tracker's estimate, against the jump between
-        frames, when deciding which side is the person's left (:func:`orient_sides`).
+        frames, when deciding which side is the person's left.
+    max_offset_m : float or None
+        A joint farther than this from the tracker's estimate of it is not trusted
+        (metres); None: no limit.
     """
 
     min_confidence: float = 0.5
     max_residual_frac: float = 0.03
     track_weight: float = 0.5
+    max_offset_m: float | None = None
 
     _parameter_constraints: ClassVar[dict] = {
         "min_confidence": Interval(Real, 0.0, 1.0, noun="a probability"),
         "max_residual_frac": Interval(Real, 0.0, 1.0, closed="right", noun="a fraction"),
         "track_weight": Interval(Real, 0.0, None, noun="a weight"),
+        "max_offset_m": [None, Interval(Real, 0.0, None, closed="neither", noun="metres")],
     }
 
     def __post_init__(self):
@@ -318,4 +323,8 @@ def triangulate_clip(
     off = np.where(used, residuals / limits, 0.0).max(axis=-1)
     largest = np.where(used.sum(axis=-1) >= 2, np.where(used, residuals, 0.0).max(axis=-1), np.nan)
     points[~(off <= 1.0) | ~np.isfinite(largest)] = np.nan
+    if config.max_offset_m is not None:
+        with np.errstate(invalid="ignore"):
+            far = np.linalg.norm(points - tracked, axis=-1) > config.max_offset_m
+        points[far] = np.nan
     return TriangulatedJoints(points, largest, exchanged)
