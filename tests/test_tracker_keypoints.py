@@ -22,6 +22,7 @@ from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.dictionary import build_dictionary
 from eigmotion.tracking.keypoint_fit import KeypointFitter, rotation_between, smooth_targets
+from eigmotion.tracking.overlay import SKELETON_RGB, draw_skeleton
 from eigmotion.tracking.pipeline import track_clip
 from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation
 from eigmotion.tracking.tracker import SilhouetteTracker, TrackerConfig
@@ -261,3 +262,17 @@ def test_the_front_end_hands_over_its_landmarks_in_frame_pixels(tmp_path):
         assert columns[0] <= middle[f] <= columns[-1] + 1
     background_only = load_clip_masks(clip_path, tmp_path / "big.png", segmenter="subtraction")
     assert background_only.landmarks is None
+
+
+def test_the_fitted_skeleton_is_drawn_where_the_camera_sees_it():
+    cam = walkway_cameras()[0]
+    joints = np.array([[0.5, 0.9, 0.0], [0.5, 1.5, 0.0], [0.5, 0.9, -9.0]])  # last: behind
+    image = np.zeros((cam.height, cam.width, 3), np.uint8)
+    drawn = draw_skeleton(image, cam, joints, np.array([-1, 0, 0]))
+    cyan = (drawn == SKELETON_RGB).all(axis=-1)
+    (u0, v0), (u1, v1) = cam.project(joints[:2])[0]
+    assert cyan.sum() >= 0.8 * abs(v1 - v0)
+    rows, cols = np.nonzero(cyan)
+    assert min(v0, v1) - 2 <= rows.min() and rows.max() <= max(v0, v1) + 2
+    assert abs(cols.mean() - (u0 + u1) / 2) < 3
+    assert not image.any()  # a copy is drawn on

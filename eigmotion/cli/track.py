@@ -19,7 +19,8 @@ Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-spe
 playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
 ``positions`` (n_frames, n_joints, 3) metres in the calibration's world frame,
 ``frame_time_s``, ``frames``), ``--overlay-out`` (the input views side by side with
-the estimated silhouette's outline drawn in yellow), ``--dictionary-out`` (the
+the estimated silhouette's outline drawn in yellow, and the keypoints stage's fitted
+skeleton in cyan), ``--dictionary-out`` (the
 dictionary as ``.npz``, for reuse).
 """
 
@@ -44,7 +45,7 @@ from eigmotion.tracking.generation import (
     smooth_headings_deg,
     variable_speed_playback,
 )
-from eigmotion.tracking.overlay import draw_outline
+from eigmotion.tracking.overlay import draw_outline, draw_skeleton
 from eigmotion.tracking.pipeline import (
     DEFAULT_DICTIONARY,
     DEFAULT_HEADING_STEP_DEG,
@@ -209,8 +210,10 @@ def _held(values: np.ndarray, tracked) -> np.ndarray:
     return values
 
 
-def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
-    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow."""
+def _overlay_frames(args, tracker, tracked, masks) -> np.ndarray:
+    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow and,
+    where the keypoints stage ran, its fitted skeleton in cyan."""
+    result = tracked.result
     views = []
     for c, video in enumerate(args.videos):
         if Path(video).suffix.lower() == ".npz":
@@ -221,6 +224,10 @@ def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
         out = np.empty_like(rgb)
         for i, estimate in enumerate(result.estimates):
             out[i] = draw_outline(rgb[i], tracker.silhouette(estimate, c))
+            if tracked.fitted is not None:
+                out[i] = draw_skeleton(
+                    out[i], tracker.cameras[c], tracked.joints_m[i], tracker.dictionary.parents
+                )
         views.append(out)
     height = max(v.shape[1] for v in views)
     padded = [
@@ -305,7 +312,7 @@ def run(args: argparse.Namespace) -> int:
             frames=result.frames,
         )
     if args.overlay_out:
-        write_video(_overlay_frames(args, tracker, result, masks), args.overlay_out, fps / step)
+        write_video(_overlay_frames(args, tracker, tracked, masks), args.overlay_out, fps / step)
     print(
         f"tracked {result.n_estimates} frames of {len(masks[0])} ({fps:g} fps, every {step}): "
         f"{result.n_estimates / tracked.wall_s:.1f} estimates/s, "
