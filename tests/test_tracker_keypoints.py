@@ -121,6 +121,22 @@ def test_clip_triangulation_trusts_only_what_two_views_see(walk):
     assert not joints.exchanged.any()
 
 
+def test_with_three_cameras_a_view_far_off_is_left_out(walk):
+    *_, cams, _, names, truth = walk
+    K = intrinsics(320, 240, 45.0)
+    cams = [*cams, look_at([3.5, 1.8, 0.2], [0.5, 0.9, 0.0], K, 320, 240, name="front")]
+    points = keypoints_of(names, truth)
+    views = landmarks_seen(cams, points)
+    views[2][5, 27, :2] += 30.0  # the third camera puts the left ankle 30 px off
+    joints = triangulate_clip(cams, views, points)
+    assert joints.trusted.all()
+    np.testing.assert_allclose(joints.positions_m, points, atol=1e-3)
+    two = triangulate_clip([cams[0], cams[2]], [views[0], views[2]], points)
+    assert not two.trusted[5, KEYPOINT_JOINTS.index("LeftFoot")]  # two views: not trusted
+    empty = triangulate_clip(cams, [v[:0] for v in views], points[:0])
+    assert empty.positions_m.shape == (0, len(KEYPOINT_JOINTS), 3)
+
+
 def test_a_view_with_left_and_right_exchanged_is_put_right(walk):
     *_, cams, _, names, truth = walk
     points = keypoints_of(names, truth)

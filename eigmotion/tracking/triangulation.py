@@ -282,6 +282,10 @@ def triangulate_clip(
     n, _, n_views = weights.shape
     exchanged = np.zeros((n, n_views, len(SIDE_GROUPS)), bool)
     tracked = np.asarray(tracked, dtype=np.float64)
+    if n == 0:
+        return TriangulatedJoints(
+            np.zeros((0, len(KEYPOINT_JOINTS), 3)), np.zeros((0, len(KEYPOINT_JOINTS))), exchanged
+        )
     for g in range(len(SIDE_GROUPS)):
         rows = _group_rows(g)
         states = list(product((False, True), repeat=n_views))
