@@ -273,6 +273,9 @@ def test_eval_tracking_segmenters_and_their_iou(dev_set, tmp_path, capsys, segme
     assert 0.8 < subtracted["silhouette_iou"] <= 1.0
     assert 0.5 < scored["silhouette_iou"] < subtracted["silhouette_iou"]
     assert other["summary"]["silhouette_iou"] == pytest.approx(scored["silhouette_iou"], abs=1e-4)
+    # the keypoints stage runs on the networks' landmarks, not on subtraction's masks
+    assert subtracted["keypoints_trusted"] is None
+    assert 0.0 <= scored["keypoints_trusted"] <= 1.0
     folder = dev_set / "tracking" / "track_t"
     joints = tmp_path / "j.npz"
     backgrounds = [] if segmenter == "learned" else [

@@ -178,6 +178,25 @@ def test_track_end_to_end(scene, tracked, capsys, tmp_path):
     assert 1000 * np.linalg.norm(replay - truth, axis=-1).mean() < 200
 
 
+def test_no_keypoints_is_the_tracker_alone(scene, tracked, capsys, tmp_path):
+    """Stored masks come without landmarks: the keypoints stage does not run, and
+    ``--no-keypoints`` gives the same joints and motion."""
+    root, paths, *_ = scene
+    work, *_ = tracked
+    code, _, err = run_cli(
+        [
+            "--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz",
+            "--no-keypoints", "--joints-out", tmp_path / "alone.npz",
+            "--bvh-out", tmp_path / "alone.bvh",
+        ],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    alone = np.load(tmp_path / "alone.npz")["positions"]
+    np.testing.assert_array_equal(alone, np.load(work / "out.npz")["positions"])
+    assert (tmp_path / "alone.bvh").read_text() == (work / "out.bvh").read_text()
+
+
 def test_track_from_video_with_background(scene, capsys, tmp_path):
     """RGB videos with a textured background, a shadow and noise, cut out against
     background images by subtraction (the person networks of the default front end do

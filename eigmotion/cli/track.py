@@ -11,11 +11,16 @@ the clip when no image is given).  Every ``video fps / --estimate-fps``-th frame
 tracked against a posture dictionary built from ``--dictionary`` motions (default:
 CMU walks and turns in every direction), or loaded from a saved dictionary ``.npz``.
 
+With the learned and fused front ends, each estimate is then fitted to the joints
+triangulated from every camera's pose landmarks (the keypoints stage,
+:mod:`eigmotion.tracking.keypoint_fit`; ``--no-keypoints``: the tracker alone).
+
 Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-speed
 playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
 ``positions`` (n_frames, n_joints, 3) metres in the calibration's world frame,
 ``frame_time_s``, ``frames``), ``--overlay-out`` (the input views side by side with
-the estimated silhouette's outline drawn in yellow), ``--dictionary-out`` (the
+the estimated silhouette's outline drawn in yellow, and the keypoints stage's fitted
+skeleton in cyan), ``--dictionary-out`` (the
 dictionary as ``.npz``, for reuse).
 """
 
@@ -40,7 +45,7 @@ from eigmotion.tracking.generation import (
     smooth_headings_deg,
     variable_speed_playback,
 )
-from eigmotion.tracking.overlay import draw_outline
+from eigmotion.tracking.overlay import draw_outline, draw_skeleton
 from eigmotion.tracking.pipeline import (
     DEFAULT_DICTIONARY,
     DEFAULT_HEADING_STEP_DEG,
@@ -143,6 +148,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the estimate stands (when background subtraction loses the feet)",
     )
     parser.add_argument(
+        "--no-keypoints",
+        action="store_true",
+        help="do not fit the estimates to the joints triangulated from the pose "
+        "network's landmarks (the silhouette tracker alone)",
+    )
+    parser.add_argument(
         "--reference",
         help="reference motion replayed at variable speed for --bvh-out/--joints-out",
     )
@@ -163,9 +174,11 @@ def load_dictionary(args: argparse.Namespace):
     return dictionary_from_specs(args.dictionary, args.asf, args.heading_step_deg, args.prune_deg)
 
 
-def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], float]:
+def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], float, list]:
+    """Each camera's silhouettes, the videos' rate, and each camera's pose landmarks
+    (None where the front end gives none)."""
     backgrounds = args.background or [None] * len(args.videos)
-    all_masks, rates = [], []
+    all_masks, rates, landmarks = [], [], []
     for cam, video, background in zip(cameras, args.videos, backgrounds, strict=True):
         clip = load_clip_masks(video, background, segmenter=args.segmenter, progress=True)
         masks, fps = clip.masks, clip.fps
@@ -176,15 +189,31 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
             )
         all_masks.append(masks)
         rates.append(fps)
+        landmarks.append(clip.landmarks)
     counts = {len(m) for m in all_masks}
     if len(counts) != 1:
         listed = ", ".join(f"{v}: {len(m)}" for v, m in zip(args.videos, all_masks, strict=True))
         raise InvalidParameterError(f"the videos have different frame counts ({listed})")
-    return all_masks, float(rates[0])
+    return all_masks, float(rates[0]), landmarks
 
 
-def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
-    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow."""
+def _root_shift(tracked) -> np.ndarray:
+    """(E, 3) how far the keypoints stage moved each estimate's root, metres."""
+    return tracked.joints_m[:, 0] - _held(tracked.result.joint_positions_m[:, 0], tracked)
+
+
+def _held(values: np.ndarray, tracked) -> np.ndarray:
+    """``values`` per estimate with those before the person was first seen set to the
+    first found one's."""
+    values = values.copy()
+    values[: tracked.first] = values[tracked.first]
+    return values
+
+
+def _overlay_frames(args, tracker, tracked, masks) -> np.ndarray:
+    """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow and,
+    where the keypoints stage ran, its fitted skeleton in cyan."""
+    result = tracked.result
     views = []
     for c, video in enumerate(args.videos):
         if Path(video).suffix.lower() == ".npz":
@@ -195,6 +224,10 @@ def _overlay_frames(args, tracker, result, masks) -> np.ndarray:
         out = np.empty_like(rgb)
         for i, estimate in enumerate(result.estimates):
             out[i] = draw_outline(rgb[i], tracker.silhouette(estimate, c))
+            if tracked.fitted is not None:
+                out[i] = draw_skeleton(
+                    out[i], tracker.cameras[c], tracked.joints_m[i], tracker.dictionary.parents
+                )
         views.append(out)
     height = max(v.shape[1] for v in views)
     padded = [
@@ -231,15 +264,16 @@ def run(args: argparse.Namespace) -> int:
         recovery_ratio=None if args.no_recovery else TrackerConfig.recovery_ratio,
         travel_tolerance_deg=None if args.no_travel_prior else TrackerConfig.travel_tolerance_deg,
         scale_from_top=args.scale_from_top,
+        keypoints=not args.no_keypoints,
     )
-    masks, fps = _load_masks(args, calibration.cameras)
+    masks, fps, landmarks = _load_masks(args, calibration.cameras)
     dictionary = load_dictionary(args)
     if args.dictionary_out:
         dictionary.save(args.dictionary_out)
     tracker = SilhouetteTracker(
         dictionary, calibration.cameras, config=config, pairs=calibration.pairs
     )
-    tracked = track_clip(tracker, masks, fps, args.estimate_fps)
+    tracked = track_clip(tracker, masks, fps, args.estimate_fps, landmarks)
     result, step = tracked.result, tracked.frame_step
     entries, positions = tracked.entries, tracked.positions_m
     if args.reference:
@@ -257,8 +291,13 @@ def run(args: argparse.Namespace) -> int:
         joints = forward_kinematics(motion, ground=False).positions
         names = motion.skeleton.names
     else:
+        fitted = tracked.fitted
         motion = dictionary.to_motion(
-            entries, positions, result.frame_time_s, scale=tracker.body_scale_
+            entries,
+            positions if fitted is None else positions + _root_shift(tracked),
+            result.frame_time_s,
+            scale=tracker.body_scale_,
+            local_rotations=None if fitted is None else _held(fitted.local_rotations, tracked),
         )
         joints = tracked.joints_m
         names = dictionary.joint_names
@@ -273,7 +312,7 @@ def run(args: argparse.Namespace) -> int:
             frames=result.frames,
         )
     if args.overlay_out:
-        write_video(_overlay_frames(args, tracker, result, masks), args.overlay_out, fps / step)
+        write_video(_overlay_frames(args, tracker, tracked, masks), args.overlay_out, fps / step)
     print(
         f"tracked {result.n_estimates} frames of {len(masks[0])} ({fps:g} fps, every {step}): "
         f"{result.n_estimates / tracked.wall_s:.1f} estimates/s, "

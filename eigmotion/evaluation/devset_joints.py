@@ -102,6 +102,9 @@ class TrackedSet:
     silhouette_iou : float or None
         The silhouettes' IoU against the set's true masks, mean over cameras and
         frames; None without true masks.
+    keypoints_trusted : float or None
+        Share of the triangulated joints the keypoints stage trusted, over estimates
+        and joints; None when the stage did not run.
     """
 
     set_id: str
@@ -111,6 +114,7 @@ class TrackedSet:
     wall_s: float
     error: str | None = None
     silhouette_iou: float | None = None
+    keypoints_trusted: float | None = None
 
     @property
     def estimates_per_cpu_s(self) -> float:
@@ -126,6 +130,9 @@ class TrackedSet:
             "estimates_per_cpu_s": round(self.estimates_per_cpu_s, 2) if self.cpu_s else None,
             "silhouette_iou": (
                 None if self.silhouette_iou is None else round(self.silhouette_iou, 4)
+            ),
+            "keypoints_trusted": (
+                None if self.keypoints_trusted is None else round(self.keypoints_trusted, 4)
             ),
             "error": self.error,
         }
@@ -168,7 +175,7 @@ def track_set(
     folder = Path(folder)
     try:
         calibration = load_calibration(folder / "cams.json")
-        masks, ious, fps = [], [], None
+        masks, landmarks, ious, fps = [], [], [], None
         for c, camera in enumerate(calibration.cameras):
             background = None if segmenter == "learned" else folder / f"background{c}.png"
             clip = load_clip_masks(folder / f"cam{c}.mp4", background, segmenter=segmenter)
@@ -177,6 +184,7 @@ def track_set(
                     f"{folder}/cam{c}.mp4: frames do not match camera {camera.name!r}"
                 )
             masks.append(clip.masks)
+            landmarks.append(clip.landmarks)
             fps = fps or clip.fps
             if (folder / f"masks{c}.npz").is_file():
                 with np.load(folder / f"masks{c}.npz") as stored:
@@ -184,7 +192,7 @@ def track_set(
         tracker = SilhouetteTracker(
             dictionary, calibration.cameras, config=config, pairs=calibration.pairs
         )
-        tracked = track_clip(tracker, masks, fps)
+        tracked = track_clip(tracker, masks, fps, landmarks=landmarks)
         true_names, truth = load_truth(folder)
         frames = tracked.result.frames
         keep = frames < len(truth)
@@ -194,9 +202,10 @@ def track_set(
     except EigmotionError as exc:
         return TrackedSet(folder.name, None, 0, 0.0, 0.0, " ".join(str(exc).split()))
     iou = float(np.mean(ious)) if len(ious) == len(masks) else None
+    trusted = None if tracked.fitted is None else float(tracked.fitted.trusted.mean())
     return TrackedSet(
         folder.name, errors, tracked.result.n_estimates, tracked.cpu_s, tracked.wall_s,
-        silhouette_iou=iou,
+        silhouette_iou=iou, keypoints_trusted=trusted,
     )  # fmt: skip
 
 
@@ -380,6 +389,17 @@ def format_tracking(sets: Sequence[TrackedSet]) -> str:
         ]
         lines += ["", "MPJPE per joint, mm:", ""]
         lines += markdown_table(["joint", *(s.set_id for s in scored)], per_joint)
+    staged = [s for s in scored if s.keypoints_trusted is not None]
+    lines += [
+        "",
+        "keypoints stage: "
+        + (
+            ", ".join(f"{s.set_id} {s.keypoints_trusted:.0%}" for s in staged)
+            + " of the triangulated joints trusted"
+            if staged
+            else "not run (no pose landmarks from the front end, or switched off)"
+        ),
+    ]
     failed = [s for s in sets if s.errors is None]
     if failed:
         lines += ["", f"failed ({len(failed)}):", *(f"- {s.set_id}: {s.error}" for s in failed)]

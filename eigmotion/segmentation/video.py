@@ -173,6 +173,12 @@ class ClipMasks:
         Rows of the person's body below the frame's bottom edge, at the masks' scale
         (feet out of the picture; :func:`~eigmotion.segmentation.cut_bodies.
         hidden_rows_below`); 0 when the body ends in the frame or nothing tells.
+    landmarks : (F', 33, 4) float32 or None
+        With the learned and fused front ends, the pose network's body landmarks per
+        mask (:func:`~eigmotion.segmentation.learned.learned_masks_and_landmarks`): x and
+        y in pixels of the clip's frames (continuous: 0 is the left or top edge of the
+        first pixel), visibility, presence; NaN where the network saw no person.  None
+        with the other front ends.
     """
 
     masks: np.ndarray
@@ -183,6 +189,7 @@ class ClipMasks:
     people: int = 1
     segmenter: str = "subtraction"
     hidden_below_px: int = 0
+    landmarks: np.ndarray | None = None
 
 
 def load_clip_masks(
@@ -329,8 +336,18 @@ def _learned_clip_masks(
         masks, segmenter = fuse_masks(masks, subtracted, config), "fused"
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
-        people_in_view(people), segmenter, hidden_below,
+        people_in_view(people), segmenter, hidden_below, _in_frame_pixels(landmarks, sizes[0],
+        inputs.shape[1:3]),
     )  # fmt: skip
+
+
+def _in_frame_pixels(landmarks: np.ndarray, frame_size, stored_size) -> np.ndarray:
+    """(F, 33, 4) landmarks with x, y taken from the stored frames' pixels to the
+    clip's frames' (both continuous, 0 at the first pixel's edge)."""
+    scaled = landmarks.copy()
+    scaled[..., 0] *= frame_size[1] / stored_size[1]
+    scaled[..., 1] *= frame_size[0] / stored_size[0]
+    return scaled
 
 
 def read_background(path: str | Path) -> np.ndarray:

@@ -8,7 +8,9 @@ postures near the previous one, their silhouettes scored against the observed on
 of travel penalised, :mod:`.heading`) through the 2-layer search tree
 (:mod:`.search`), all driven by :class:`~.tracker.SilhouetteTracker`; optionally a
 Viterbi path through each frame's best postures over the whole clip
-(:mod:`.temporal`).  Smooth output
+(:mod:`.temporal`).  Where the pose network's landmarks of every camera are at hand,
+the keypoints stage triangulates them (:mod:`.triangulation`) and fits each estimate
+to the joints (:mod:`.keypoint_fit`).  Smooth output
 motion comes from variable-speed playback of a reference sequence
 (:mod:`.generation`).  Cameras come from a calibration file or from checkerboard
 images (:mod:`.calibration`).
@@ -41,6 +43,7 @@ from eigmotion.tracking.generation import (
     variable_speed_playback,
 )
 from eigmotion.tracking.heading import facing_deg, travel_headings
+from eigmotion.tracking.keypoint_fit import FittedPoses, KeypointFitter
 from eigmotion.tracking.position import intersect_plane_lines, locate, mask_centroid, select_pair
 from eigmotion.tracking.postures import d1_distance, d2_distance
 from eigmotion.tracking.search import (
@@ -52,17 +55,27 @@ from eigmotion.tracking.search import (
 )
 from eigmotion.tracking.similarity import score_masks, similarity
 from eigmotion.tracking.tracker import Estimate, SilhouetteTracker, TrackerConfig, TrackResult
+from eigmotion.tracking.triangulation import (
+    TriangulatedJoints,
+    TriangulationConfig,
+    triangulate_clip,
+    triangulate_points,
+)
 
 __all__ = [
     "Calibration",
     "CameraPair",
     "Estimate",
+    "FittedPoses",
+    "KeypointFitter",
     "PostureBodies",
     "PostureDictionary",
     "PostureSequence",
     "SilhouetteTracker",
     "TrackResult",
     "TrackerConfig",
+    "TriangulatedJoints",
+    "TriangulationConfig",
     "VariableSpeedPlayback",
     "avatar_bodies",
     "beam_search",
@@ -91,6 +104,8 @@ __all__ = [
     "select_pair",
     "similarity",
     "travel_headings",
+    "triangulate_clip",
+    "triangulate_points",
     "two_layer_search",
     "variable_speed_playback",
 ]

@@ -167,6 +167,7 @@ class PostureDictionary:
         frame_time_s: float,
         name: str = "tracked",
         scale: float = 1.0,
+        local_rotations: np.ndarray | None = None,
     ) -> Motion:
         """A motion on the canonical skeleton playing the chosen entries in turn.
 
@@ -181,6 +182,9 @@ class PostureDictionary:
         name : str
         scale : float
             Uniform scale of the skeleton (the tracker's ``body_scale_``).
+        local_rotations : (F, J, 3, 3) float, optional
+            The frames' rotations, as :attr:`local_rotations` (e.g. the keypoints
+            stage's fitted postures); default: the entries'.
 
         Returns
         -------
@@ -198,7 +202,7 @@ class PostureDictionary:
         )
         return Motion.from_local_transforms(
             skeleton,
-            self.local_rotations[indices],
+            self.local_rotations[indices] if local_rotations is None else local_rotations,
             root,
             frame_time_s,
             length_unit_m=1.0,

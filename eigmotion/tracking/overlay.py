@@ -45,3 +45,44 @@ def draw_outline(
     )
     cv2.drawContours(out, contours, -1, tuple(int(c) for c in color_rgb), int(thickness_px))
     return out
+
+
+#: Colour of the skeleton drawn by :func:`draw_skeleton`, RGB (cyan).
+SKELETON_RGB = (0, 230, 255)
+
+
+def draw_skeleton(
+    image: np.ndarray,
+    camera,
+    joints_m: np.ndarray,
+    parents: np.ndarray,
+    color_rgb: tuple[int, int, int] = SKELETON_RGB,
+) -> np.ndarray:
+    """An image with a skeleton's bones drawn on it, as a camera sees them.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+        RGB view.
+    camera : Camera
+        The view's camera.
+    joints_m : (J, 3) float
+        Joint positions, world metres (the keypoints stage's fitted posture).
+    parents : (J,) int
+        Each joint's parent, -1 for the root.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        A copy of ``image`` with a line per bone in front of the camera.
+    """
+    out = np.ascontiguousarray(image, dtype=np.uint8).copy()
+    pixels, depth = camera.project(np.asarray(joints_m, dtype=np.float64))
+    color = tuple(int(c) for c in color_rgb)
+    for j, p in enumerate(parents):
+        ends = pixels[[p, j]] if p >= 0 else None
+        if ends is None or not (np.isfinite(ends).all() and (depth[[p, j]] > 0).all()):
+            continue
+        a, b = (tuple(int(round(v)) for v in end) for end in ends)
+        cv2.line(out, a, b, color, 1, cv2.LINE_8)
+    return out

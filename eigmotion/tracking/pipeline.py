@@ -17,7 +17,9 @@ import numpy as np
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.library import find_motion
 from eigmotion.tracking.dictionary import PostureDictionary, build_dictionary
+from eigmotion.tracking.keypoint_fit import FittedPoses, KeypointFitter
 from eigmotion.tracking.tracker import SilhouetteTracker, TrackResult
+from eigmotion.tracking.triangulation import KEYPOINT_JOINTS, triangulate_clip
 
 #: Motions of the default dictionary (library names): CMU walks and both turns.
 DEFAULT_DICTIONARY = ("walk_02_01", "walk_16_15", "turn_16_17", "turn_16_19")
@@ -91,10 +93,14 @@ class TrackedClip:
     positions_m : (E, 3) float64
         Body-centre positions, world metres.
     joints_m : (E, J, 3) float64
-        Joint positions, world metres (``--joints-out``'s ``positions``).
+        Joint positions, world metres (``--joints-out``'s ``positions``): the fitted
+        ones when the keypoints stage ran.
     wall_s, cpu_s : float
         Wall and CPU time (this process, :func:`time.process_time`) of the tracking
-        itself, seconds.
+        itself (the keypoints stage included), seconds.
+    fitted : FittedPoses or None
+        The keypoints stage's postures (:mod:`~eigmotion.tracking.keypoint_fit`);
+        None when it did not run.
     """
 
     result: TrackResult
@@ -105,6 +111,33 @@ class TrackedClip:
     joints_m: np.ndarray
     wall_s: float
     cpu_s: float
+    fitted: FittedPoses | None = None
+
+
+def keypoint_stage(
+    tracker: SilhouetteTracker, result: TrackResult, landmarks: Sequence[np.ndarray]
+) -> FittedPoses:
+    """The tracker's estimates fitted to the joints triangulated from every camera's
+    landmarks (:func:`~eigmotion.tracking.triangulation.triangulate_clip`, then
+    :class:`~eigmotion.tracking.keypoint_fit.KeypointFitter`).
+
+    Parameters
+    ----------
+    tracker : SilhouetteTracker
+    result : TrackResult
+        Its estimates of the clip.
+    landmarks : sequence of (F, 33, 4) float
+        Per camera, the pose network's landmarks of every input frame.
+    """
+    names = list(result.joint_names)
+    own = result.joint_positions_m[:, [names.index(n) for n in KEYPOINT_JOINTS]]
+    views = [np.asarray(m)[result.frames] for m in landmarks]
+    joints = triangulate_clip(tracker.cameras, views, own)
+    fitter = KeypointFitter(tracker.dictionary)
+    return fitter.fit(
+        result.entries, result.joint_positions_m, joints.positions_m,
+        tracker.config.keypoint_weight,
+    )  # fmt: skip
 
 
 def track_clip(
@@ -112,6 +145,7 @@ def track_clip(
     masks: Sequence[np.ndarray],
     fps: float,
     estimate_fps: float = DEFAULT_ESTIMATE_FPS,
+    landmarks: Sequence[np.ndarray | None] | None = None,
 ) -> TrackedClip:
     """Track the silhouettes of every camera as ``eigmotion track`` does.
 
@@ -124,6 +158,11 @@ def track_clip(
         The videos' frames per second.
     estimate_fps : float
         Estimates per second of video: every ``round(fps / estimate_fps)``-th frame.
+    landmarks : sequence of ((F, 33, 4) float or None), optional
+        Per camera, the pose network's landmarks of every frame (x, y in frame pixels,
+        continuous; visibility; presence), as the learned and fused front ends give
+        them.  With every camera's, two cameras or more and the tracker's
+        ``keypoints`` on, the keypoints stage runs (:func:`keypoint_stage`).
 
     Raises
     ------
@@ -135,6 +174,10 @@ def track_clip(
     step = max(1, int(round(fps / estimate_fps)))
     wall, cpu = time.perf_counter(), time.process_time()
     result = tracker.track(masks, frame_step=step, frame_time_s=1.0 / fps)
+    fitted = None
+    stage = tracker.config.keypoints and len(masks) >= 2
+    if stage and landmarks is not None and all(m is not None for m in landmarks):
+        fitted = keypoint_stage(tracker, result, landmarks)
     cpu = time.process_time() - cpu
     wall = time.perf_counter() - wall
     if not np.any(result.found):
@@ -144,6 +187,6 @@ def track_clip(
     entries[:first] = entries[first]
     positions = result.positions_m.copy()
     positions[:first] = positions[first]
-    joints = result.joint_positions_m.copy()
+    joints = (result.joint_positions_m if fitted is None else fitted.joints_m).copy()
     joints[:first] = joints[first]
-    return TrackedClip(result, step, first, entries, positions, joints, wall, cpu)
+    return TrackedClip(result, step, first, entries, positions, joints, wall, cpu, fitted)

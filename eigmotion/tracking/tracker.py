@@ -144,6 +144,14 @@ class TrackerConfig:
         between consecutive postures); 1: the greedy choice frame by frame (the paper's).
     path_weight : float
         Score lost per 30° of d1 between consecutive estimates on the Viterbi path.
+    keypoints : bool
+        The keypoints stage (:mod:`~eigmotion.tracking.keypoint_fit`): where the front
+        end gives the pose network's landmarks of every camera, each estimate is fitted
+        to the joints triangulated from them; without landmarks the tracker's estimate
+        stands.
+    keypoint_weight : float
+        How far, in [0, 1], each fitted joint's target lies from the tracker's joint
+        toward the triangulated one.
     """
 
     layer_step: int = 3
@@ -172,6 +180,8 @@ class TrackerConfig:
     travel_min_speed_mps: float = 0.3
     path_candidates: int = 1
     path_weight: float = 0.1
+    keypoints: bool = True
+    keypoint_weight: float = 0.5
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: order of ``body_scale_range`` is checked after.
@@ -200,6 +210,8 @@ class TrackerConfig:
         "travel_min_speed_mps": Interval(Real, 0.0, None, noun=""),
         "path_candidates": _COUNT,
         "path_weight": Interval(Real, 0.0, None, noun=""),
+        "keypoints": Options(bool, [True, False]),
+        "keypoint_weight": Interval(Real, 0.0, 1.0, noun="a fraction"),
     }
 
     def __post_init__(self):
