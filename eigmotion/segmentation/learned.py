@@ -11,29 +11,30 @@ flag that a person is there out).
 
 Each frame is looked at twice.  First the selfie network sees it whole, resized to its
 input (no cropping); its probabilities, resized back to the working size of the
-classical path (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`)
-and cut at :data:`PERSON_PROBABILITY`, give a box around the person.  Then a square
-around that box (:data:`CROP_MARGIN` times its longer side, at least
-:data:`CROP_MIN_SIDE_PX` pixels so the network never sees the frame enlarged more than
-twice) is cut out and given to the second look's network (:data:`SECOND_LOOK`): the
-pose network when LiteRT is installed, else the selfie network again.  Its
-probabilities, put back in place, replace the first ones: a small or distant person
-fills the network's input instead of a few of its pixels.  Where the pose network's
-flag says no person (under :data:`PERSON_PROBABILITY`), the selfie network looks at the
-square instead.  The frames are looked at in order, and each square also holds the
-person the pose network found in the frame before (its box joined to the frame's own):
+classical path
+(:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
+:data:`PERSON_PROBABILITY`, give a box around the person.  Then a square around that box
+(:data:`CROP_MARGIN` times its longer side, at least :data:`CROP_MIN_SIDE_PX` pixels so
+the network never sees the frame enlarged more than twice) is cut out and given to the
+second look's network (:data:`SECOND_LOOK`): the pose network when LiteRT is installed,
+else the selfie network again.  Its probabilities, put back in place, replace the first
+ones: a small or distant person fills the network's input instead of a few of its
+pixels.  Where the pose network's flag says no person (under
+:data:`PERSON_PROBABILITY`), the selfie network looks at the square instead.  The frames
+are looked at in order: where the person the pose network found in the frame before was
+taller than the frame's box (:data:`FOLLOW_TALLER`), the square also holds that person —
 the selfie network, made for faces and shoulders, loses the legs of a person in dark
 trousers who raises the arms, and a square around the upper body alone would cut the
-legs off for the pose network too.  A frame with no box takes the box of its
-neighbours (the median of those within :data:`BOX_NEIGHBOURS` frames, else the nearest
-frame's); a first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched
-again at :data:`SEED_PROBABILITY`.  A square as large as the frame is not cut for the selfie
+legs off for the pose network too.  A frame with no box takes the box of its neighbours
+(the median of those within :data:`BOX_NEIGHBOURS` frames, else the nearest frame's); a
+first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched again at
+:data:`SEED_PROBABILITY`.  A square as large as the frame is not cut for the selfie
 network (the first pass stands); the pose network always sees a square centred on the
 person, black beyond the frame.  Then, as in the classical path, the largest blob and
 the big pieces beside it are the person (:func:`person_in_frame`), and a frame whose
-person covers more than :data:`OUTLIER_AREA` times the clip's median area is left
-empty: the network has taken part of the scene (a rendered floor) for the person
-there.  The masks go on to the motion image exactly as the classical masks do.
+person covers more than :data:`OUTLIER_AREA` times the clip's median area is left empty:
+the network has taken part of the scene (a rendered floor) for the person there.  The
+masks go on to the motion image exactly as the classical masks do.
 :func:`learned_masks_and_landmarks` also returns the pose network's landmarks, in the
 frame's pixels.
 
@@ -96,6 +97,11 @@ SECOND_LOOK = "pose"
 #: A frame whose person covers more than this many times the clip's median person area
 #: is left empty (the network took part of the scene for the person).
 OUTLIER_AREA = 3.0
+
+#: A frame's square also holds the person the pose network found in the frame before
+#: when that person was more than this many times as tall as the frame's own box (the
+#: first look lost part of the person; the module's description).
+FOLLOW_TALLER = 1.15
 
 #: Frames are kept for the network at most this many pixels on their longer side.
 STORE_MAX_SIDE_PX = 640
@@ -322,7 +328,11 @@ def learned_masks_and_landmarks(
         if box is None:
             followed = None
             continue
-        x0, y0, x1, y1 = box if followed is None else _union(box, followed)
+        if followed is not None and (
+            followed[3] - followed[1] > FOLLOW_TALLER * (box[3] - box[1])
+        ):  # the first look lost part of the person
+            box = _union(box, followed)
+        x0, y0, x1, y1 = box
         followed = None
         side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
         if side >= longest and second_look == "selfie":
