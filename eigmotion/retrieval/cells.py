@@ -1,0 +1,258 @@
+"""The key tree's flat search: every cell's box in one pass, then the near cells' leaves.
+
+:class:`~eigmotion.retrieval.search.TreeIndex` answers a query either by walking its
+node tree nearest bound first (:mod:`eigmotion.retrieval.walk`) or, by default, through
+two flat tables built from the same tree (:func:`cell_tables`):
+
+* *cells*: the highest nodes of the tree holding at most ``cell_entries`` entries
+  (key-prefix nodes — ranges of the B-tree's sorted keys — or, inside a large bin,
+  its median splits), a partition of the entries into contiguous ranges.  Their
+  boxes are stored dimension-major, ``(k, C)`` low and high corners, so that one
+  query bounds every cell in one pass over contiguous memory, in SIMD registers;
+* *leaves*: the tree's leaves, each cell's together and in entry order, each with
+  its tight box ``(2, k)`` next to the next leaf's.
+
+A query bounds every cell, keeps those whose bound does not exceed its cutoff in a
+heap, and takes them nearest bound first: a cell's leaves are bounded (one contiguous
+run of boxes), those that may hold one of the k best are ordered by bound and their
+entries screened and measured, until the next leaf's or the next cell's bound exceeds
+the running k-th best.
+
+The screens (a box's bound, an entry's first estimate) and the exact distances follow
+:mod:`eigmotion.retrieval.walk`'s rule: screens are summed in any order, every cutoff
+they are compared with is multiplied by :func:`~eigmotion.retrieval.walk.slack`, and
+only the shared in-order distance enters the answer; so the answers equal brute
+force's bit for bit.  The boxes here are the tight float32 boxes themselves, so each
+of a bound's terms is at most the in-order distance's term it stands for.
+"""
+
+from __future__ import annotations
+
+import threading
+from functools import lru_cache
+from types import SimpleNamespace
+
+import numpy as np
+
+from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL, kernels
+from eigmotion.retrieval.walk import SLACK_PER_AXIS
+
+# numba's fast-math flags for the screens (as :mod:`eigmotion.retrieval.walk`'s): sums
+# reordered, multiply-adds fused, IEEE infinities and NaN kept.
+_SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
+
+
+def cell_tables(
+    size: np.ndarray,
+    parent: np.ndarray,
+    is_leaf: np.ndarray,
+    start: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    cell_entries: int,
+) -> SimpleNamespace:
+    """The flat search's tables of a built tree.
+
+    Parameters
+    ----------
+    size, parent, start : (n_nodes,) int64
+        Each node's entries, parent (-1 for the root) and first entry.
+    is_leaf : (n_nodes,) bool
+        Whether the node is a leaf.
+    lo, hi : (n_nodes, k) float32
+        Each node's tight box.
+    cell_entries : int
+        Most entries in a cell (a leaf holding more is a cell all the same).
+
+    Returns
+    -------
+    SimpleNamespace
+        ``cell_lo``, ``cell_hi`` (k, C) float32: the cells' boxes, dimension-major, in
+        entry order; ``cell_leaves`` (C + 1,) int64: cell ``c``'s leaves are ``c``'s
+        ``cell_leaves[c] … cell_leaves[c+1]-1``; ``leaf_boxes`` (L, 2, k) float32:
+        each leaf's low and high corner, in entry order; ``leaf_entries`` (L + 1,)
+        int64: leaf ``l``'s entries are ``leaf_entries[l] … leaf_entries[l+1]-1``.
+    """
+    small = (size <= cell_entries) | is_leaf
+    above = np.where(parent >= 0, size[np.maximum(parent, 0)], np.iinfo(np.int64).max)
+    cells = np.flatnonzero(small & (above > cell_entries))
+    cells = cells[np.argsort(start[cells], kind="stable")]
+    leaves = np.flatnonzero(is_leaf)
+    leaves = leaves[np.argsort(start[leaves], kind="stable")]
+    n_entries = int(size[0])
+    leaf_starts = start[leaves]
+    return SimpleNamespace(
+        cell_lo=np.ascontiguousarray(lo[cells].T),
+        cell_hi=np.ascontiguousarray(hi[cells].T),
+        cell_leaves=np.searchsorted(leaf_starts, np.append(start[cells], n_entries)).astype(
+            np.int64
+        ),
+        leaf_boxes=np.ascontiguousarray(np.stack([lo[leaves], hi[leaves]], axis=1)),
+        leaf_entries=np.append(leaf_starts, n_entries).astype(np.int64),
+    )
+
+
+def _cell_bounds(cell_lo, cell_hi, query, out):  # pragma: no cover - JIT
+    """``out`` (C,) float32: each cell's bound (its box's nearest point's squared
+    distance to ``query``), the axes' terms added in order, each SIMD lane a cell."""
+    out[:] = 0.0
+    for a in range(query.shape[0]):
+        q = query[a]
+        low_row, high_row = cell_lo[a], cell_hi[a]
+        for c in range(out.shape[0]):
+            low, high = low_row[c], high_row[c]
+            near = low if low > q else q
+            near = near if near < high else high
+            d = near - q
+            out[c] += d * d
+
+
+def _leaf_bound(boxes, leaf, query):  # pragma: no cover - JIT
+    """Bound of leaf ``leaf``'s box ``boxes[leaf]`` (2, k) for ``query``, any order."""
+    total = np.float32(0.0)
+    for a in range(query.shape[0]):
+        low, high, q = boxes[leaf, 0, a], boxes[leaf, 1, a], query[a]
+        near = low if low > q else q
+        near = near if near < high else high
+        d = near - q
+        total += d * d
+    return total
+
+
+def _screen_point(points, row, query):  # pragma: no cover - JIT
+    """Squared distance (float32, any summation order) of ``points[row]`` to ``query``."""
+    total = np.float32(0.0)
+    for a in range(query.shape[0]):
+        d = points[row, a] - query[a]
+        total += d * d
+    return total
+
+
+def _measure(points, ids, first, stop, query, slack, sq_row, id_row):  # pragma: no cover - JIT
+    """Offer the entries ``first … stop-1`` to the running best: each is screened, and
+    measured exactly (the shared in-order sum) only when its screen may enter."""
+    last = sq_row.shape[0] - 1
+    for row in range(first, stop):
+        if _screen_point(points, row, query) <= sq_row[last] * slack:
+            _offer(_exact_sq(points[row], query), ids[row], sq_row, id_row)
+
+
+def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
+    """Put (``bound``, ``item``) at position ``i`` of the min-heap ``bounds[:size]``
+    (``items`` alongside), whose sub-heaps below ``i`` are heaps, and sift it down."""
+    while True:
+        child = 2 * i + 1
+        if child >= size:
+            break
+        if child + 1 < size and bounds[child + 1] < bounds[child]:
+            child += 1
+        if bounds[child] >= bound:
+            break
+        bounds[i], items[i] = bounds[child], items[child]
+        i = child
+    bounds[i], items[i] = bound, item
+
+
+def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, leaf_boxes, leaf_entries,
+                  queries, max_sq, out_ids, out_distances,
+                  examined):  # fmt: skip  # pragma: no cover - JIT
+    """Exact k nearest entries of each query through the cells (module docstring).
+
+    Fills ``out_ids`` (Q, k) int64 and ``out_distances`` (Q, k) float64 (nearest
+    first; ``NO_ENTRY`` and inf in slots left empty by the squared cutoff ``max_sq``)
+    and ``examined`` (Q,) int64 with the entries screened.
+    """
+    slack = 1.0 + (queries.shape[1] + 2) * SLACK_PER_AXIS  # walk.slack(k)
+    top_k = out_ids.shape[1]
+    last = top_k - 1
+    n_cells = cell_lo.shape[1]
+    bounds = np.empty(n_cells, np.float32)
+    heap_bound = np.empty(n_cells, np.float32)
+    heap_cell = np.empty(n_cells, np.int64)
+    widest = 0
+    for c in range(n_cells):
+        widest = max(widest, cell_leaves[c + 1] - cell_leaves[c])
+    near_bound = np.empty(widest, np.float32)
+    near_leaf = np.empty(widest, np.int64)
+    sq_row = np.empty(top_k, np.float64)
+    id_row = np.empty(top_k, np.int64)
+    for qi in range(queries.shape[0]):
+        query = queries[qi]
+        sq_row[:] = max_sq
+        id_row[:] = SENTINEL
+        _cell_bounds(cell_lo, cell_hi, query, bounds)
+        cutoff = max_sq * slack
+        size = 0
+        for c in range(n_cells):
+            if bounds[c] <= cutoff:
+                heap_bound[size], heap_cell[size] = bounds[c], c
+                size += 1
+        for i in range(size // 2 - 1, -1, -1):  # heapify, bottom up
+            _sift_down(heap_bound, heap_cell, size, i, heap_bound[i], heap_cell[i])
+        measured = 0
+        while size > 0:
+            bound, cell = heap_bound[0], heap_cell[0]
+            size -= 1
+            if size > 0:
+                _sift_down(heap_bound, heap_cell, size, 0, heap_bound[size], heap_cell[size])
+            cutoff = sq_row[last] * slack
+            if bound > cutoff:
+                break  # every cell left is at least as far
+            # The cell's leaves that may hold one of the k best, nearest bound first.
+            n_near = 0
+            for leaf in range(cell_leaves[cell], cell_leaves[cell + 1]):
+                leaf_bound = _leaf_bound(leaf_boxes, leaf, query)
+                if leaf_bound <= cutoff:
+                    j = n_near
+                    while j > 0 and near_bound[j - 1] > leaf_bound:
+                        near_bound[j], near_leaf[j] = near_bound[j - 1], near_leaf[j - 1]
+                        j -= 1
+                    near_bound[j], near_leaf[j] = leaf_bound, leaf
+                    n_near += 1
+            for j in range(n_near):
+                if near_bound[j] > sq_row[last] * slack:
+                    break
+                first, stop = leaf_entries[near_leaf[j]], leaf_entries[near_leaf[j] + 1]
+                _measure(points, ids, first, stop, query, slack, sq_row, id_row)
+                measured += stop - first
+        examined[qi] = measured
+        for t in range(top_k):
+            if id_row[t] == SENTINEL:
+                out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
+            else:
+                out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
+
+
+# The shared in-order distance and the running best's insertion
+# (:mod:`eigmotion.retrieval.neighbours`), compiled: set by :func:`_compiled`.
+_exact_sq = _offer = None
+
+_COMPILING = threading.Lock()
+
+
+def cell_kernels() -> SimpleNamespace:
+    """The compiled flat search (numba is imported and it is compiled on first use,
+    once, whichever thread asks first): ``search(points, ids, cell_lo, cell_hi,
+    cell_leaves, leaf_boxes, leaf_entries, queries, max_sq, out_ids, out_distances,
+    examined)``."""
+    with _COMPILING:
+        return _compiled()
+
+
+@lru_cache(maxsize=1)
+def _compiled() -> SimpleNamespace:
+    from numba import njit
+
+    global _cell_bounds, _leaf_bound, _screen_point, _measure, _sift_down, _search_cells
+    global _exact_sq, _offer
+    shared = kernels()
+    _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
+    plain = njit(cache=True, nogil=True)
+    screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
+    _cell_bounds = screen(_cell_bounds)
+    _leaf_bound = screen(_leaf_bound)
+    _screen_point = screen(_screen_point)
+    _measure = plain(_measure)
+    _sift_down = plain(_sift_down)
+    _search_cells = plain(_search_cells)
+    return SimpleNamespace(search=_search_cells)
