@@ -35,7 +35,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL, kernels
-from eigmotion.retrieval.walk import SLACK_PER_AXIS
+from eigmotion.retrieval.walk import SLACK_PER_AXIS, box_codes, walk_kernels
+
+_box_gap = None
 
 # numba's fast-math flags for the screens (as :mod:`eigmotion.retrieval.walk`'s): sums
 # reordered, multiply-adds fused, IEEE infinities and NaN kept.
@@ -81,7 +83,13 @@ def cell_tables(
     leaves = leaves[np.argsort(start[leaves], kind="stable")]
     n_entries = int(size[0])
     leaf_starts = start[leaves]
+    cell_leaves = np.searchsorted(leaf_starts, np.append(start[cells], n_entries)).astype(np.int64)
+    first = np.zeros(size.size, np.int64)
+    count = np.zeros(size.size, np.int64)
+    first[cells], count[cells] = cell_leaves[:-1], np.diff(cell_leaves)
+    frames, codes = box_codes(lo, hi, cells, first, count, leaves)
     return SimpleNamespace(
+        frames=frames, codes=codes,
         cell_lo=np.ascontiguousarray(lo[cells].T),
         cell_hi=np.ascontiguousarray(hi[cells].T),
         cell_leaves=np.searchsorted(leaf_starts, np.append(start[cells], n_entries)).astype(
@@ -107,14 +115,13 @@ def _cell_bounds(cell_lo, cell_hi, query, out):  # pragma: no cover - JIT
             out[c] += d * d
 
 
-def _leaf_bound(boxes, leaf, query):  # pragma: no cover - JIT
-    """Bound of leaf ``leaf``'s box ``boxes[leaf]`` (2, k) for ``query``, any order."""
+def _leaf_bound(codes, leaf, frames, cell, query):  # pragma: no cover - JIT
+    """Bound of leaf ``leaf``'s decoded box (its codes in its cell's frame) for
+    ``query``, summed in any order."""
     total = np.float32(0.0)
     for a in range(query.shape[0]):
-        low, high, q = boxes[leaf, 0, a], boxes[leaf, 1, a], query[a]
-        near = low if low > q else q
-        near = near if near < high else high
-        d = near - q
+        d = _box_gap(frames[cell, 0, a], frames[cell, 1, a], codes[leaf, 0, a],
+                     codes[leaf, 1, a], query[a])  # fmt: skip
         total += d * d
     return total
 
@@ -153,7 +160,7 @@ def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
     bounds[i], items[i] = bound, item
 
 
-def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, leaf_boxes, leaf_entries,
+def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, frames, leaf_boxes, leaf_entries,
                   queries, max_sq, out_ids, out_distances,
                   examined):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query through the cells (module docstring).
@@ -201,7 +208,7 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, leaf_boxes, leaf_e
             # The cell's leaves that may hold one of the k best, nearest bound first.
             n_near = 0
             for leaf in range(cell_leaves[cell], cell_leaves[cell + 1]):
-                leaf_bound = _leaf_bound(leaf_boxes, leaf, query)
+                leaf_bound = _leaf_bound(leaf_boxes, leaf, frames, cell, query)
                 if leaf_bound <= cutoff:
                     j = n_near
                     while j > 0 and near_bound[j - 1] > leaf_bound:
@@ -244,8 +251,9 @@ def _compiled() -> SimpleNamespace:
     from numba import njit
 
     global _cell_bounds, _leaf_bound, _screen_point, _measure, _sift_down, _search_cells
-    global _exact_sq, _offer
+    global _exact_sq, _offer, _box_gap
     shared = kernels()
+    _box_gap = walk_kernels().box_gap
     _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
     plain = njit(cache=True, nogil=True)
     screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)

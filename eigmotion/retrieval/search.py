@@ -614,7 +614,7 @@ class TreeIndex:
         if self.cell_entries > 0:
             t = self._cell_tables()
             cell_kernels().search(
-                self._points, self._ids, t.cell_lo, t.cell_hi, t.cell_leaves, t.leaf_boxes,
+                self._points, self._ids, t.cell_lo, t.cell_hi, t.cell_leaves, t.frames, t.codes,
                 t.leaf_entries, queries, max_sq, ids, distances, examined,
             )  # fmt: skip
             return
