@@ -44,6 +44,15 @@ _box_gap = None
 _SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
 
 
+def _highest_within(size, parent, is_leaf, start, limit) -> np.ndarray:
+    """The highest nodes holding at most ``limit`` entries (and the leaves holding
+    more), in entry order: a partition of the entries into contiguous ranges."""
+    small = (size <= limit) | is_leaf
+    above = np.where(parent >= 0, size[np.maximum(parent, 0)], np.iinfo(np.int64).max)
+    nodes = np.flatnonzero(small & (above > limit))
+    return nodes[np.argsort(start[nodes], kind="stable")]
+
+
 def cell_tables(
     size: np.ndarray,
     parent: np.ndarray,
@@ -52,6 +61,7 @@ def cell_tables(
     lo: np.ndarray,
     hi: np.ndarray,
     cell_entries: int,
+    group_entries: int,
 ) -> SimpleNamespace:
     """The flat search's tables of a built tree.
 
@@ -63,41 +73,44 @@ def cell_tables(
         Whether the node is a leaf.
     lo, hi : (n_nodes, k) float32
         Each node's tight box.
-    cell_entries : int
-        Most entries in a cell (a leaf holding more is a cell all the same).
+    cell_entries, group_entries : int
+        Most entries in a cell and in a group (a leaf holding more is a cell or a
+        group all the same).  Each cell is cut into the highest nodes within it
+        holding at most ``group_entries``, its groups; each group into its leaves.
 
     Returns
     -------
     SimpleNamespace
         ``cell_lo``, ``cell_hi`` (k, C) float32: the cells' boxes, dimension-major, in
-        entry order; ``cell_leaves`` (C + 1,) int64: cell ``c``'s leaves are ``c``'s
-        ``cell_leaves[c] … cell_leaves[c+1]-1``; ``leaf_boxes`` (L, 2, k) float32:
-        each leaf's low and high corner, in entry order; ``leaf_entries`` (L + 1,)
-        int64: leaf ``l``'s entries are ``leaf_entries[l] … leaf_entries[l+1]-1``.
+        entry order; ``cell_groups`` (C + 1,) int64: cell ``c``'s groups are
+        ``cell_groups[c] … cell_groups[c+1]-1``; ``cell_frames`` (C, 2, k) float32 and
+        ``group_codes`` (G, 2, k) uint8: the groups' boxes coded in their cell's frame
+        (:func:`~eigmotion.retrieval.walk.box_codes`); ``group_leaves`` (G + 1,) int64,
+        ``group_frames`` (G, 2, k) and ``leaf_codes`` (L, 2, k) likewise for the
+        leaves of each group; ``leaf_entries`` (L + 1,) int64: leaf ``l``'s entries
+        are ``leaf_entries[l] … leaf_entries[l+1]-1``.
     """
-    small = (size <= cell_entries) | is_leaf
-    above = np.where(parent >= 0, size[np.maximum(parent, 0)], np.iinfo(np.int64).max)
-    cells = np.flatnonzero(small & (above > cell_entries))
-    cells = cells[np.argsort(start[cells], kind="stable")]
+    n_entries = int(size[0])
+    group_entries = min(group_entries, cell_entries)
+    cells = _highest_within(size, parent, is_leaf, start, cell_entries)
+    groups = _highest_within(size, parent, is_leaf, start, group_entries)
     leaves = np.flatnonzero(is_leaf)
     leaves = leaves[np.argsort(start[leaves], kind="stable")]
-    n_entries = int(size[0])
-    leaf_starts = start[leaves]
-    cell_leaves = np.searchsorted(leaf_starts, np.append(start[cells], n_entries)).astype(np.int64)
-    first = np.zeros(size.size, np.int64)
-    count = np.zeros(size.size, np.int64)
-    first[cells], count[cells] = cell_leaves[:-1], np.diff(cell_leaves)
-    frames, codes = box_codes(lo, hi, cells, first, count, leaves)
-    return SimpleNamespace(
-        frames=frames, codes=codes,
+    out = SimpleNamespace(
         cell_lo=np.ascontiguousarray(lo[cells].T),
         cell_hi=np.ascontiguousarray(hi[cells].T),
-        cell_leaves=np.searchsorted(leaf_starts, np.append(start[cells], n_entries)).astype(
-            np.int64
-        ),
-        leaf_boxes=np.ascontiguousarray(np.stack([lo[leaves], hi[leaves]], axis=1)),
-        leaf_entries=np.append(leaf_starts, n_entries).astype(np.int64),
+        leaf_entries=np.append(start[leaves], n_entries).astype(np.int64),
     )
+    for upper, lower, name in ((cells, groups, "cell"), (groups, leaves, "group")):
+        inside = np.searchsorted(start[lower], np.append(start[upper], n_entries))
+        first = np.zeros(size.size, np.int64)
+        count = np.zeros(size.size, np.int64)
+        first[upper], count[upper] = inside[:-1], np.diff(inside)
+        frames, codes = box_codes(lo, hi, upper, first, count, lower)
+        setattr(out, f"{name}_frames", frames)
+        setattr(out, "group_codes" if name == "cell" else "leaf_codes", codes)
+        setattr(out, "cell_groups" if name == "cell" else "group_leaves", inside.astype(np.int64))
+    return out
 
 
 def _cell_bounds(cell_lo, cell_hi, query, out):  # pragma: no cover - JIT
@@ -115,13 +128,13 @@ def _cell_bounds(cell_lo, cell_hi, query, out):  # pragma: no cover - JIT
             out[c] += d * d
 
 
-def _leaf_bound(codes, leaf, frames, cell, query):  # pragma: no cover - JIT
-    """Bound of leaf ``leaf``'s decoded box (its codes in its cell's frame) for
-    ``query``, summed in any order."""
+def _coded_bound(codes, row, frames, frame, query):  # pragma: no cover - JIT
+    """Bound of the decoded box ``codes[row]`` in frame ``frames[frame]``
+    (:func:`~eigmotion.retrieval.walk.box_codes`) for ``query``, summed in any order."""
     total = np.float32(0.0)
     for a in range(query.shape[0]):
-        d = _box_gap(frames[cell, 0, a], frames[cell, 1, a], codes[leaf, 0, a],
-                     codes[leaf, 1, a], query[a])  # fmt: skip
+        d = _box_gap(frames[frame, 0, a], frames[frame, 1, a], codes[row, 0, a],
+                     codes[row, 1, a], query[a])  # fmt: skip
         total += d * d
     return total
 
@@ -160,8 +173,8 @@ def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
     bounds[i], items[i] = bound, item
 
 
-def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, frames, leaf_boxes, leaf_entries,
-                  queries, max_sq, out_ids, out_distances,
+def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group_codes,
+                  group_leaves, group_frames, leaf_codes, leaf_entries, queries, max_sq, out_ids, out_distances,
                   examined):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query through the cells (module docstring).
 
@@ -178,7 +191,8 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, frames, leaf_boxes
     heap_cell = np.empty(n_cells, np.int64)
     widest = 0
     for c in range(n_cells):
-        widest = max(widest, cell_leaves[c + 1] - cell_leaves[c])
+        leaves = group_leaves[cell_groups[c + 1]] - group_leaves[cell_groups[c]]
+        widest = max(widest, leaves)
     near_bound = np.empty(widest, np.float32)
     near_leaf = np.empty(widest, np.int64)
     sq_row = np.empty(top_k, np.float64)
@@ -207,10 +221,14 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_leaves, frames, leaf_boxes
                 break  # every cell left is at least as far
             # The cell's leaves that may hold one of the k best, nearest bound first.
             n_near = 0
-            for leaf in range(cell_leaves[cell], cell_leaves[cell + 1]):
-                leaf_bound = _leaf_bound(leaf_boxes, leaf, frames, cell, query)
-                if leaf_bound <= cutoff:
-                    j = n_near
+            for group in range(cell_groups[cell], cell_groups[cell + 1]):
+                if _coded_bound(group_codes, group, cell_frames, cell, query) > cutoff:
+                    continue
+                for leaf in range(group_leaves[group], group_leaves[group + 1]):
+                    leaf_bound = _coded_bound(leaf_codes, leaf, group_frames, group, query)
+                    if leaf_bound > cutoff:
+                        continue
+                    j = n_near  # insertion, nearest bound first
                     while j > 0 and near_bound[j - 1] > leaf_bound:
                         near_bound[j], near_leaf[j] = near_bound[j - 1], near_leaf[j - 1]
                         j -= 1
@@ -240,8 +258,9 @@ _COMPILING = threading.Lock()
 def cell_kernels() -> SimpleNamespace:
     """The compiled flat search (numba is imported and it is compiled on first use,
     once, whichever thread asks first): ``search(points, ids, cell_lo, cell_hi,
-    cell_leaves, leaf_boxes, leaf_entries, queries, max_sq, out_ids, out_distances,
-    examined)``."""
+    cell_groups, cell_frames, group_codes, group_leaves, group_frames, leaf_codes,
+    leaf_entries, queries, max_sq, out_ids, out_distances, examined)`` with the tables
+    of :func:`cell_tables`."""
     with _COMPILING:
         return _compiled()
 
@@ -250,7 +269,7 @@ def cell_kernels() -> SimpleNamespace:
 def _compiled() -> SimpleNamespace:
     from numba import njit
 
-    global _cell_bounds, _leaf_bound, _screen_point, _measure, _sift_down, _search_cells
+    global _cell_bounds, _coded_bound, _screen_point, _measure, _sift_down, _search_cells
     global _exact_sq, _offer, _box_gap
     shared = kernels()
     _box_gap = walk_kernels().box_gap
@@ -258,7 +277,7 @@ def _compiled() -> SimpleNamespace:
     plain = njit(cache=True, nogil=True)
     screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
     _cell_bounds = screen(_cell_bounds)
-    _leaf_bound = screen(_leaf_bound)
+    _coded_bound = screen(_coded_bound)
     _screen_point = screen(_screen_point)
     _measure = plain(_measure)
     _sift_down = plain(_sift_down)

@@ -532,6 +532,8 @@ class TreeIndex:
     #: instead (:mod:`eigmotion.retrieval.walk`).  Measured on 1,000,600 real
     #: motion-image points (``bench_search.py --real``): 1,000 beat 250, 500 and 2,000.
     cell_entries = 1000
+    #: Most entries in a group, the level between a cell and its leaves.
+    group_entries = 128
 
     def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
@@ -600,13 +602,14 @@ class TreeIndex:
         (:func:`~eigmotion.retrieval.cells.cell_tables`: at 10⁶ entries about 0.1 s and
         the leaves' boxes, 8·k bytes a leaf)."""
         cells = self._cells
-        if cells is None or cells[0] != self.cell_entries:
+        sizes = (self.cell_entries, self.group_entries)
+        if cells is None or cells[0] != sizes:
             with self._building:
                 cells = self._cells
-                if cells is None or cells[0] != self.cell_entries:
+                if cells is None or cells[0] != sizes:
                     tables = cell_tables(self._size, self._parent, self._is_leaf, self._start,
-                                         self._lo, self._hi, self.cell_entries)  # fmt: skip
-                    cells = self._cells = (self.cell_entries, tables)
+                                         self._lo, self._hi, *sizes)  # fmt: skip
+                    cells = self._cells = (sizes, tables)
         return cells[1]
 
     def _search_block(self, queries, max_sq, ids, distances, examined) -> None:
@@ -614,8 +617,9 @@ class TreeIndex:
         if self.cell_entries > 0:
             t = self._cell_tables()
             cell_kernels().search(
-                self._points, self._ids, t.cell_lo, t.cell_hi, t.cell_leaves, t.frames, t.codes,
-                t.leaf_entries, queries, max_sq, ids, distances, examined,
+                self._points, self._ids, t.cell_lo, t.cell_hi, t.cell_groups, t.cell_frames,
+                t.group_codes, t.group_leaves, t.group_frames, t.leaf_codes, t.leaf_entries,
+                queries, max_sq, ids, distances, examined,
             )  # fmt: skip
             return
         if self._kernel is None:
