@@ -530,8 +530,9 @@ class TreeIndex:
     #: Most entries in a cell of the flat search (:mod:`eigmotion.retrieval.cells`),
     #: which answers every walk; ``0``: walk the node tree nearest bound first
     #: instead (:mod:`eigmotion.retrieval.walk`).  Measured on 1,000,600 real
-    #: motion-image points (``bench_search.py --real``): 1,000 beat 250, 500 and 2,000.
-    cell_entries = 1000
+    #: motion-image points (``bench_search.py --real``, cells / groups): 4,000 / 128
+    #: beat 1,000 / 64–1,000, 2,000 / 128, 4,000 / 256, 8,000 / 256 and 16,000 / 512.
+    cell_entries = 4000
     #: Most entries in a group, the level between a cell and its leaves.
     group_entries = 128
 
