@@ -174,8 +174,8 @@ def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
 
 
 def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group_codes,
-                  group_leaves, group_frames, leaf_codes, leaf_entries, queries, max_sq, out_ids, out_distances,
-                  examined):  # fmt: skip  # pragma: no cover - JIT
+                  group_leaves, group_frames, leaf_codes, leaf_entries, queries, max_sq,
+                  out_ids, out_distances, examined):  # fmt: skip  # pragma: no cover - JIT
     """Exact k nearest entries of each query through the cells (module docstring).
 
     Fills ``out_ids`` (Q, k) int64 and ``out_distances`` (Q, k) float64 (nearest
