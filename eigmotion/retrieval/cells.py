@@ -1,29 +1,34 @@
 """The key tree's flat search: every cell's box in one pass, then the near cells' leaves.
 
-:class:`~eigmotion.retrieval.search.TreeIndex` answers a query either by walking its
-node tree nearest bound first (:mod:`eigmotion.retrieval.walk`) or, by default, through
-two flat tables built from the same tree (:func:`cell_tables`):
+:class:`~eigmotion.retrieval.search.TreeIndex` answers a query by default through three
+tables built from its tree (:func:`cell_tables`), or, with ``cell_entries = 0``, by
+walking its node tree nearest bound first (:mod:`eigmotion.retrieval.walk`):
 
 * *cells*: the highest nodes of the tree holding at most ``cell_entries`` entries
   (key-prefix nodes — ranges of the B-tree's sorted keys — or, inside a large bin,
   its median splits), a partition of the entries into contiguous ranges.  Their
-  boxes are stored dimension-major, ``(k, C)`` low and high corners, so that one
-  query bounds every cell in one pass over contiguous memory, in SIMD registers;
-* *leaves*: the tree's leaves, each cell's together and in entry order, each with
-  its tight box ``(2, k)`` next to the next leaf's.
+  tight boxes are stored dimension-major, ``(k, C)`` low and high corners, so that
+  one query bounds every cell in one pass over contiguous memory, in SIMD registers;
+* *groups*: within each cell, the highest nodes holding at most ``group_entries``;
+* *leaves*: the tree's leaves, each group's together.
+
+A group's box is stored as byte codes in its cell's frame, a leaf's in its group's
+(:func:`~eigmotion.retrieval.walk.box_codes`: every decoded corner is a float32
+exactly and the decoded box holds the tight one), each cell's groups and each group's
+leaves side by side, in entry order.
 
 A query bounds every cell, keeps those whose bound does not exceed its cutoff in a
-heap, and takes them nearest bound first: a cell's leaves are bounded (one contiguous
-run of boxes), those that may hold one of the k best are ordered by bound and their
-entries screened and measured, until the next leaf's or the next cell's bound exceeds
-the running k-th best.
+heap, and takes them nearest bound first: the cell's groups are bounded, and the
+leaves of those that may hold one of the k best; such leaves are ordered by bound and
+their entries screened and measured, until the next leaf's or the next cell's bound
+exceeds the running k-th best.
 
 The screens (a box's bound, an entry's first estimate) and the exact distances follow
 :mod:`eigmotion.retrieval.walk`'s rule: screens are summed in any order, every cutoff
 they are compared with is multiplied by :func:`~eigmotion.retrieval.walk.slack`, and
-only the shared in-order distance enters the answer; so the answers equal brute
-force's bit for bit.  The boxes here are the tight float32 boxes themselves, so each
-of a bound's terms is at most the in-order distance's term it stands for.
+only the shared in-order distance enters the answer; every box bounded (tight, or
+decoded exactly) holds its entries, so each of a bound's terms is at most the in-order
+distance's term it stands for, and the answers equal brute force's bit for bit.
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ import numpy as np
 from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL, kernels
 from eigmotion.retrieval.walk import SLACK_PER_AXIS, box_codes, walk_kernels
 
-_box_gap = None
+_box_gap = None  # the walk's, compiled: set by :func:`_compiled`
 
 # numba's fast-math flags for the screens (as :mod:`eigmotion.retrieval.walk`'s): sums
 # reordered, multiply-adds fused, IEEE infinities and NaN kept.
@@ -201,8 +206,9 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
         query = queries[qi]
         sq_row[:] = max_sq
         id_row[:] = SENTINEL
+        measured = 0
         _cell_bounds(cell_lo, cell_hi, query, bounds)
-        cutoff = max_sq * slack
+        cutoff = sq_row[last] * slack
         size = 0
         for c in range(n_cells):
             if bounds[c] <= cutoff:
@@ -210,7 +216,6 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
                 size += 1
         for i in range(size // 2 - 1, -1, -1):  # heapify, bottom up
             _sift_down(heap_bound, heap_cell, size, i, heap_bound[i], heap_cell[i])
-        measured = 0
         while size > 0:
             bound, cell = heap_bound[0], heap_cell[0]
             size -= 1

@@ -25,10 +25,24 @@ record):
 * for searching, each node's children are its highest descendants holding at most
   1/8 of its entries (or leaves).
 
-A query (one compiled loop per batch, :mod:`eigmotion.retrieval.walk`, which releases
-the GIL; Python only checks the arguments and allocates the answer, so one query at a
-time costs little more than in a batch; a batch is walked in key order, so that one
-query leaves in the caches much of what the next reads):
+A query is answered in one compiled loop per batch, which releases the GIL; Python
+only checks the arguments and allocates the answer, so one query at a time costs
+little more than in a batch; a batch is answered in key order, so that one query
+leaves in the caches much of what the next reads.  By default through the tree's
+*cells* (:mod:`eigmotion.retrieval.cells`, :attr:`TreeIndex.cell_entries`):
+
+1. the highest nodes holding at most ``cell_entries`` (4,000) entries — key prefixes,
+   or median splits inside a large bin — are the cells; one pass over their boxes,
+   stored dimension-major, bounds every cell;
+2. the cells whose bound does not exceed the query's cutoff are taken nearest bound
+   first; in each, its *groups* (the highest nodes within it holding at most
+   ``group_entries``, 128) and their leaves are bounded (byte-coded boxes, each in
+   its parent's frame, one contiguous run per cell), the leaves that may hold one
+   of the k best ordered by bound and their entries measured, until the next
+   leaf's or cell's bound exceeds the running k-th best.
+
+With ``cell_entries = 0`` the node tree is walked instead
+(:mod:`eigmotion.retrieval.walk`):
 
 1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
    deepest occupied key prefix; below it the child with the smallest bound is
@@ -53,6 +67,10 @@ arithmetic, so:
 * bounds and a first estimate of each entry's distance are summed in SIMD registers in
   any order (see the arithmetic below); an entry whose estimate may enter the k best is
   measured again exactly.
+
+The flat search reads the same way with fewer jumps: the cells' boxes are one
+contiguous table (a few hundred KB), a cell's groups' and leaves' codes are
+contiguous, and its entries are contiguous in key order.
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
