@@ -144,6 +144,7 @@ class Tree(Method):
         self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
         if self.nodes:
             self.index.cell_entries = 0
+        self.depth = self.index.depth  # builds the tree now (a set it would scan: later)
 
     def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
         find = self.index.walk if self.walk else self.index.search

@@ -18,10 +18,9 @@ exactly and the decoded box holds the tight one), each cell's groups and each gr
 leaves side by side, in entry order.
 
 A query bounds every cell, keeps those whose bound does not exceed its cutoff in a
-heap, and takes them nearest bound first: the cell's groups are bounded, and the
-leaves of those that may hold one of the k best; such leaves are ordered by bound and
-their entries screened and measured, until the next leaf's or the next cell's bound
-exceeds the running k-th best.
+heap, and takes them nearest bound first; in a cell, the groups that may hold one of
+the k best nearest bound first, and in a group its leaves likewise, their entries
+screened and measured; each stops when the next bound exceeds the running k-th best.
 
 The screens (a box's bound, an entry's first estimate) and the exact distances follow
 :mod:`eigmotion.retrieval.walk`'s rule: screens are summed in any order, every cutoff
@@ -178,6 +177,17 @@ def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
     bounds[i], items[i] = bound, item
 
 
+def _insert(bounds, items, size, bound, item):  # pragma: no cover - JIT
+    """Insert (``bound``, ``item``) into ``bounds[:size]`` sorted ascending (``items``
+    alongside); returns the new size."""
+    i = size
+    while i > 0 and bounds[i - 1] > bound:
+        bounds[i], items[i] = bounds[i - 1], items[i - 1]
+        i -= 1
+    bounds[i], items[i] = bound, item
+    return size + 1
+
+
 def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group_codes,
                   group_leaves, group_frames, leaf_codes, leaf_entries, queries, max_sq,
                   out_ids, out_distances, examined):  # fmt: skip  # pragma: no cover - JIT
@@ -194,12 +204,12 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
     bounds = np.empty(n_cells, np.float32)
     heap_bound = np.empty(n_cells, np.float32)
     heap_cell = np.empty(n_cells, np.int64)
-    widest = 0
-    for c in range(n_cells):
-        leaves = group_leaves[cell_groups[c + 1]] - group_leaves[cell_groups[c]]
-        widest = max(widest, leaves)
-    near_bound = np.empty(widest, np.float32)
-    near_leaf = np.empty(widest, np.int64)
+    most_groups = np.max(np.diff(cell_groups))
+    most_leaves = np.max(np.diff(group_leaves))
+    near_group_bound = np.empty(most_groups, np.float32)
+    near_group = np.empty(most_groups, np.int64)
+    near_bound = np.empty(most_leaves, np.float32)
+    near_leaf = np.empty(most_leaves, np.int64)
     sq_row = np.empty(top_k, np.float64)
     id_row = np.empty(top_k, np.int64)
     for qi in range(queries.shape[0]):
@@ -224,27 +234,29 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
             cutoff = sq_row[last] * slack
             if bound > cutoff:
                 break  # every cell left is at least as far
-            # The cell's leaves that may hold one of the k best, nearest bound first.
-            n_near = 0
+            # The cell's groups that may hold one of the k best, nearest bound first;
+            # in each, its leaves likewise.
+            n_groups = 0
             for group in range(cell_groups[cell], cell_groups[cell + 1]):
-                if _coded_bound(group_codes, group, cell_frames, cell, query) > cutoff:
-                    continue
+                group_bound = _coded_bound(group_codes, group, cell_frames, cell, query)
+                if group_bound <= cutoff:
+                    n_groups = _insert(near_group_bound, near_group, n_groups, group_bound, group)
+            for g in range(n_groups):
+                cutoff = sq_row[last] * slack
+                if near_group_bound[g] > cutoff:
+                    break
+                group = near_group[g]
+                n_near = 0
                 for leaf in range(group_leaves[group], group_leaves[group + 1]):
                     leaf_bound = _coded_bound(leaf_codes, leaf, group_frames, group, query)
-                    if leaf_bound > cutoff:
-                        continue
-                    j = n_near  # insertion, nearest bound first
-                    while j > 0 and near_bound[j - 1] > leaf_bound:
-                        near_bound[j], near_leaf[j] = near_bound[j - 1], near_leaf[j - 1]
-                        j -= 1
-                    near_bound[j], near_leaf[j] = leaf_bound, leaf
-                    n_near += 1
-            for j in range(n_near):
-                if near_bound[j] > sq_row[last] * slack:
-                    break
-                first, stop = leaf_entries[near_leaf[j]], leaf_entries[near_leaf[j] + 1]
-                _measure(points, ids, first, stop, query, slack, sq_row, id_row)
-                measured += stop - first
+                    if leaf_bound <= cutoff:
+                        n_near = _insert(near_bound, near_leaf, n_near, leaf_bound, leaf)
+                for j in range(n_near):
+                    if near_bound[j] > sq_row[last] * slack:
+                        break
+                    first, stop = leaf_entries[near_leaf[j]], leaf_entries[near_leaf[j] + 1]
+                    _measure(points, ids, first, stop, query, slack, sq_row, id_row)
+                    measured += stop - first
         examined[qi] = measured
         for t in range(top_k):
             if id_row[t] == SENTINEL:
@@ -274,7 +286,8 @@ def cell_kernels() -> SimpleNamespace:
 def _compiled() -> SimpleNamespace:
     from numba import njit
 
-    global _cell_bounds, _coded_bound, _screen_point, _measure, _sift_down, _search_cells
+    global _cell_bounds, _coded_bound, _screen_point, _measure, _sift_down, _insert
+    global _search_cells
     global _exact_sq, _offer, _box_gap
     shared = kernels()
     _box_gap = walk_kernels().box_gap
@@ -286,5 +299,6 @@ def _compiled() -> SimpleNamespace:
     _screen_point = screen(_screen_point)
     _measure = plain(_measure)
     _sift_down = plain(_sift_down)
+    _insert = plain(_insert)
     _search_cells = plain(_search_cells)
     return SimpleNamespace(search=_search_cells)
