@@ -118,18 +118,22 @@ def cutoff_note(max_distance) -> str:
 
 class Tree(Method):
     """The key tree; ``walk``: through the tree for every batch (``TreeIndex.walk``),
-    else as ``TreeIndex.search`` chooses (large batches over small sets scanned)."""
+    else as ``TreeIndex.search`` chooses (large batches over small sets scanned);
+    ``nodes``: the node tree walked nearest bound first instead of the flat search
+    through its cells (``TreeIndex.cell_entries = 0``)."""
 
     def __init__(
         self, n_axes=4, n_sections=8, method="quantile", leaf_size=16, max_distance=np.inf,
-        walk=False,
+        walk=False, nodes=False,
     ):  # fmt: skip
         self.params = (n_axes, n_sections, method, leaf_size)
         self.max_distance = max_distance
         self.walk = walk
+        self.nodes = nodes
         self.name = (
             f"tree R={n_sections} K={n_axes} {method}"
             + (", walk" if walk else "")
+            + (", node walk" if nodes else "")
             + cutoff_note(max_distance)
         )
 
@@ -138,6 +142,9 @@ class Tree(Method):
         quantizer = Quantizer(n_axes, n_sections, method).fit(points)
         keys = quantizer.keys(points)
         self.index = TreeIndex.from_arrays(keys, points, ids, quantizer, leaf_size)
+        if self.nodes:
+            self.index.cell_entries = 0
+        self.depth = self.index.depth  # builds the tree now (a set it would scan: later)
 
     def search(self, queries) -> tuple[np.ndarray, np.ndarray]:
         find = self.index.walk if self.walk else self.index.search
@@ -424,7 +431,8 @@ def bench_real(uri: str, target: int, n_queries: int, n_single: int, faiss_ok: b
     )
     for points in (base, resampled):
         n, ids = len(points), np.arange(len(points))
-        trees = [Tree(4, 8), Tree(4, 8, walk=True), Tree(10, 4, walk=True)]
+        trees = [Tree(4, 8), Tree(4, 8, walk=True), Tree(10, 4, walk=True),
+                 Tree(10, 4, walk=True, nodes=True)]  # fmt: skip
         methods = [Brute(), *trees, SkKDTree()] + ([FaissFlat(), FaissHNSW()] if faiss_ok else [])
         for method in methods:
             method.build_s = cpu(method.build, points, ids)[1]
@@ -479,6 +487,8 @@ def main(argv=None) -> int:
     points = motion_like(CLUSTER, args.dims, np.random.default_rng(args.seed))
     warm.build(points, np.arange(CLUSTER))
     warm.search(points[:2])
+    warm.index.cell_entries = 0
+    warm.search(points[:2])
 
     if args.real:
         bench_real(args.real, args.real_size, args.queries, args.single, faiss_ok, rng)
@@ -496,7 +506,7 @@ def main(argv=None) -> int:
         brute = Brute()
         brute.build(points, ids)
         reference, _ = brute.search(queries)
-        methods = [brute, Tree(), SkKDTree()]
+        methods = [brute, Tree(), Tree(nodes=True), SkKDTree()]
         if faiss_ok:
             methods += [FaissFlat(), FaissHNSW()]
         rows = {}
@@ -520,7 +530,8 @@ def main(argv=None) -> int:
         brute.build(points, ids)
         reference, _ = brute.search(queries)
         rows = {}
-        for method in (brute, Tree(max_distance=max_distance)):
+        for method in (brute, Tree(max_distance=max_distance),
+                       Tree(max_distance=max_distance, nodes=True)):  # fmt: skip
             single = min(args.single, 20)
             rows[method.name] = measure(method, points, ids, queries, reference, single)
             print(fmt_row(n, method.name, rows[method.name], rows[brute.name]), flush=True)

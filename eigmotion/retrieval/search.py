@@ -25,10 +25,24 @@ record):
 * for searching, each node's children are its highest descendants holding at most
   1/8 of its entries (or leaves).
 
-A query (one compiled loop per batch, :mod:`eigmotion.retrieval.walk`, which releases
-the GIL; Python only checks the arguments and allocates the answer, so one query at a
-time costs little more than in a batch; a batch is walked in key order, so that one
-query leaves in the caches much of what the next reads):
+A query is answered in one compiled loop per batch, which releases the GIL; Python
+only checks the arguments and allocates the answer, so one query at a time costs
+little more than in a batch; a batch is answered in key order, so that one query
+leaves in the caches much of what the next reads.  By default through the tree's
+*cells* (:mod:`eigmotion.retrieval.cells`, :attr:`TreeIndex.cell_entries`):
+
+1. the highest nodes holding at most ``cell_entries`` (4,000) entries — key prefixes,
+   or median splits inside a large bin — are the cells; one pass over their boxes,
+   stored dimension-major, bounds every cell;
+2. the cells whose bound does not exceed the query's cutoff are taken nearest bound
+   first; in each, its *groups* (the highest nodes within it holding at most
+   ``group_entries``, 128) and their leaves are bounded (byte-coded boxes, each in
+   its parent's frame, one contiguous run per cell), the leaves that may hold one
+   of the k best ordered by bound and their entries measured, until the next
+   leaf's or cell's bound exceeds the running k-th best.
+
+With ``cell_entries = 0`` the node tree is walked instead
+(:mod:`eigmotion.retrieval.walk`):
 
 1. *Key lookup*: the query's own key (the patent's step, digit by digit) finds the
    deepest occupied key prefix; below it the child with the smallest bound is
@@ -53,6 +67,10 @@ arithmetic, so:
 * bounds and a first estimate of each entry's distance are summed in SIMD registers in
   any order (see the arithmetic below); an entry whose estimate may enter the k best is
   measured again exactly.
+
+The flat search reads the same way with fewer jumps: the cells' boxes are one
+contiguous table (a few hundred KB), a cell's groups' and leaves' codes are
+contiguous, and its entries are contiguous in key order.
 
 ``max_distance`` (the patent's "unknown motion" threshold) starts the k-th best at
 that distance, so a query with nothing near is answered after a few steps.
@@ -86,6 +104,7 @@ import numpy as np
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.retrieval.brute_force import BruteForceIndex
+from eigmotion.retrieval.cells import cell_kernels, cell_tables
 from eigmotion.retrieval.keys import Quantizer, key_prefix
 from eigmotion.retrieval.neighbours import (
     NearestEntries,
@@ -223,6 +242,7 @@ class TreeIndex:
         self._building = threading.Lock()  # one thread builds; the others wait for it
         self._keys_checked = bool(check_keys)
         self._kernel = None  # the compiled walk, fetched on the first walk
+        self._cells = None  # (cell_entries, the flat search's tables), made on first use
         if n > self.scan_entries:  # every search walks: build now
             self._tree()
         return self
@@ -314,6 +334,7 @@ class TreeIndex:
         # The binary/R-ary tree as built.  Nodes are numbered level by level in entry
         # order, so every node's children are consecutive numbers.
         parent = np.concatenate(node_parent)
+        self._parent = parent
         self._base_count = np.bincount(parent[1:], minlength=n_nodes)
         self._base_first = np.concatenate([[1], 1 + np.cumsum(self._base_count)[:-1]])
         self._is_leaf = self._base_count == 0
@@ -345,6 +366,9 @@ class TreeIndex:
             np.stack([self._start, self._end, self._base_first, self._base_count], axis=1),
             dtype=np.int64,
         )
+        self._cells = None
+        if self.cell_entries > 0:  # the flat search's tables, part of the tree
+            self._make_cell_tables()
 
     def _boxes(self, points, starts, leaf_of_segment, level_first) -> None:
         """Tight boxes: leaves from their entries, then every parent from its children."""
@@ -524,6 +548,14 @@ class TreeIndex:
     #: database's searches for at most ``walk_top_k`` nearest entries are walked all the
     #: same: warm, the walk beats the scan there (``bench_scan_or_walk.py``).
     walk_top_k = 16
+    #: Most entries in a cell of the flat search (:mod:`eigmotion.retrieval.cells`),
+    #: which answers every walk; ``0``: walk the node tree nearest bound first
+    #: instead (:mod:`eigmotion.retrieval.walk`).  Measured on 1,000,600 real
+    #: motion-image points (``bench_search.py --real``, cells / groups): 4,000 / 128
+    #: beat 1,000 / 64–1,000, 2,000 / 128, 4,000 / 256, 8,000 / 256 and 16,000 / 512.
+    cell_entries = 4000
+    #: Most entries in a group, the level between a cell and its leaves.
+    group_entries = 128
 
     def search(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """The ``top_k`` nearest entries of each query, exactly as brute force finds them.
@@ -587,8 +619,35 @@ class TreeIndex:
             ids[rows], distances[rows], examined[rows] = block
         return NearestEntries(ids, distances, examined)
 
+    def _cell_tables(self):
+        """The flat search's tables for the current ``cell_entries`` and
+        ``group_entries``: made with the tree, and again when either changes."""
+        cells = self._cells
+        if cells is None or cells[0] != (self.cell_entries, self.group_entries):
+            with self._building:
+                self._make_cell_tables()
+        return self._cells[1]
+
+    def _make_cell_tables(self) -> None:
+        """Make the flat search's tables (:func:`~eigmotion.retrieval.cells.cell_tables`;
+        1,000,600 real points, k = 40: 0.1–0.4 s, 18 MB beside the points' 160 MB)
+        unless they are made for the current sizes."""
+        sizes = (self.cell_entries, self.group_entries)
+        if self._cells is None or self._cells[0] != sizes:
+            tables = cell_tables(self._size, self._parent, self._is_leaf, self._start,
+                                 self._lo, self._hi, *sizes)  # fmt: skip
+            self._cells = (sizes, tables)
+
     def _search_block(self, queries, max_sq, ids, distances, examined) -> None:
         """Fill ``ids``, ``distances`` (Q, top_k) and ``examined`` (Q,) for ``queries``."""
+        if self.cell_entries > 0:
+            t = self._cell_tables()
+            cell_kernels().search(
+                self._points, self._ids, t.cell_lo, t.cell_hi, t.cell_groups, t.cell_frames,
+                t.group_codes, t.group_leaves, t.group_frames, t.leaf_codes, t.leaf_entries,
+                queries, max_sq, ids, distances, examined,
+            )  # fmt: skip
+            return
         if self._kernel is None:
             self._kernel = walk_kernels().walk
         self._kernel(

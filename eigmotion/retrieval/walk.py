@@ -411,4 +411,4 @@ def _compiled() -> SimpleNamespace:
     _grown = plain(_grown)
     _prefetch_visit = plain(_prefetch_visit)
     _walk = plain(_walk)
-    return SimpleNamespace(walk=_walk)
+    return SimpleNamespace(walk=_walk, box_gap=_box_gap)
