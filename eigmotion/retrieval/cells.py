@@ -38,10 +38,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL, kernels
+from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL
 from eigmotion.retrieval.walk import SLACK_PER_AXIS, box_codes, walk_kernels
 
-_box_gap = None  # the walk's, compiled: set by :func:`_compiled`
+# The walk's box gap and entry measure, compiled: set by :func:`_compiled`.
+_box_gap = _measure = None
 
 # numba's fast-math flags for the screens (as :mod:`eigmotion.retrieval.walk`'s): sums
 # reordered, multiply-adds fused, IEEE infinities and NaN kept.
@@ -141,24 +142,6 @@ def _coded_bound(codes, row, frames, frame, query):  # pragma: no cover - JIT
                      codes[row, 1, a], query[a])  # fmt: skip
         total += d * d
     return total
-
-
-def _screen_point(points, row, query):  # pragma: no cover - JIT
-    """Squared distance (float32, any summation order) of ``points[row]`` to ``query``."""
-    total = np.float32(0.0)
-    for a in range(query.shape[0]):
-        d = points[row, a] - query[a]
-        total += d * d
-    return total
-
-
-def _measure(points, ids, first, stop, query, slack, sq_row, id_row):  # pragma: no cover - JIT
-    """Offer the entries ``first … stop-1`` to the running best: each is screened, and
-    measured exactly (the shared in-order sum) only when its screen may enter."""
-    last = sq_row.shape[0] - 1
-    for row in range(first, stop):
-        if _screen_point(points, row, query) <= sq_row[last] * slack:
-            _offer(_exact_sq(points[row], query), ids[row], sq_row, id_row)
 
 
 def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
@@ -265,10 +248,6 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
                 out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
 
 
-# The shared in-order distance and the running best's insertion
-# (:mod:`eigmotion.retrieval.neighbours`), compiled: set by :func:`_compiled`.
-_exact_sq = _offer = None
-
 _COMPILING = threading.Lock()
 
 
@@ -286,18 +265,14 @@ def cell_kernels() -> SimpleNamespace:
 def _compiled() -> SimpleNamespace:
     from numba import njit
 
-    global _cell_bounds, _coded_bound, _screen_point, _measure, _sift_down, _insert
-    global _search_cells
-    global _exact_sq, _offer, _box_gap
-    shared = kernels()
-    _box_gap = walk_kernels().box_gap
-    _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
+    global _cell_bounds, _coded_bound, _measure, _sift_down, _insert, _search_cells
+    global _box_gap
+    walk = walk_kernels()  # compiled already: the walk's box gap and entry measure
+    _box_gap, _measure = walk.box_gap, walk.measure
     plain = njit(cache=True, nogil=True)
     screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
     _cell_bounds = screen(_cell_bounds)
     _coded_bound = screen(_coded_bound)
-    _screen_point = screen(_screen_point)
-    _measure = plain(_measure)
     _sift_down = plain(_sift_down)
     _insert = plain(_insert)
     _search_cells = plain(_search_cells)

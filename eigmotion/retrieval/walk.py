@@ -387,7 +387,8 @@ def walk_kernels() -> SimpleNamespace:
     """The compiled walk (numba is imported and it is compiled on first use, once,
     whichever thread asks first): ``walk(points, ids, codes, frames, kid_a, kid_b, root_a,
     root_b, nodes, lo, hi, queries, edges, digits, prefix_nodes, level_first, max_sq,
-    out_ids, out_distances, examined)``."""
+    out_ids, out_distances, examined)``, and the pieces the flat search
+    (:mod:`eigmotion.retrieval.cells`) shares: ``box_gap`` and ``measure``."""
     with _COMPILING:
         return _compiled()
 
@@ -411,4 +412,4 @@ def _compiled() -> SimpleNamespace:
     _grown = plain(_grown)
     _prefetch_visit = plain(_prefetch_visit)
     _walk = plain(_walk)
-    return SimpleNamespace(walk=_walk, box_gap=_box_gap)
+    return SimpleNamespace(walk=_walk, box_gap=_box_gap, measure=_measure)
