@@ -38,15 +38,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from eigmotion.retrieval.neighbours import NO_ENTRY, SENTINEL
-from eigmotion.retrieval.walk import SLACK_PER_AXIS, box_codes, walk_kernels
+from eigmotion.retrieval.neighbours import SENTINEL
+from eigmotion.retrieval.walk import SCREEN_MATH, SLACK_PER_AXIS, box_codes, walk_kernels
 
-# The walk's box gap and entry measure, compiled: set by :func:`_compiled`.
-_box_gap = _measure = None
-
-# numba's fast-math flags for the screens (as :mod:`eigmotion.retrieval.walk`'s): sums
-# reordered, multiply-adds fused, IEEE infinities and NaN kept.
-_SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
+# The walk's box bound, entry measure and answer row, compiled: set by :func:`_compiled`.
+_screen_box = _measure = _write_best = None
 
 
 def _highest_within(size, parent, is_leaf, start, limit) -> np.ndarray:
@@ -133,17 +129,6 @@ def _cell_bounds(cell_lo, cell_hi, query, out):  # pragma: no cover - JIT
             out[c] += d * d
 
 
-def _coded_bound(codes, row, frames, frame, query):  # pragma: no cover - JIT
-    """Bound of the decoded box ``codes[row]`` in frame ``frames[frame]``
-    (:func:`~eigmotion.retrieval.walk.box_codes`) for ``query``, summed in any order."""
-    total = np.float32(0.0)
-    for a in range(query.shape[0]):
-        d = _box_gap(frames[frame, 0, a], frames[frame, 1, a], codes[row, 0, a],
-                     codes[row, 1, a], query[a])  # fmt: skip
-        total += d * d
-    return total
-
-
 def _sift_down(bounds, items, size, i, bound, item):  # pragma: no cover - JIT
     """Put (``bound``, ``item``) at position ``i`` of the min-heap ``bounds[:size]``
     (``items`` alongside), whose sub-heaps below ``i`` are heaps, and sift it down."""
@@ -221,7 +206,7 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
             # in each, its leaves likewise.
             n_groups = 0
             for group in range(cell_groups[cell], cell_groups[cell + 1]):
-                group_bound = _coded_bound(group_codes, group, cell_frames, cell, query)
+                group_bound = _screen_box(group_codes, group, cell_frames, cell, query)
                 if group_bound <= cutoff:
                     n_groups = _insert(near_group_bound, near_group, n_groups, group_bound, group)
             for g in range(n_groups):
@@ -231,7 +216,7 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
                 group = near_group[g]
                 n_near = 0
                 for leaf in range(group_leaves[group], group_leaves[group + 1]):
-                    leaf_bound = _coded_bound(leaf_codes, leaf, group_frames, group, query)
+                    leaf_bound = _screen_box(leaf_codes, leaf, group_frames, group, query)
                     if leaf_bound <= cutoff:
                         n_near = _insert(near_bound, near_leaf, n_near, leaf_bound, leaf)
                 for j in range(n_near):
@@ -241,11 +226,7 @@ def _search_cells(points, ids, cell_lo, cell_hi, cell_groups, cell_frames, group
                     _measure(points, ids, first, stop, query, slack, sq_row, id_row)
                     measured += stop - first
         examined[qi] = measured
-        for t in range(top_k):
-            if id_row[t] == SENTINEL:
-                out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
-            else:
-                out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
+        _write_best(sq_row, id_row, out_ids[qi], out_distances[qi])
 
 
 _COMPILING = threading.Lock()
@@ -265,14 +246,13 @@ def cell_kernels() -> SimpleNamespace:
 def _compiled() -> SimpleNamespace:
     from numba import njit
 
-    global _cell_bounds, _coded_bound, _measure, _sift_down, _insert, _search_cells
-    global _box_gap
-    walk = walk_kernels()  # compiled already: the walk's box gap and entry measure
-    _box_gap, _measure = walk.box_gap, walk.measure
+    global _cell_bounds, _measure, _sift_down, _insert, _search_cells
+    global _screen_box, _write_best
+    walk = walk_kernels()  # compiled: the walk's box bound, entry measure and answer row
+    _screen_box, _measure, _write_best = walk.screen_box, walk.measure, walk.write_best
     plain = njit(cache=True, nogil=True)
-    screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
+    screen = njit(cache=True, nogil=True, fastmath=SCREEN_MATH)
     _cell_bounds = screen(_cell_bounds)
-    _coded_bound = screen(_coded_bound)
     _sift_down = plain(_sift_down)
     _insert = plain(_insert)
     _search_cells = plain(_search_cells)

@@ -53,7 +53,7 @@ _FRAME_MASK = (1 << _COUNT_SHIFT) - 1
 
 # numba's fast-math flags for the screens: reorder sums and fuse multiply-adds, but
 # keep IEEE infinities and NaN (``max_distance`` may be inf).
-_SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
+SCREEN_MATH = {"reassoc", "contract", "nsz", "arcp"}
 
 
 def box_codes(
@@ -306,11 +306,17 @@ def _walk(points, ids, codes, frames, kid_a, kid_b, root_a, root_b, nodes, lo, h
                     _prefetch_visit(heap_a[0], heap_b[0], points, ids, codes, frames, kid_a,
                                     kid_b)  # fmt: skip
         examined[qi] = measured
-        for t in range(top_k):
-            if id_row[t] == SENTINEL:
-                out_ids[qi, t], out_distances[qi, t] = NO_ENTRY, np.inf
-            else:
-                out_ids[qi, t], out_distances[qi, t] = id_row[t], np.sqrt(sq_row[t])
+        _write_best(sq_row, id_row, out_ids[qi], out_distances[qi])
+
+
+def _write_best(sq_row, id_row, ids_out, distances_out):  # pragma: no cover - JIT
+    """A query's running best (squared distances, ids) as its answer row: ids and
+    distances, ``NO_ENTRY`` and inf in slots nothing filled."""
+    for t in range(sq_row.shape[0]):
+        if id_row[t] == SENTINEL:
+            ids_out[t], distances_out[t] = NO_ENTRY, np.inf
+        else:
+            ids_out[t], distances_out[t] = id_row[t], np.sqrt(sq_row[t])
 
 
 def _prefetch_visit(item_a, item_b, points, ids, codes, frames, kid_a,
@@ -388,7 +394,8 @@ def walk_kernels() -> SimpleNamespace:
     whichever thread asks first): ``walk(points, ids, codes, frames, kid_a, kid_b, root_a,
     root_b, nodes, lo, hi, queries, edges, digits, prefix_nodes, level_first, max_sq,
     out_ids, out_distances, examined)``, and the pieces the flat search
-    (:mod:`eigmotion.retrieval.cells`) shares: ``box_gap`` and ``measure``."""
+    (:mod:`eigmotion.retrieval.cells`) shares: ``screen_box``, ``measure`` and
+    ``write_best``."""
     with _COMPILING:
         return _compiled()
 
@@ -398,12 +405,12 @@ def _compiled() -> SimpleNamespace:
     from numba import njit
 
     global _box_gap, _screen_box, _screen_point, _measure, _key_start, _walk, _grown
-    global _exact_sq, _offer, _prefetch, _prefetch_visit
+    global _exact_sq, _offer, _prefetch, _prefetch_visit, _write_best
     _prefetch = _prefetch_intrinsic()
     shared = kernels()
     _exact_sq, _offer = shared.row_sq_distance, shared.offer  # compiled already
     plain = njit(cache=True, nogil=True)
-    screen = njit(cache=True, nogil=True, fastmath=_SCREEN_MATH)
+    screen = njit(cache=True, nogil=True, fastmath=SCREEN_MATH)
     _box_gap = plain(_box_gap)
     _screen_box = screen(_screen_box)
     _screen_point = screen(_screen_point)
@@ -411,5 +418,8 @@ def _compiled() -> SimpleNamespace:
     _key_start = plain(_key_start)
     _grown = plain(_grown)
     _prefetch_visit = plain(_prefetch_visit)
+    _write_best = plain(_write_best)
     _walk = plain(_walk)
-    return SimpleNamespace(walk=_walk, box_gap=_box_gap, measure=_measure)
+    return SimpleNamespace(
+        walk=_walk, screen_box=_screen_box, measure=_measure, write_best=_write_best
+    )
