@@ -323,43 +323,34 @@ def learned_masks_and_landmarks(
     boxes = _person_boxes(probabilities, config, frame_size)
     landmarks = np.full((len(frames), N_POSE_LANDMARKS, 4), np.nan, np.float32)
     longest = max(frame_size)
+    masks = np.zeros((len(frames), h, w), bool)
+    people = np.zeros(len(frames), np.int64)
     followed = None  # the box of the pose network's person in the frame before
     for i, box in enumerate(boxes):
-        if box is None:
-            followed = None
-            continue
-        if followed is not None and (
-            followed[3] - followed[1] > FOLLOW_TALLER * (box[3] - box[1])
-        ):  # the first look lost part of the person
-            box = _union(box, followed)
-        x0, y0, x1, y1 = box
-        followed = None
-        side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
-        if side >= longest and second_look == "selfie":
-            continue
-        view, matrix = crop_input(frames[i], ((x0 + x1) / 2, (y0 + y1) / 2, side))
-        if second_look == "selfie":
-            second = person_probabilities(view[None])[0]
-        else:
-            out = pose(view.astype(np.float32) * np.float32(1.0 / 255.0))
-            if out.person < PERSON_PROBABILITY:  # no one it knows: the selfie network looks
-                second = person_probabilities(view[None])[0]
+        before, followed, found = followed, None, False
+        if box is not None:
+            if before is not None and before[3] - before[1] > FOLLOW_TALLER * (box[3] - box[1]):
+                box = _union(box, before)  # the first look lost part of the person
+            x0, y0, x1, y1 = box
+            side = max(CROP_MARGIN * max(x1 - x0, y1 - y0), 0.2 * longest, CROP_MIN_SIDE_PX)
+            if side < longest or second_look == "pose":
+                view, matrix = crop_input(frames[i], ((x0 + x1) / 2, (y0 + y1) / 2, side))
+                out = None if second_look == "selfie" else pose(
+                    view.astype(np.float32) * np.float32(1.0 / 255.0))  # fmt: skip
+                found = out is not None and out.person >= PERSON_PROBABILITY
+                if found:
+                    second = out.probabilities
+                    landmarks[i] = out.landmarks
+                    # the square's pixels (continuous) back to the frame's
+                    scale, shift = matrix[[0, 1], [0, 1]], matrix[:2, 2]
+                    landmarks[i, :, :2] = (out.landmarks[:, :2] - 0.5 - shift) / scale + 0.5
+                else:  # the selfie network's second look, or no one the pose network knows
+                    second = person_probabilities(view[None])[0]
                 probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
-                continue
-            second = out.probabilities
-            followed = _blob_box(
-                crop_probabilities_back(second, matrix, frame_size, size), config, frame_size
-            )
-            landmarks[i] = out.landmarks
-            # the square's pixels (continuous) back to the frame's
-            landmarks[i, :, 0] = (out.landmarks[:, 0] - 0.5 - matrix[0, 2]) / matrix[0, 0] + 0.5
-            landmarks[i, :, 1] = (out.landmarks[:, 1] - 0.5 - matrix[1, 2]) / matrix[1, 1] + 0.5
-        probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
-    masks = np.zeros((len(probabilities), h, w), bool)
-    people = np.zeros(len(probabilities), np.int64)
-    for i, p in enumerate(probabilities):
-        masks[i], people[i] = person_in_frame(p > PERSON_PROBABILITY, config)
+        masks[i], people[i] = person_in_frame(probabilities[i] > PERSON_PROBABILITY, config)
         people[i] = max(people[i], whole_frame_people[i])
+        if found and masks[i].any():
+            followed = _mask_box(masks[i], frame_size)
     area = masks.sum(axis=(1, 2))
     if area.any():
         outliers = area > OUTLIER_AREA * np.median(area[area > 0])
@@ -411,17 +402,12 @@ def _union(
             max(box[3], other[3]))  # fmt: skip
 
 
-def _blob_box(
-    probabilities: np.ndarray, config: SilhouetteConfig, frame_size: tuple[int, int]
-) -> tuple[float, float, float, float] | None:
-    """The box (x0, y0, x1, y1), pixels of frames of ``frame_size`` (H, W), around the
-    person in (H', W') probabilities at the working size; None when there is none."""
-    person, _ = person_in_frame(probabilities > PERSON_PROBABILITY, config)
-    if not person.any():
-        return None
-    h, w = probabilities.shape
+def _mask_box(mask: np.ndarray, frame_size: tuple[int, int]) -> tuple[float, float, float, float]:
+    """The box (x0, y0, x1, y1), pixels of frames of ``frame_size`` (H, W), around a
+    non-empty (H', W') mask at the working size."""
+    h, w = mask.shape
     ay, ax = frame_size[0] / h, frame_size[1] / w
-    ys, xs = np.nonzero(person)
+    ys, xs = np.nonzero(mask)
     return xs.min() * ax, ys.min() * ay, (xs.max() + 1) * ax, (ys.max() + 1) * ay
 
 
