@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -14,6 +17,7 @@ from eigmotion.imaging.media import (
     mp4_fourcc,
     read_frame_sample,
     read_frames,
+    read_image_rgb,
     sample_indices,
     write_video,
 )
@@ -64,8 +68,8 @@ def test_frame_sample_stream_hands_over_the_sample_in_chunks(tmp_path, suffix, s
 
 
 def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, monkeypatch):
-    """The bar (shown after a second, so shown at once here) counts the clip's frames,
-    sampled or not, and the frames handed over are those of a stream without one."""
+    """The bar (made after a second, at once here) counts the clip's frames, sampled or
+    not, and the frames handed over are those of a stream without one."""
     import io
 
     from tqdm import tqdm
@@ -73,6 +77,7 @@ def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, mon
     from eigmotion.imaging import media
 
     shown = io.StringIO()
+    monkeypatch.setattr(media, "FRAME_BAR_DELAY_S", 0.0)
     monkeypatch.setattr(
         media, "_frame_bar", lambda n: tqdm(total=n, desc="reading frames", file=shown)
     )
@@ -80,6 +85,20 @@ def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, mon
     with_bar = np.concatenate(list(FrameSampleStream(path, 15.0, progress=True).chunks(4)))
     np.testing.assert_array_equal(with_bar, read_frame_sample(path, 15.0).frames)
     assert "reading frames" in shown.getvalue() and "23/23" in shown.getvalue()
+
+
+def test_a_clip_read_within_the_bar_delay_never_loads_tqdm(tmp_path):
+    """A short clip is read before its bar would show: the process never imports tqdm
+    (nor Pillow, which a video does not need)."""
+    path = write_video(_smooth_clip(n_frames=23), tmp_path / "clip.mp4", fps=25.0)
+    script = (
+        "import sys; from eigmotion.imaging.media import FrameSampleStream as S; "
+        f"list(S({str(path)!r}, 15.0, progress=True).chunks(4)); "
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'tqdm', 'PIL'}))"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
 
 
 @pytest.mark.parametrize("content", [b"", b"not a video at all"])
@@ -313,3 +332,45 @@ def test_bad_fps(tmp_path, fps):
 def test_video_error_is_a_value_error(tmp_path):
     with pytest.raises(ValueError):
         read_frames(tmp_path / "missing.avi")
+
+
+@pytest.mark.parametrize("kind", ["RGB", "RGBA", "L", "LA", "P", "P with alpha", "P 4-bit", "I;16"])
+def test_a_png_reads_as_pillow_converts_it_to_rgb(tmp_path, kind):
+    """8-bit PNGs are read by OpenCV, others by Pillow: either way the pixels are
+    Pillow's ``convert("RGB")`` of the file."""
+    rgba = np.random.default_rng(0).integers(0, 256, (37, 53, 4), dtype=np.uint8)
+    image = {
+        "RGB": lambda: Image.fromarray(rgba[..., :3]),
+        "RGBA": lambda: Image.fromarray(rgba),
+        "L": lambda: Image.fromarray(rgba[..., 0]),
+        "LA": lambda: Image.fromarray(rgba[..., 0]).convert("LA"),
+        "P": lambda: Image.fromarray(rgba[..., :3]).quantize(200),
+        "P with alpha": lambda: Image.fromarray(rgba).quantize(200),
+        "P 4-bit": lambda: Image.fromarray(rgba[..., :3]).quantize(16),
+        "I;16": lambda: Image.fromarray(rgba[..., 0].astype(np.uint16) * 257),
+    }[kind]()
+    path = tmp_path / "image.png"
+    image.save(path)
+    with Image.open(path) as opened:
+        expected = np.asarray(opened.convert("RGB"))
+    np.testing.assert_array_equal(read_image_rgb(path), expected)
+
+
+def test_a_truncated_png_is_one_error_naming_the_file(tmp_path):
+    path = tmp_path / "half.png"
+    Image.fromarray(np.full((40, 60, 3), 90, np.uint8)).save(path)
+    path.write_bytes(path.read_bytes()[:-30])
+    with pytest.raises(VideoError, match="half.png: not a readable image"):
+        read_image_rgb(path)
+
+
+def test_a_png_beyond_the_pixel_limit_is_refused_from_its_header(tmp_path):
+    """Only the header is read: a PNG claiming 100,000 × 100,000 pixels is refused
+    before anything is decoded."""
+    path = tmp_path / "huge.png"
+    Image.fromarray(np.zeros((4, 4, 3), np.uint8)).save(path)
+    data = bytearray(path.read_bytes())
+    data[16:24] = (100_000).to_bytes(4, "big") * 2
+    path.write_bytes(bytes(data))
+    with pytest.raises(InvalidParameterError, match="huge.png"):
+        read_image_rgb(path)

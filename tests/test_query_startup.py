@@ -59,3 +59,44 @@ def test_main_called_in_a_process_leaves_its_environment_alone():
     with pytest.raises(SystemExit):
         main(["query", "--help"])
     assert os.environ.get("OPENBLAS_NUM_THREADS") == before
+
+
+#: Runs the ``eigmotion`` command on ``query … --help`` with the arguments given, then
+#: prints whether the colour-table thread was started (and waits for it).
+_COLOUR_TABLES_STARTED = """
+import json, sys, threading
+from eigmotion.cli.main import entry
+started, start = [], threading.Thread.start
+def noted(thread):
+    started.append(thread)
+    start(thread)
+threading.Thread.start = noted
+sys.argv = ["eigmotion", "query", *sys.argv[1:], "--help"]
+try:
+    entry()
+except SystemExit:
+    pass
+tables = [t for t in started if t.name == "colour tables"]
+for thread in tables:
+    thread.join()
+print(json.dumps(bool(tables)))
+"""
+
+
+@pytest.mark.parametrize(
+    ("arguments", "started"),
+    [
+        (["clip.mp4", "--background", "empty.png"], True),
+        (["clip.mp4", "--background=empty.png"], True),
+        (["clip.mp4", "--segmenter", "subtraction"], True),
+        (["clip.mp4", "--segmenter=subtraction"], True),
+        (["clip.mp4"], False),
+        (["clip.mp4", "--segmenter", "learned"], False),
+    ],
+)
+def test_a_query_that_compares_colours_builds_the_colour_tables_while_it_loads(arguments, started):
+    done = subprocess.run(
+        [sys.executable, "-c", _COLOUR_TABLES_STARTED, *arguments],
+        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(REPO)}, check=True,
+    )  # fmt: skip
+    assert json.loads(done.stdout.strip().splitlines()[-1]) is started

@@ -28,6 +28,7 @@ import re
 import sys
 import tempfile
 import threading
+import time
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -35,11 +36,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from numbers import Real
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from PIL import Image, ImageSequence
-from tqdm import tqdm
 
 from eigmotion.errors import EigmotionError, InvalidParameterError, VideoError
 from eigmotion.limits import (
@@ -49,6 +49,9 @@ from eigmotion.limits import (
     check_frame_pixels,
 )
 from eigmotion.validation import Interval
+
+if TYPE_CHECKING:
+    from PIL import Image
 
 #: Extensions read and written through OpenCV's FFmpeg backend.
 VIDEO_EXTENSIONS = (".mp4", ".avi", ".mov", ".mkv")
@@ -277,13 +280,15 @@ class FrameSampleStream:
         # known only once the clip's length is (see _decode).
         held: list[tuple[int, np.ndarray]] = []
         bar = None
+        started = time.monotonic()
         try:
             while (item := self._decoded.get()) is not _END_OF_CLIP:
                 if isinstance(item, VideoError | InvalidParameterError):
                     raise item
-                if self._progress:
-                    if bar is None:
+                if self._progress and bar is None:
+                    if time.monotonic() - started >= FRAME_BAR_DELAY_S:
                         bar = _frame_bar(self._expected_frames)
+                if bar is not None:
                     bar.update(item[0] + 1 - bar.n)
                 if self._transform is not None:
                     item = (item[0], self._transform(item[1]))
@@ -366,11 +371,18 @@ class FrameSampleStream:
 _END_OF_CLIP = object()
 
 
+#: Seconds a video is read before its progress bar shows.
+FRAME_BAR_DELAY_S = 1.0
+
+
 def _frame_bar(expected_frames: int):
-    """A progress bar on stderr over a video's frames, shown after one second."""
+    """A progress bar on stderr over a video's frames (made once the reading has taken
+    :data:`FRAME_BAR_DELAY_S`: most clips are read before, and never load tqdm)."""
+    from tqdm import tqdm
+
     return tqdm(
         total=expected_frames or None, desc="reading frames", unit="frame", file=sys.stderr,
-        leave=False, delay=1.0,
+        leave=False,
     )  # fmt: skip
 
 
@@ -470,6 +482,8 @@ def _opened_image(path: Path) -> Iterator[Image.Image]:
     """``Image.open(path)``, with Pillow's own decompression-bomb warning silenced and
     its error (an image far beyond :data:`~eigmotion.limits.MAX_FRAME_PIXELS`) turned
     into the same InvalidParameterError as any image beyond the limit."""
+    from PIL import Image  # here: a video query never loads Pillow
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
@@ -491,6 +505,8 @@ def _pil_rgb(image: Image.Image, what: Path) -> np.ndarray:
 
 
 def _read_gif(path: Path, max_frames: int | None, held: _HeldFrames) -> tuple[np.ndarray, float]:
+    from PIL import ImageSequence
+
     durations_ms = []
     try:
         with _opened_image(path) as image:
@@ -573,6 +589,9 @@ def read_image_rgb(path: str | os.PathLike) -> np.ndarray:
     """
     path = Path(path)
     try:
+        plain = _read_plain_png(path)
+        if plain is not None:
+            return plain
         with _opened_image(path) as image:
             return _pil_rgb(image, path)
     except EigmotionError:
@@ -581,6 +600,31 @@ def read_image_rgb(path: str | os.PathLike) -> np.ndarray:
         raise
     except Exception as exc:  # noqa: BLE001 - Pillow raises many kinds on a damaged file
         raise VideoError(f"{path}: not a readable image ({_reason(exc)})") from None
+
+
+#: The first bytes of every PNG file, then its header chunk's length and name.
+_PNG_START = b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR"
+
+
+def _read_plain_png(path: Path) -> np.ndarray | None:
+    """(H, W, 3) uint8 RGB of a PNG of 8-bit samples, read by OpenCV (already loaded:
+    Pillow's import costs a cold query about 18 ms); ``None`` for any other file, a
+    PNG of other samples or one OpenCV cannot read, which Pillow then reads.  The
+    same pixels as Pillow's ``convert("RGB")``: grey replicated, palette expanded,
+    alpha dropped.  The size is checked from the header before decoding."""
+    with open(path, "rb") as file:
+        head = file.read(len(_PNG_START) + 9)
+    if len(head) < len(_PNG_START) + 9 or not head.startswith(_PNG_START):
+        return None
+    width = int.from_bytes(head[16:20], "big")
+    height = int.from_bytes(head[20:24], "big")
+    if head[24] != 8:  # bits per sample: 16-bit and packed images go through Pillow
+        return None
+    check_frame_pixels(width, height, str(path))
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None or bgr.shape[:2] != (height, width):
+        return None
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
 
 def as_rgb_frames(frames: np.ndarray) -> np.ndarray:
@@ -687,6 +731,8 @@ def _write_cv2(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> None:
 
 
 def _write_gif(frames: np.ndarray, path: Path, fps: float) -> None:
+    from PIL import Image
+
     duration_ms = max(10, int(round(100.0 / fps)) * 10)  # GIF delays are centiseconds
     images = [Image.fromarray(frame) for frame in frames]
     images[0].save(

@@ -30,7 +30,6 @@ from numbers import Real
 from typing import ClassVar
 
 import numpy as np
-from tqdm import tqdm
 
 from eigmotion.body.avatar import check_body_shape, load_default_avatar
 from eigmotion.body.garments import dress, garment
@@ -503,6 +502,8 @@ def render_views(
         for s in range(len(config.bodies))
         for v in range(len(rig))
     ]
+    from tqdm import tqdm  # here: a query, which renders nothing, never loads it
+
     client = None if scheduler is None else connect_cluster(scheduler)
     bar = tqdm(total=len(tasks), desc="rendering views", unit="view", disable=not progress)
     workers = workers or os.cpu_count() or 1
@@ -578,7 +579,7 @@ def connect_cluster(address: str, timeout_s: float = CLUSTER_TIMEOUT_S):
 
 
 def _render_on_cluster(
-    client, library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig, bar: tqdm
+    client, library: Sequence[LibraryMotion], rig: CameraRig, config: BuildConfig, bar
 ) -> Iterator[ViewImages]:
     """Every view rendered by the cluster's workers, one task per (motion, body), yielded
     in (motion, shape, view) order as the tasks finish.  The library, rig and
