@@ -403,8 +403,8 @@ class MotionDatabase:
             lengths = np.concatenate(lengths)
             frames = np.empty((int(lengths.sum()), taken[0][0].frames.shape[1]), np.float32)
             at = 0
-            for stored, rows in taken:
-                np.take(stored.frames, rows, axis=0, out=frames[at : at + len(rows)])
+            for stored, rows in taken:  # float16 as stored: converted as gathered
+                frames[at : at + len(rows)] = stored.frames[rows]
                 at += len(rows)
             # Each rendering's pose speed is its own frames' alone: taken for the
             # renderings in reach only, all at once.
@@ -433,10 +433,10 @@ class MotionDatabase:
     def _stored_sequences(self, motion_id: int):
         """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences`, its renderings
         in order of azimuth (R,) and the (R,) first frame of each rendering: read from
-        the store once, then kept."""
+        the store once, then kept, its frames float16 as stored."""
         found = self._sequences.get(motion_id)
         if found is None:
-            stored = self.store.sequences(motion_id)
+            stored = self.store.sequences(motion_id, np.float16)
             by_azimuth = np.argsort(stored.azimuth_deg, kind="stable")
             firsts = np.cumsum(stored.lengths) - stored.lengths
             found = self._sequences[motion_id] = (stored, by_azimuth, firsts)

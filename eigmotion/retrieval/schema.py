@@ -70,7 +70,7 @@ class MotionSequences:
         The virtual camera of each rendering, degrees.
     lengths : (R,) int64
         Frames of each sequence, each >= 1.
-    frames : (sum of lengths, p + 1) float32
+    frames : (sum of lengths, p + 1) float32 (float16 where asked for)
         The sequences' frames, one after the other: the p pose-eigenspace coordinates
         and the weighted rise (:func:`eigmotion.retrieval.sequences.pose_coordinates`).
     """
@@ -285,11 +285,14 @@ def checked_sequences(p: int, view_azimuth_deg, view_elevation_deg, sequences):
     return azimuth, elevation, sequences
 
 
-def unpack_sequences(record, p: int, uri: str, motion_id: int) -> MotionSequences:
-    """A motion's sequences record (``p`` columns a frame) as arrays; DatabaseError when
-    its frames do not fill its lengths."""
+def unpack_sequences(
+    record, p: int, uri: str, motion_id: int, dtype: type = np.float32
+) -> MotionSequences:
+    """A motion's sequences record (``p`` columns a frame) as arrays, its frames of
+    ``dtype`` (float32, or float16 as stored: a query converts only the frames it
+    compares); DatabaseError when its frames do not fill its lengths."""
     lengths = np.frombuffer(record["lengths"], dtype="<i8").astype(np.int64)
-    frames = np.frombuffer(record["frames"], dtype="<f2").astype(np.float32)
+    frames = np.frombuffer(record["frames"], dtype="<f2").astype(dtype)
     if frames.size != int(lengths.sum()) * p:
         raise DatabaseError(f"{uri}: the sequences of motion {motion_id} are damaged")
     return MotionSequences(

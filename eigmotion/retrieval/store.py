@@ -595,9 +595,9 @@ class Store:
         except InvalidParameterError as exc:
             raise DatabaseError(f"{self.uri}: stored {what} is damaged: {exc}") from exc
 
-    def sequences(self, motion_id: int) -> MotionSequences:
+    def sequences(self, motion_id: int, dtype: type = np.float32) -> MotionSequences:
         """The silhouette sequences of one motion's renderings (none for a motion
-        stored without them)."""
+        stored without them), their frames of ``dtype`` (float32 or float16)."""
         with damage_named(self.uri, f"the sequences of motion {motion_id}"):
             root = self._require_initialised()
             p = frame_columns(root)
@@ -606,7 +606,7 @@ class Store:
                 if int(motion_id) not in root["motions"]:
                     raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
                 record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
-            return unpack_sequences(record, p, self.uri, motion_id)
+            return unpack_sequences(record, p, self.uri, motion_id, dtype)
 
     @property
     def n_entries(self) -> int:
