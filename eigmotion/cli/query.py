@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         if out is not None and not out.parent.is_dir():
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
     if args.background is not None or args.segmenter == "subtraction":
-        start_colour_tables()  # built on another core while the database opens
+        start_colour_tables()  # on another core while the database opens (if not yet built)
     if args.bvh_out or args.replay_out or args.pose_out:
         resolve_cue(args.pose_cue, args.clip)  # told before the clip is read
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
