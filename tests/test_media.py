@@ -335,6 +335,7 @@ def test_video_error_is_a_value_error(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["RGB", "RGBA", "L", "LA", "P", "P with alpha", "P 4-bit", "I;16"])
+@pytest.mark.filterwarnings("ignore:Palette images with Transparency:UserWarning")
 def test_a_png_reads_as_pillow_converts_it_to_rgb(tmp_path, kind):
     """8-bit PNGs are read by OpenCV, others by Pillow: either way the pixels are
     Pillow's ``convert("RGB")`` of the file."""
