@@ -46,7 +46,6 @@ from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
-from eigmotion.segmentation.evidence import start_colour_tables
 from eigmotion.segmentation.learned import SEGMENTERS
 
 
@@ -115,8 +114,6 @@ def run(args: argparse.Namespace) -> int:
     for out in (args.bvh_out, args.replay_out, args.pose_out):
         if out is not None and not out.parent.is_dir():
             raise InvalidParameterError(f"{out}: folder {out.parent} does not exist")
-    if args.background is not None or args.segmenter == "subtraction":
-        start_colour_tables()  # on another core while the database opens (if not yet built)
     if args.bvh_out or args.replay_out or args.pose_out:
         resolve_cue(args.pose_cue, args.clip)  # told before the clip is read
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
