@@ -30,7 +30,6 @@ from eigmotion.evaluation.joint_errors import (
     mirror_index,
     pa_mpjpe_per_clip,
     pa_mpjpe_per_frame,
-    similarity_align,
     swapped_frames,
     tracking_errors,
 )
@@ -39,6 +38,7 @@ from eigmotion.imaging.media import write_video
 from eigmotion.imaging.render import render_shaded
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
+from eigmotion.mocap.rotations import similarity_align
 from eigmotion.pose.keypoints import keypoints_available
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.synth.clips import clip_camera
@@ -303,7 +303,8 @@ def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, c
     assert scored["error"] is None and scored["frames"] == 75
     if keypoints_available():  # every variant in the same run, the default among them
         assert "pose landmark network alone, world landmarks" in printed
-        assert set(scored["variants"]) == {"silhouette", "keypoints", "network"}
+        assert set(scored["variants"]) == {"silhouette", "world", "keypoints", "network"}
+        assert "ours, world cue (query --pose-cue world)" in printed
         default = scored["variants"]["silhouette"]
         assert default["pa_mpjpe_frame_mm"] == scored["pa_mpjpe_frame_mm"]
         assert 0 < scored["variants"]["network"]["pa_mpjpe_frame_mm"] < 300

@@ -138,6 +138,25 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
 
 
 @needs_litert
+def test_world_cue_keeps_the_silhouettes_heading_and_place(db_path, video, tmp_path):
+    """The world cue writes the silhouette cue's joint set and frames; only the trunk
+    and limbs turn: the root and both hip joints (hence the heading) stay where the
+    silhouettes put them (to 1e-9 m); the BVH is the npz's motion; the limbs stay near
+    the truth."""
+    _, _, truth = video
+    names_s, silhouette, _ = query_pose(db_path, video, tmp_path, "silhouette")
+    names_w, world, bvh = query_pose(db_path, video, tmp_path, "world")
+    assert names_w == names_s and world.shape == silhouette.shape
+    kept = [names_w.index(n) for n in ("Hips", "LeftUpLeg", "RightUpLeg")]
+    np.testing.assert_allclose(world[:, kept], silhouette[:, kept], rtol=0, atol=1e-9)
+    assert np.abs(world - silhouette).max() > 0.01  # the limbs did move
+    from_bvh = forward_kinematics(bvh, length_unit_m=1.0, ground=False).positions
+    assert np.abs(from_bvh - world).max() < 2e-3
+    ours = limb_error_mm(names_w, world, truth)
+    assert ours < 130.0, ours
+
+
+@needs_litert
 def test_network_keypoints_lie_on_the_rendered_person(video):
     """The network finds the person in most frames; its limb landmarks project inside
     the true silhouette's box; its world landmarks are a body of about the right size."""
@@ -202,6 +221,50 @@ def test_fit_lays_the_joints_on_the_keypoints():
     assert fitted.positions.shape == pose.positions.shape
     assert fitted.names == pose.names and fitted.motion.n_frames == pose.n_frames
     assert "keypoints_fit" in fitted.timings_s
+
+
+def test_fit_goes_the_set_share_of_the_way_to_the_network_posture():
+    """World landmarks of another posture of the same body, the image landmarks of the
+    pose itself: the whole way there (``network_share`` 1, unsmoothed) the limbs take
+    that posture up to the pelvis's and the shoulders' own turn, which the bones'
+    directions do not set (the network's posture is brought onto the fit first, so its
+    place, heading and size do not matter); half way lands between; frames where the
+    network found no one keep the fit's posture to the bit."""
+    motion = {m.name: m for m in load_library()}[MOTIONS[0]].motion
+    body = AVATAR.decimated(4000)
+    anim = retarget(motion.resample(CLIP_FPS), body)
+    vertices = pose_avatar(body, anim)
+    camera = virtual_rig([0.0], [10.0], 160, 120).fitted(hull_points(vertices))[0]
+    pose = align_motion(
+        motion, (0, motion.n_frames), 0.0, 10.0, render_masks(vertices, body.faces, camera),
+        CLIP_FPS,
+    )  # fmt: skip
+    shifted = np.concatenate([pose.positions[8:], pose.positions[-1:].repeat(8, 0)])
+    other = shifted - shifted[:, :1] + pose.positions[:, :1]
+    image = _turned_truth(pose, pose.positions, False)
+    world = _turned_truth(pose, 1.3 * other @ axis_rotation("Y", 40.0).T, True).world_m
+    lost = np.arange(3, pose.n_frames, 10)
+    found = np.ones(pose.n_frames, bool)
+    found[lost] = False
+    world[lost] = np.nan
+    keypoints = ClipKeypoints(image.image_px, image.visibility, world, found, 0.0)
+    limbs = [pose.names.index(n) for n, _ in LIMB_PAIRS]
+    seen = np.flatnonzero(found)
+
+    def fitted(share):
+        config = KeypointFitConfig(agreement_m=0.0, network_share=share, network_smooth_s=0.0)
+        return fit_keypoints(pose, keypoints, config).positions
+
+    def error_mm(positions):
+        return float(pa_mpjpe_per_frame(positions[seen][:, limbs], other[seen][:, limbs]).mean())
+
+    alone, half, whole = fitted(0.0), fitted(0.5), fitted(1.0)
+    # (85, 51 and 15 mm when written)
+    assert error_mm(whole) < error_mm(half) < error_mm(alone)
+    assert error_mm(whole) < 0.25 * error_mm(alone), (error_mm(whole), error_mm(alone))
+    assert error_mm(half) < 0.7 * error_mm(alone), (error_mm(half), error_mm(alone))
+    np.testing.assert_array_equal(half[lost], alone[lost])
+    np.testing.assert_array_equal(whole[lost], alone[lost])
 
 
 @pytest.fixture(scope="module")
@@ -280,7 +343,8 @@ def test_sphere_directions_are_unit_and_spread():
 @pytest.mark.parametrize(
     "change",
     [{"prior": -1.0}, {"directions": 10}, {"rounds": 0}, {"min_visibility": 2.0},
-     {"heading_step_deg": 0.0}, {"scale_band": 0.0}, {"agreement_m": -0.1}],
+     {"heading_step_deg": 0.0}, {"scale_band": 0.0}, {"agreement_m": -0.1},
+     {"network_share": 1.5}, {"network_share": -0.1}, {"network_smooth_s": -1.0}],
 )  # fmt: skip
 def test_fit_config_rejects_out_of_range_values(change):
     with pytest.raises(InvalidParameterError):
@@ -292,18 +356,22 @@ def test_resolve_cue(tmp_path):
     assert resolve_cue("auto", tmp_path / "clip.npz") == "silhouette"
     expected = "keypoints" if keypoints_available() else "silhouette"
     assert resolve_cue("auto", tmp_path / "clip.mp4") == expected
-    with pytest.raises(InvalidParameterError, match="frames"):
-        resolve_cue("keypoints", tmp_path / "clip.npz")
+    if keypoints_available():
+        assert resolve_cue("world", tmp_path / "clip.mp4") == "world"
+    for cue in ("keypoints", "world"):
+        with pytest.raises(InvalidParameterError, match=f"the {cue} cue needs the clip's frames"):
+            resolve_cue(cue, tmp_path / "clip.npz")
     with pytest.raises(InvalidParameterError, match="one of"):
         resolve_cue("depth", tmp_path / "clip.mp4")
 
 
-def test_query_keypoints_cue_on_stored_masks_is_one_line(db_path, tmp_path, capsys):
+@pytest.mark.parametrize("cue", ["keypoints", "world"])
+def test_query_network_cue_on_stored_masks_is_one_line(db_path, tmp_path, capsys, cue):
     clip_path = tmp_path / "clip.npz"
     np.savez_compressed(clip_path, masks=np.ones((5, 40, 30), bool), fps=CLIP_FPS)
     out = tmp_path / "pose.npz"
     rc = main(["query", str(clip_path), "--db", str(db_path), "--pose-out", str(out),
-               "--pose-cue", "keypoints"])  # fmt: skip
+               "--pose-cue", cue])  # fmt: skip
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "frames" in err
     assert not out.exists()

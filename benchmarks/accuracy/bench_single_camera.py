@@ -16,9 +16,11 @@ Each clip is answered by the database (:meth:`MotionDatabase.query_masks`), then
   motion aligned to the clip frame by frame;
 * **linear stretch** — :func:`eigmotion.pose.replay.replay`: the matched window stretched
   over the clip (the baseline; the matched view);
-* **keypoints cue** (where LiteRT is installed) — the continuous pose refined with the
-  pose landmark network's 2D keypoints of the rendered frames
-  (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`), as ``query --pose-cue keypoints``.
+* **world and keypoints cues** (where LiteRT is installed) — the continuous pose moved
+  toward the pose landmark network's 3D posture of the rendered frames
+  (:func:`eigmotion.pose.keypoint_fit.toward_network`), as ``query --pose-cue world``,
+  or refined with its 2D keypoints (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`),
+  as ``query --pose-cue keypoints``.
 
 Both are compared with the true joints of the rendered body (the avatar animation of
 the warped motion on that body), all turned so that the clip's camera is at azimuth 0
@@ -71,7 +73,7 @@ from eigmotion.mocap.kinematics import forward_kinematics  # noqa: E402
 from eigmotion.mocap.library import load_library  # noqa: E402
 from eigmotion.mocap.rotations import axis_rotation  # noqa: E402
 from eigmotion.pose.continuous_pose import ContinuousPoseConfig, continuous_pose  # noqa: E402
-from eigmotion.pose.keypoint_fit import fit_keypoints  # noqa: E402
+from eigmotion.pose.keypoint_fit import fit_keypoints, toward_network  # noqa: E402
 from eigmotion.pose.keypoints import frame_keypoints, keypoints_available  # noqa: E402
 from eigmotion.pose.replay import replay  # noqa: E402
 from eigmotion.retrieval.build import build_database  # noqa: E402
@@ -116,6 +118,7 @@ class Row:
     floor_mm: float
     seconds: float
     keypoints_mm: float = float("nan")
+    world_mm: float = float("nan")
 
 
 def root_relative(positions: np.ndarray, azimuth_deg: float) -> np.ndarray:
@@ -215,10 +218,13 @@ def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
     ours = root_relative(pose.positions, 0.0)
     base = forward_kinematics(linear.motion, length_unit_m=1.0, ground=False).positions
     base = root_relative(base, 0.0)
-    keypoints_mm = float("nan")
+    keypoints_mm = world_mm = float("nan")
     if keypoints_available():
-        fitted = fit_keypoints(pose, frame_keypoints(clip.frames, masks))
+        keypoints = frame_keypoints(clip.frames, masks)
+        fitted = fit_keypoints(pose, keypoints)
         keypoints_mm = mpjpe_mm(root_relative(fitted.positions, 0.0), truth, joints)
+        moved = toward_network(pose, keypoints)
+        world_mm = mpjpe_mm(root_relative(moved.positions, 0.0), truth, joints)
     view = (
         f"{azimuth_deg:.0f}/{elevation_deg:.0f} → {best.azimuth_deg:.0f}/"
         f"{best.elevation_deg:.0f} → {pose.azimuth_deg:.1f}/{pose.elevation_deg:.0f}"
@@ -235,6 +241,7 @@ def run_clip(db, item, j: int, rig: CameraRig, args, body_cache: dict) -> Row:
         mpjpe_mm(on_avatar, truth, joints),
         seconds,
         keypoints_mm,
+        world_mm,
     )
 
 
@@ -277,7 +284,8 @@ def main() -> None:
                 rows.append(row)
                 print(
                     f"  {row.motion}: {row.ours_mm:.1f} mm vs {row.linear_mm:.1f} mm "
-                    f"(keypoints cue {row.keypoints_mm:.1f} mm; {row.seconds:.1f} s)",
+                    f"(world cue {row.world_mm:.1f} mm, keypoints cue {row.keypoints_mm:.1f} "
+                    f"mm; {row.seconds:.1f} s)",
                     flush=True,
                 )
 
@@ -311,8 +319,12 @@ def main() -> None:
         f"{linear_yaw.mean():.1f} mm, ratio {ours_yaw.mean() / linear_yaw.mean():.3f}"
     )
     keypoints = np.array([r.keypoints_mm for r in rows])
-    if np.isfinite(keypoints).all():
-        print(f"keypoints cue, MPJPE (root): {keypoints.mean():.1f} mm")
+    world = np.array([r.world_mm for r in rows])
+    if np.isfinite(keypoints).all() and np.isfinite(world).all():
+        print(
+            f"world cue, MPJPE (root): {world.mean():.1f} mm; keypoints cue: "
+            f"{keypoints.mean():.1f} mm"
+        )
     print(
         f"floor (the true motion on the avatar, whose bones differ from the clip's body): "
         f"{floor.mean():.1f} mm"

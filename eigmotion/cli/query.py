@@ -24,11 +24,13 @@ default).  The text answer gives frame ranges with both ends included ("frames 0
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
-frame and follows the clip's own timing; with ``--pose-cue keypoints`` (or ``auto``
-for a video when LiteRT is installed) each frame's heading, trunk and limbs are then
-fitted to the pose landmark network's keypoints (:mod:`eigmotion.pose.keypoint_fit`),
-the joint set and axes unchanged.  ``--linear-replay`` stretches the matched window
-linearly over the clip instead (for ``--bvh-out`` and ``--replay-out``).
+frame and follows the clip's own timing; with ``--pose-cue world`` each frame's trunk
+and limbs are then moved toward the pose landmark network's own 3D posture, the
+heading kept, and with ``--pose-cue keypoints`` (or ``auto`` for a video when LiteRT is
+installed) the heading, trunk and limbs are first fitted to its 2D keypoints
+(:mod:`eigmotion.pose.keypoint_fit`); the joint set and axes unchanged.
+``--linear-replay`` stretches the matched window linearly over the clip instead (for
+``--bvh-out`` and ``--replay-out``).
 """
 
 from __future__ import annotations
@@ -97,8 +99,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=CUES,
         default="silhouette",
         help="what the 3D answer is fitted to: silhouette (default: the matched motion "
-        "aligned to the silhouettes), keypoints (then refined with the pose network's "
-        "keypoints); auto: keypoints for a video or images when LiteRT is installed",
+        "aligned to the silhouettes), world (then its limbs moved toward the pose "
+        "network's 3D posture, the heading kept), keypoints (then refined with the pose "
+        "network's 2D keypoints, the heading included); auto: keypoints for a video or "
+        "images when LiteRT is installed",
     )
     parser.add_argument(
         "--linear-replay",

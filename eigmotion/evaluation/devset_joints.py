@@ -40,8 +40,9 @@ from eigmotion.evaluation.joint_errors import (
 )
 from eigmotion.evaluation.query_clips import TOP_K
 from eigmotion.evaluation.statistics import markdown_table
-from eigmotion.pose.keypoint_fit import fit_keypoints
+from eigmotion.pose.keypoint_fit import fit_keypoints, toward_network
 from eigmotion.pose.keypoints import (
+    NETWORK_CUES,
     clip_keypoints,
     keypoints_available,
     limb_world_joints,
@@ -212,6 +213,7 @@ def track_set(
 #: The single-camera variants scored in one run, and how the report names them.
 POSE_VARIANTS = {
     "silhouette": "ours, silhouette cue (query --pose-cue silhouette)",
+    "world": "ours, world cue (query --pose-cue world)",
     "keypoints": "ours, keypoints cue (query --pose-cue keypoints)",
     "network": "pose landmark network alone, world landmarks",
 }
@@ -306,7 +308,10 @@ def pose_clip(db: MotionDatabase, clip: DevClip) -> PosedClip:
             t1 = time.perf_counter()
             fitted = fit_keypoints(pose, keypoints)
             t2 = time.perf_counter()
+            moved = toward_network(pose, keypoints)
+            t3 = time.perf_counter()
             variants["keypoints"] = _scored(fitted.names, fitted.positions, true_names, truth)
+            variants["world"] = _scored(moved.names, moved.positions, true_names, truth)
             if keypoints.found.any():
                 variants["network"] = _scored(*limb_world_joints(keypoints), true_names, truth)
             timing = {
@@ -314,12 +319,12 @@ def pose_clip(db: MotionDatabase, clip: DevClip) -> PosedClip:
                 "fit_ms_per_frame": (t2 - t1) / pose.n_frames * 1000.0,
                 "network_found": float(keypoints.found.mean()),
             }
-            keypoint_s = t2 - t0
+            cue_s = {"keypoints": t2 - t0, "world": (t1 - t0) + (t3 - t2)}
         frames = min(pose.n_frames, len(truth))
     except EigmotionError as exc:
         message = " ".join(str(exc).split())
         return PosedClip(clip.clip_id, clip.label, np.nan, np.nan, 0, 0.0, message)
-    seconds = silhouette_s + (keypoint_s if default_cue == "keypoints" else 0.0)
+    seconds = silhouette_s + (cue_s[default_cue] if default_cue in NETWORK_CUES else 0.0)
     per_frame, per_clip = variants[default_cue]
     return PosedClip(
         clip.clip_id, clip.label, per_frame, per_clip, frames, seconds, None, variants, **timing

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.mocap.rotations import similarity_align
 
 #: Development-set joint name -> names an estimate may give the same joint.
 JOINT_ALIASES = {
@@ -103,28 +104,6 @@ def match_joints(
         np.stack(true, 1).astype(np.float64),
         tuple(matched),
     )
-
-
-def similarity_align(points: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """``points`` moved by the similarity (rotation, uniform scale, translation) that
-    brings them closest to ``target`` in the least-squares sense (Umeyama).
-
-    Parameters
-    ----------
-    points, target : (N, 3) float
-
-    Returns
-    -------
-    (N, 3) float64
-    """
-    mean_p, mean_t = points.mean(0), target.mean(0)
-    a, b = points - mean_p, target - mean_t
-    u, s, vt = np.linalg.svd(a.T @ b)
-    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-    rotation = u @ d @ vt
-    denominator = (a**2).sum()
-    scale = (s * np.diag(d)).sum() / denominator if denominator > 0 else 1.0
-    return scale * a @ rotation + mean_t
 
 
 def pa_mpjpe_per_frame(estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:

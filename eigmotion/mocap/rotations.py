@@ -159,6 +159,28 @@ def align_vectors(source: np.ndarray, target: np.ndarray, weights: np.ndarray | 
     return rot.as_matrix()
 
 
+def similarity_align(points: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``points`` moved by the similarity (rotation, uniform scale, translation) that
+    brings them closest to ``target`` in the least-squares sense (Umeyama).
+
+    Parameters
+    ----------
+    points, target : (N, 3) float
+
+    Returns
+    -------
+    (N, 3) float64
+    """
+    mean_p, mean_t = points.mean(0), target.mean(0)
+    a, b = points - mean_p, target - mean_t
+    u, s, vt = np.linalg.svd(a.T @ b)
+    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    rotation = u @ d @ vt
+    denominator = (a**2).sum()
+    scale = (s * np.diag(d)).sum() / denominator if denominator > 0 else 1.0
+    return scale * a @ rotation + mean_t
+
+
 def slerp_matrices(r0: np.ndarray, r1: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Spherical interpolation between matching stacks of rotations.
 

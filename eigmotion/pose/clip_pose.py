@@ -1,7 +1,7 @@
 """A clip's 3D pose as ``eigmotion query --pose-out`` writes it: the continuous pose
-(:mod:`eigmotion.pose.continuous_pose`), refined with the pose network's 2D keypoints
-(:mod:`eigmotion.pose.keypoint_fit`) when the cue says so (:data:`~eigmotion.pose.
-keypoints.CUES`)."""
+(:mod:`eigmotion.pose.continuous_pose`), moved toward the pose network's 3D posture or
+refined with its 2D keypoints (:mod:`eigmotion.pose.keypoint_fit`) when the cue says so
+(:data:`~eigmotion.pose.keypoints.CUES`)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from eigmotion.pose.continuous_pose import (
     ContinuousPoseConfig,
     continuous_pose,
 )
-from eigmotion.pose.keypoint_fit import KeypointFitConfig, fit_keypoints
+from eigmotion.pose.keypoint_fit import KeypointFitConfig, fit_keypoints, toward_network
 from eigmotion.pose.keypoints import clip_keypoints, resolve_cue
 
 if TYPE_CHECKING:
@@ -31,9 +31,10 @@ def clip_pose(
     fit_config: KeypointFitConfig | None = None,
 ) -> ContinuousPose:
     """A clip's pose as ``eigmotion query --pose-out`` writes it: :func:`continuous_pose`,
-    then, with the keypoints cue (:func:`~eigmotion.pose.keypoints.resolve_cue` of
-    ``config.cue``), refined with the pose network's 2D keypoints
-    (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`).
+    then (:func:`~eigmotion.pose.keypoints.resolve_cue` of ``config.cue``) with the
+    world cue moved toward the pose network's 3D posture
+    (:func:`eigmotion.pose.keypoint_fit.toward_network`), with the keypoints cue
+    refined with its 2D keypoints (:func:`eigmotion.pose.keypoint_fit.fit_keypoints`).
 
     Parameters
     ----------
@@ -49,7 +50,8 @@ def clip_pose(
     Returns
     -------
     ContinuousPose
-        ``timings_s["keypoints"]``: the network's time, with the keypoints cue.
+        ``timings_s["keypoints"]``: the network's time, with the world and keypoints
+        cues.
     """
     config = config or ContinuousPoseConfig()
     cue = resolve_cue(config.cue, path)
@@ -59,4 +61,6 @@ def clip_pose(
     started = time.perf_counter()
     keypoints = clip_keypoints(path, clip.masks, clip.frame_indices)
     pose.timings_s["keypoints"] = time.perf_counter() - started
+    if cue == "world":
+        return toward_network(pose, keypoints, fit_config)
     return fit_keypoints(pose, keypoints, fit_config)

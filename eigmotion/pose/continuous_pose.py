@@ -48,9 +48,10 @@ undetermined.  Here size and place come from each silhouette, and the whole clip
 known, so the playback is solved over all frames rather than greedily.
 
 6. **Keypoints** (``cue``, :func:`eigmotion.pose.clip_pose.clip_pose`).  With the
-   clip's frames, the pose landmark network's 2D keypoints refine each frame's heading
-   and limbs (:mod:`eigmotion.pose.keypoint_fit`); the skeleton, joint set and axes
-   stay.
+   clip's frames, the pose landmark network's 3D posture moves each frame's trunk and
+   limbs toward it (the world cue), or its 2D keypoints refine each frame's heading and
+   limbs first (the keypoints cue; :mod:`eigmotion.pose.keypoint_fit`); the skeleton,
+   joint set and axes stay.
 
 Steps 1 to 3 live in :mod:`eigmotion.pose.silhouette_scoring`, the playback's path
 and the output's sampling in :mod:`eigmotion.pose.playback`; this module searches
@@ -138,7 +139,7 @@ class ContinuousPoseConfig:
         A clip frame with fewer silhouette pixels carries no evidence.
     n_faces : int
         Triangles of the low-poly body that is rendered.
-    cue : {"auto", "silhouette", "keypoints"}
+    cue : {"auto", "silhouette", "world", "keypoints"}
         What :func:`eigmotion.pose.clip_pose.clip_pose` fits the pose to
         (:data:`eigmotion.pose.keypoints.CUES`).
     """

@@ -45,7 +45,19 @@ network's landmarks:
    landmarks, turned into the scene's axes.
 4. **Rotations.** Each bone's new direction is the smallest turn of the joint's world
    rotation from the old one; the local rotations follow, and forward kinematics gives
-   the joints.  The output keeps the continuous pose's skeleton, joint set and axes.
+   the joints.
+5. **Half way to the network's posture.** The fit and the network's own 3D posture
+   (its world landmarks) err in different ways, so a point between them is nearer the
+   truth than either (``docs/tracker.md``).  In each frame the network's 12 limb
+   landmarks are brought onto the fitted joints by the similarity (rotation, scale,
+   shift) that fits them best, which leaves the fit's heading, place and size as they
+   are; each joint's target lies ``network_share`` of the way to its landmark, the
+   targets are smoothed over time (a Gaussian of ``network_smooth_s``), and the trunk
+   and limbs are turned toward them as in step 4, each bone keeping its length.
+   Applied alone to the continuous pose (:func:`toward_network`: steps 1 to 4
+   skipped, the silhouettes' heading kept) it is the ``world`` cue.
+
+The output keeps the continuous pose's skeleton, joint set and axes.
 """
 
 from __future__ import annotations
@@ -57,11 +69,12 @@ from numbers import Integral, Real
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.mocap.mirror import mirror_motion
-from eigmotion.mocap.rotations import axis_rotation, rotation_between
+from eigmotion.mocap.rotations import axis_rotation, rotation_between, similarity_align
 from eigmotion.validation import Interval, Options, validate_params
 
 if TYPE_CHECKING:
@@ -134,6 +147,13 @@ class KeypointFitConfig:
         When the median over frames of the reference's mean joint miss from the
         landmarks (visibility-weighted, metres, after the scale and offset fit) is
         below this, the pose is kept as it is (≥ 0; 0: always fitted).
+    network_share : float
+        Share of the way each fitted limb joint is moved toward the network's world
+        landmark of it, the network's posture first brought onto the fitted one frame
+        by frame (rotation, scale and shift), in [0, 1]; 0: not moved.
+    network_smooth_s : float
+        Standard deviation over time of the Gaussian that smooths those targets,
+        seconds (≥ 0; 0: not smoothed).
     """
 
     prior: float = 0.3
@@ -149,6 +169,8 @@ class KeypointFitConfig:
     mirror: bool = True
     scale_band: float = 0.5
     agreement_m: float = 0.08
+    network_share: float = 0.7
+    network_smooth_s: float = 0.05
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`).
     _parameter_constraints: ClassVar[dict] = {
@@ -165,6 +187,8 @@ class KeypointFitConfig:
         "mirror": Options(bool, (True, False)),
         "scale_band": Interval(Real, 0.0, None, closed="neither", noun=""),
         "agreement_m": _NOT_NEGATIVE,
+        "network_share": Interval(Real, 0.0, 1.0),
+        "network_smooth_s": _NOT_NEGATIVE,
     }
 
     def __post_init__(self):
@@ -284,6 +308,107 @@ def _mirror_image(motion):
     return motion.with_local_transforms(mirrored.local_rotations(), mirrored.local_translations())
 
 
+def _toward_network(motion, local_r, local_t, keypoints, config, fps: float) -> np.ndarray:
+    """Local rotations (F, J, 3, 3) with the trunk and limbs (:data:`BONES`, parents
+    first) turned toward the network's posture (step 4 of the module's description).
+
+    In each frame where the network found the person, its world landmarks of the 12
+    limb joints are brought onto the fitted joints (:func:`~eigmotion.mocap.rotations.
+    similarity_align`), and each fitted joint's target lies ``network_share`` of the
+    way to its landmark; the targets are smoothed over time (``network_smooth_s``), and
+    each bone keeps its length and turns toward its target direction.  Frames where
+    the network found no one keep their posture.
+    """
+    sk = motion.skeleton
+    index = {n: i for i, n in enumerate(sk.names)}
+    parents = np.asarray(sk.parents)
+    joints = [index[name] for name, _ in LIMB_PAIRS]
+    marks = [m for _, m in LIMB_PAIRS]
+    local_r = local_r.copy()
+
+    def current_positions() -> tuple[np.ndarray, np.ndarray]:
+        moved = motion.with_local_transforms(local_r, local_t)
+        points = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
+        return _global_rotations(local_r, parents), points
+
+    rotations, points = current_positions()
+    network = keypoints.world_m[:, marks]
+    seen = keypoints.found & np.isfinite(network).all(axis=(1, 2))
+    target = points - points[:, :1]
+    for f in np.flatnonzero(seen):
+        aligned = similarity_align(network[f], target[f, joints])
+        target[f, joints] += config.network_share * (aligned - target[f, joints])
+    if config.network_smooth_s > 0 and len(target) > 1:
+        target = gaussian_filter1d(target, config.network_smooth_s * fps, axis=0, mode="nearest")
+    for joint_name, far, near, _, _ in BONES:
+        j = index[joint_name]
+        far_j, near_j = [index[n] for n in far], [index[n] for n in near]
+        bone = points[:, far_j].mean(1) - points[:, near_j].mean(1)
+        wanted = target[:, far_j].mean(1) - target[:, near_j].mean(1)
+        turn = np.flatnonzero(seen & (np.linalg.norm(wanted, axis=-1) > 1e-9))
+        swing = rotation_between(bone[turn], wanted[turn])
+        local_r[turn, j] = np.swapaxes(rotations[turn, parents[j]], -1, -2) @ (
+            swing @ rotations[turn, j]
+        )
+        rotations, points = current_positions()
+    return local_r
+
+
+def _check_pair(pose, keypoints: ClipKeypoints) -> None:
+    """InvalidParameterError unless the keypoints are of the pose's frames and its
+    skeleton has every joint :data:`BONES` turns."""
+    if keypoints.n_frames != pose.n_frames:
+        raise InvalidParameterError(
+            f"keypoints of {keypoints.n_frames} frames for a pose of {pose.n_frames}"
+        )
+    names = pose.motion.skeleton.names
+    missing = [n for b in BONES for n in (b[0], *b[1], *b[2]) if n not in names]
+    if missing:
+        raise InvalidParameterError(f"the pose's skeleton lacks {', '.join(sorted(set(missing)))}")
+
+
+def toward_network(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | None = None):
+    """The continuous pose with its trunk and limbs moved toward the pose network's own
+    3D posture: step 5 of the module's description alone (the ``world`` cue).
+
+    The heading, place, size and bone lengths stay the pose's: the network's posture
+    is brought onto it frame by frame, so only the bones' directions change.
+
+    Parameters
+    ----------
+    pose : eigmotion.pose.continuous_pose.ContinuousPose
+        On the default avatar's skeleton (its joint names: ``LeftArm`` …).
+    keypoints : ClipKeypoints
+        The pose network's answer for the same clip frames.
+    config : KeypointFitConfig, optional
+        Its ``network_share`` and ``network_smooth_s`` apply.
+
+    Returns
+    -------
+    ContinuousPose
+        The same skeleton, frames and axes; ``timings_s["keypoints_fit"]`` the step's
+        wall time, seconds.
+
+    Raises
+    ------
+    InvalidParameterError
+        Frame counts differ, or the skeleton lacks a limb joint.
+    """
+    config = config or KeypointFitConfig()
+    started = time.perf_counter()
+    _check_pair(pose, keypoints)
+    motion = pose.motion
+    local_t = motion.local_translations()
+    local_r = _toward_network(
+        motion, motion.local_rotations(), local_t, keypoints, config, pose.fps
+    )
+    moved = motion.with_local_transforms(local_r, local_t)
+    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
+    timings = dict(pose.timings_s)
+    timings["keypoints_fit"] = time.perf_counter() - started
+    return dataclasses.replace(pose, motion=moved, positions=positions, timings_s=timings)
+
+
 def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | None = None):
     """The continuous pose with its heading and limbs fitted to the 2D keypoints.
 
@@ -308,15 +433,9 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
     """
     config = config or KeypointFitConfig()
     started = time.perf_counter()
+    _check_pair(pose, keypoints)
     motion = pose.motion
     sk = motion.skeleton
-    if keypoints.n_frames != pose.n_frames:
-        raise InvalidParameterError(
-            f"keypoints of {keypoints.n_frames} frames for a pose of {pose.n_frames}"
-        )
-    missing = [n for b in BONES for n in (b[0], *b[1], *b[2]) if n not in sk.names]
-    if missing:
-        raise InvalidParameterError(f"the pose's skeleton lacks {', '.join(sorted(set(missing)))}")
     index = {n: i for i, n in enumerate(sk.names)}
     axes = camera_axes(pose.elevation_deg)
     image = np.nan_to_num(keypoints.image_px)
@@ -414,7 +533,11 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
             local_r[:, j] = np.swapaxes(parent_global, -1, -2) @ new_global
             rotations, points = current_positions()
 
-    # 4. the output, as the continuous pose's
+    # 4. half way to the network's own posture, brought onto the fitted one
+    if config.network_share > 0:
+        local_r = _toward_network(motion, local_r, local_t, keypoints, config, pose.fps)
+
+    # 5. the output, as the continuous pose's
     moved = motion.with_local_transforms(local_r, local_t)
     positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
     timings = dict(pose.timings_s)

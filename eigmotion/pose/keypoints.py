@@ -61,10 +61,15 @@ LIMB_LANDMARKS = {
 }
 
 #: What a single-camera pose is fitted to: ``silhouette`` (the continuous pose alone),
-#: ``keypoints`` (then refined with the pose network's 2D keypoints:
-#: :mod:`eigmotion.pose.keypoint_fit`), ``auto`` (keypoints when the clip's frames
-#: and LiteRT are at hand, else silhouette).
-CUES = ("auto", "silhouette", "keypoints")
+#: ``world`` (its trunk and limbs then moved toward the pose network's own 3D posture,
+#: its heading and place kept: :func:`eigmotion.pose.keypoint_fit.toward_network`),
+#: ``keypoints`` (refined with the network's 2D keypoints first, heading included:
+#: :func:`eigmotion.pose.keypoint_fit.fit_keypoints`), ``auto`` (keypoints when the
+#: clip's frames and LiteRT are at hand, else silhouette).
+CUES = ("auto", "silhouette", "world", "keypoints")
+
+#: The cues that run the pose network on the clip's frames.
+NETWORK_CUES = ("world", "keypoints")
 
 #: Landmarks of all 39 points, 5 numbers each (x, y, z, visibility, presence logits).
 _LANDMARK_VALUES = 5 * (N_POSE_LANDMARKS + 6)
@@ -295,30 +300,31 @@ def limb_world_joints(keypoints: ClipKeypoints) -> tuple[tuple[str, ...], np.nda
 
 
 def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
-    """The cue a clip's pose is fitted to: ``"silhouette"`` or ``"keypoints"``.
+    """The cue a clip's pose is fitted to: ``"silhouette"``, ``"world"`` or
+    ``"keypoints"``.
 
     Parameters
     ----------
-    cue : {"auto", "silhouette", "keypoints"}
+    cue : {"auto", "silhouette", "world", "keypoints"}
     path : str or PathLike or None
         The clip on disk; ``None`` or an ``.npz`` of masks: no frames to see.
 
     Raises
     ------
     InvalidParameterError
-        An unknown cue, or ``"keypoints"`` without frames or without LiteRT.
+        An unknown cue, or one of :data:`NETWORK_CUES` without frames or without LiteRT.
     """
     if cue not in CUES:
         raise InvalidParameterError(f"pose cue must be one of {', '.join(CUES)}, got {cue!r}")
     frames = path is not None and Path(path).suffix.lower() != ".npz"
     if cue == "auto":
         return "keypoints" if frames and keypoints_available() else "silhouette"
-    if cue == "keypoints" and not frames:
+    if cue in NETWORK_CUES and not frames:
         raise InvalidParameterError(
-            "the keypoints cue needs the clip's frames (a video or images), not stored masks"
+            f"the {cue} cue needs the clip's frames (a video or images), not stored masks"
         )
-    if cue == "keypoints" and not keypoints_available():
+    if cue in NETWORK_CUES and not keypoints_available():
         raise InvalidParameterError(
-            "the keypoints cue runs the pose network through LiteRT: pip install ai-edge-litert"
+            f"the {cue} cue runs the pose network through LiteRT: pip install ai-edge-litert"
         )
     return cue
