@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import eigmotion.pose.keypoints as keypoints_module
 from eigmotion.body.avatar import load_default_avatar
 from eigmotion.body.retarget import pose_avatar, retarget
 from eigmotion.cli.main import main
@@ -122,8 +123,10 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
     assert keypoints.shape == silhouette.shape == (len(truth), len(names_k), 3)
     from_bvh = forward_kinematics(bvh, length_unit_m=1.0, ground=False).positions
     assert np.abs(from_bvh - keypoints).max() < 2e-3
-    # the same root path, Y up: only the posture and heading are refitted
-    np.testing.assert_allclose(keypoints[:, 0], silhouette[:, 0], atol=1e-9)
+    # the same root path on the floor, Y up, and the lowest joint as high: only the
+    # posture and heading are refitted
+    np.testing.assert_allclose(keypoints[:, 0, [0, 2]], silhouette[:, 0, [0, 2]], atol=1e-9)
+    np.testing.assert_allclose(keypoints[..., 1].min(1), silhouette[..., 1].min(1), atol=1e-9)
     head = names_k.index("Head")
     assert np.all(keypoints[:, head, 1] > keypoints[:, 0, 1])
     ours = limb_error_mm(names_k, keypoints, truth)
@@ -141,14 +144,17 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
 def test_world_cue_keeps_the_silhouettes_heading_and_place(db_path, video, tmp_path):
     """The world cue writes the silhouette cue's joint set and frames; only the trunk
     and limbs turn: the root and both hip joints (hence the heading) stay where the
-    silhouettes put them (to 1e-9 m); the BVH is the npz's motion; the limbs stay near
-    the truth."""
+    silhouettes put them on the floor, raised or lowered together so that the lowest
+    joint is as high (to 1e-9 m); the BVH is the npz's motion; the limbs stay near the
+    truth."""
     _, _, truth = video
     names_s, silhouette, _ = query_pose(db_path, video, tmp_path, "silhouette")
     names_w, world, bvh = query_pose(db_path, video, tmp_path, "world")
     assert names_w == names_s and world.shape == silhouette.shape
     kept = [names_w.index(n) for n in ("Hips", "LeftUpLeg", "RightUpLeg")]
-    np.testing.assert_allclose(world[:, kept], silhouette[:, kept], rtol=0, atol=1e-9)
+    rise = (world[:, 0, 1] - silhouette[:, 0, 1])[:, None, None] * [0.0, 1.0, 0.0]
+    np.testing.assert_allclose(world[:, kept], silhouette[:, kept] + rise, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(world[..., 1].min(1), silhouette[..., 1].min(1), atol=1e-9)
     assert np.abs(world - silhouette).max() > 0.01  # the limbs did move
     from_bvh = forward_kinematics(bvh, length_unit_m=1.0, ground=False).positions
     assert np.abs(from_bvh - world).max() < 2e-3
@@ -175,6 +181,20 @@ def test_network_keypoints_lie_on_the_rendered_person(video):
     names, world = limb_world_joints(keypoints)
     assert names == LIMB_JOINTS and world.shape == truth.shape
     assert limb_error_mm(names, world, truth) < 120.0
+
+
+@needs_litert
+def test_the_network_pass_shows_progress_once_it_takes_a_while(video, monkeypatch, capsys):
+    """With ``progress``, a bar on stderr once the network has run for
+    ``NETWORK_BAR_DELAY_S`` (here at once); none without, and the same keypoints."""
+    clip, background, _ = video
+    cut = load_clip_masks(clip, background, segmenter="subtraction")
+    quiet = clip_keypoints(clip, cut.masks[:6], cut.frame_indices[:6])
+    assert "pose network" not in capsys.readouterr().err
+    monkeypatch.setattr(keypoints_module, "NETWORK_BAR_DELAY_S", 0.0)
+    shown = clip_keypoints(clip, cut.masks[:6], cut.frame_indices[:6], progress=True)
+    assert "pose network" in capsys.readouterr().err
+    np.testing.assert_array_equal(shown.image_px, quiet.image_px)
 
 
 def _turned_truth(pose, truth_pose, with_world: bool):

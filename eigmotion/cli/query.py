@@ -195,7 +195,8 @@ def _write_replay(db, result, clip, args) -> None:
     masks, fps = clip.masks, clip.fps
     pose = None
     if args.pose_out or not args.linear_replay:
-        pose = clip_pose(db, result, clip, args.clip, ContinuousPoseConfig(cue=args.pose_cue))
+        config = ContinuousPoseConfig(cue=args.pose_cue)
+        pose = clip_pose(db, result, clip, args.clip, config, progress=True)
     if args.pose_out:
         pose.save_npz(args.pose_out)
     if not (args.bvh_out or args.replay_out):

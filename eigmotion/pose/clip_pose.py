@@ -29,6 +29,7 @@ def clip_pose(
     path: str | os.PathLike | None,
     config: ContinuousPoseConfig | None = None,
     fit_config: KeypointFitConfig | None = None,
+    progress: bool = False,
 ) -> ContinuousPose:
     """A clip's pose as ``eigmotion query --pose-out`` writes it: :func:`continuous_pose`,
     then (:func:`~eigmotion.pose.keypoints.resolve_cue` of ``config.cue``) with the
@@ -46,6 +47,8 @@ def clip_pose(
         The clip on disk the silhouettes were cut from.
     config : ContinuousPoseConfig, optional
     fit_config : KeypointFitConfig, optional
+    progress : bool
+        A progress bar while the pose network runs on the clip's frames.
 
     Returns
     -------
@@ -59,7 +62,7 @@ def clip_pose(
     if cue == "silhouette":
         return pose
     started = time.perf_counter()
-    keypoints = clip_keypoints(path, clip.masks, clip.frame_indices)
+    keypoints = clip_keypoints(path, clip.masks, clip.frame_indices, progress)
     pose.timings_s["keypoints"] = time.perf_counter() - started
     if cue == "world":
         return toward_network(pose, keypoints, fit_config)

@@ -45,7 +45,8 @@ network's landmarks:
    landmarks, turned into the scene's axes.
 4. **Rotations.** Each bone's new direction is the smallest turn of the joint's world
    rotation from the old one; the local rotations follow, and forward kinematics gives
-   the joints.
+   the joints.  The root is raised or lowered in each frame so that the lowest joint
+   lies as high as in the continuous pose, which stands on the floor.
 5. **Half way to the network's posture.** The fit and the network's own 3D posture
    (its world landmarks) err in different ways, so a point between them is nearer the
    truth than either (``docs/tracker.md``).  In each frame the network's 12 limb
@@ -354,6 +355,23 @@ def _toward_network(motion, local_r, local_t, keypoints, config, fps: float) -> 
     return local_r
 
 
+def _refitted(pose, motion, local_r: np.ndarray, local_t: np.ndarray, started: float):
+    """``pose`` with ``motion`` posed by new local rotations (F, J, 3, 3), the root raised
+    or lowered in each frame so that the lowest joint lies as high as in ``pose``: the
+    silhouettes stood the body on the floor, and a leg bent or straightened by the fit
+    must not sink it into the floor or lift it off.  ``timings_s["keypoints_fit"]`` the
+    wall time since ``started`` (``time.perf_counter``), seconds."""
+    local_t = local_t.copy()
+    moved = motion.with_local_transforms(local_r, local_t)
+    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
+    local_t[:, 0, 1] += pose.positions[..., 1].min(1) - positions[..., 1].min(1)
+    moved = motion.with_local_transforms(local_r, local_t)
+    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
+    timings = dict(pose.timings_s)
+    timings["keypoints_fit"] = time.perf_counter() - started
+    return dataclasses.replace(pose, motion=moved, positions=positions, timings_s=timings)
+
+
 def _check_pair(pose, keypoints: ClipKeypoints) -> None:
     """InvalidParameterError unless the keypoints are of the pose's frames and its
     skeleton has every joint :data:`BONES` turns."""
@@ -371,8 +389,10 @@ def toward_network(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | N
     """The continuous pose with its trunk and limbs moved toward the pose network's own
     3D posture: step 5 of the module's description alone (the ``world`` cue).
 
-    The heading, place, size and bone lengths stay the pose's: the network's posture
-    is brought onto it frame by frame, so only the bones' directions change.
+    The heading, the place on the floor, the size and the bone lengths stay the pose's:
+    the network's posture is brought onto it frame by frame, so only the bones'
+    directions change, and the root is raised or lowered so that the lowest joint lies
+    as high as before.
 
     Parameters
     ----------
@@ -402,11 +422,7 @@ def toward_network(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | N
     local_r = _toward_network(
         motion, motion.local_rotations(), local_t, keypoints, config, pose.fps
     )
-    moved = motion.with_local_transforms(local_r, local_t)
-    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
-    timings = dict(pose.timings_s)
-    timings["keypoints_fit"] = time.perf_counter() - started
-    return dataclasses.replace(pose, motion=moved, positions=positions, timings_s=timings)
+    return _refitted(pose, motion, local_r, local_t, started)
 
 
 def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | None = None):
@@ -538,8 +554,4 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
         local_r = _toward_network(motion, local_r, local_t, keypoints, config, pose.fps)
 
     # 5. the output, as the continuous pose's
-    moved = motion.with_local_transforms(local_r, local_t)
-    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
-    timings = dict(pose.timings_s)
-    timings["keypoints_fit"] = time.perf_counter() - started
-    return dataclasses.replace(pose, motion=moved, positions=positions, timings_s=timings)
+    return _refitted(pose, motion, local_r, local_t, started)

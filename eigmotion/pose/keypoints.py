@@ -25,6 +25,7 @@ has a wheel); :func:`keypoints_available` says whether it can.
 from __future__ import annotations
 
 import os
+import sys
 import time
 from dataclasses import dataclass
 from functools import cache
@@ -181,7 +182,11 @@ def person_squares(masks: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray
     return squares[nearest]
 
 
-def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
+#: Seconds the network runs on a clip's frames before its progress bar shows.
+NETWORK_BAR_DELAY_S = 1.0
+
+
+def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = False) -> ClipKeypoints:
     """The pose network's keypoints for frames whose silhouettes are known.
 
     Parameters
@@ -190,6 +195,9 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
         RGB frames.
     masks : (F, h, w) bool
         Their silhouettes (any size: boxes are scaled to the frames).
+    progress : bool
+        A progress bar on stderr, once the network has run for
+        :data:`NETWORK_BAR_DELAY_S` (a short clip never shows one).
 
     Returns
     -------
@@ -220,7 +228,15 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
     visibility = np.zeros((n, N_POSE_LANDMARKS))
     world = np.full((n, N_POSE_LANDMARKS, 3), np.nan)
     found = np.zeros(n, bool)
+    bar = None
     for i in range(n):
+        if progress and bar is None and time.perf_counter() - started >= NETWORK_BAR_DELAY_S:
+            from tqdm import tqdm  # lazy: a short clip never loads it
+
+            bar = tqdm(total=n, initial=i, desc="pose network", unit="frame", file=sys.stderr,
+                       leave=False)  # fmt: skip
+        if bar is not None:
+            bar.update(1)
         square, matrix = crop_input(frames[i], tuple(squares[i]))
         raw, world_i, flag = _run(interpreter, square)
         if flag < PERSON_PROBABILITY:
@@ -232,12 +248,14 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray) -> ClipKeypoints:
         image[i] = frame_xy * to_mask
         visibility[i] = _sigmoid(raw[:N_POSE_LANDMARKS, 3]) * _sigmoid(raw[:N_POSE_LANDMARKS, 4])
         world[i] = world_i[:N_POSE_LANDMARKS]
+    if bar is not None:
+        bar.close()
     seconds = (time.perf_counter() - started) / max(n, 1)
     return ClipKeypoints(image, visibility, world, found, seconds)
 
 
 def clip_keypoints(
-    path: str | os.PathLike, masks: np.ndarray, frame_indices: np.ndarray
+    path: str | os.PathLike, masks: np.ndarray, frame_indices: np.ndarray, progress: bool = False
 ) -> ClipKeypoints:
     """The pose network's keypoints for a clip on disk whose silhouettes are known.
 
@@ -249,6 +267,8 @@ def clip_keypoints(
         The silhouettes.
     frame_indices : (F,) int
         The clip frame each silhouette belongs to.
+    progress : bool
+        A progress bar while the network runs (:func:`frame_keypoints`).
 
     Returns
     -------
@@ -271,7 +291,7 @@ def clip_keypoints(
             f"{path}: {len(frames)} frames, but silhouettes of frames "
             f"{frame_indices.min()}..{frame_indices.max()} were given"
         )
-    return frame_keypoints(frames[frame_indices], masks)
+    return frame_keypoints(frames[frame_indices], masks, progress)
 
 
 def limb_world_joints(keypoints: ClipKeypoints) -> tuple[tuple[str, ...], np.ndarray]:
