@@ -305,7 +305,7 @@ def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, c
         assert "pose landmark network alone, world landmarks" in printed
         assert set(scored["variants"]) == {"silhouette", "world", "keypoints", "network"}
         assert "ours, world cue (query --pose-cue world)" in printed
-        default = scored["variants"]["silhouette"]
+        default = scored["variants"]["world"]  # the query's default cue for a video
         assert default["pa_mpjpe_frame_mm"] == scored["pa_mpjpe_frame_mm"]
         assert 0 < scored["variants"]["network"]["pa_mpjpe_frame_mm"] < 300
         assert scored["network_ms_per_frame"] > 0 and scored["fit_ms_per_frame"] > 0

@@ -374,7 +374,7 @@ def test_fit_config_rejects_out_of_range_values(change):
 def test_resolve_cue(tmp_path):
     assert resolve_cue("silhouette", tmp_path / "clip.mp4") == "silhouette"
     assert resolve_cue("auto", tmp_path / "clip.npz") == "silhouette"
-    expected = "keypoints" if keypoints_available() else "silhouette"
+    expected = "world" if keypoints_available() else "silhouette"
     assert resolve_cue("auto", tmp_path / "clip.mp4") == expected
     if keypoints_available():
         assert resolve_cue("world", tmp_path / "clip.mp4") == "world"

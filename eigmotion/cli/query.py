@@ -24,10 +24,10 @@ default).  The text answer gives frame ranges with both ends included ("frames 0
 
 ``--bvh-out``, ``--replay-out`` and ``--pose-out`` align the matched motion to the clip
 frame by frame (:mod:`eigmotion.pose.continuous_pose`): the output has one pose per clip
-frame and follows the clip's own timing; with ``--pose-cue world`` each frame's trunk
-and limbs are then moved toward the pose landmark network's own 3D posture, the
-heading kept, and with ``--pose-cue keypoints`` (or ``auto`` for a video when LiteRT is
-installed) the heading, trunk and limbs are first fitted to its 2D keypoints
+frame and follows the clip's own timing; with ``--pose-cue world`` (the default for a
+video when LiteRT is installed) each frame's trunk and limbs are then moved toward the
+pose landmark network's own 3D posture, the heading kept, and with ``--pose-cue
+keypoints`` the heading, trunk and limbs are first fitted to its 2D keypoints
 (:mod:`eigmotion.pose.keypoint_fit`); the joint set and axes unchanged.
 ``--linear-replay`` stretches the matched window linearly over the clip instead (for
 ``--bvh-out`` and ``--replay-out``).
@@ -97,12 +97,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--pose-cue",
         choices=CUES,
-        default="silhouette",
-        help="what the 3D answer is fitted to: silhouette (default: the matched motion "
-        "aligned to the silhouettes), world (then its limbs moved toward the pose "
-        "network's 3D posture, the heading kept), keypoints (then refined with the pose "
-        "network's 2D keypoints, the heading included); auto: keypoints for a video or "
-        "images when LiteRT is installed",
+        default="auto",
+        help="what the 3D answer is fitted to: silhouette (the matched motion aligned to "
+        "the silhouettes), world (then its limbs moved toward the pose network's 3D "
+        "posture, the heading kept), keypoints (then refined with the pose network's 2D "
+        "keypoints, the heading included); auto (default): world for a video or images "
+        "when LiteRT is installed, else silhouette",
     )
     parser.add_argument(
         "--linear-replay",

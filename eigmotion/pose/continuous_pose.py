@@ -161,7 +161,7 @@ class ContinuousPoseConfig:
     smoothing_frames: int = 5
     min_silhouette_px: int = 30
     n_faces: int = 4000
-    cue: str = "silhouette"
+    cue: str = "auto"
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`).
     _parameter_constraints: ClassVar[dict] = {

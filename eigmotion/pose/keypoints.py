@@ -65,7 +65,7 @@ LIMB_LANDMARKS = {
 #: ``world`` (its trunk and limbs then moved toward the pose network's own 3D posture,
 #: its heading and place kept: :func:`eigmotion.pose.keypoint_fit.toward_network`),
 #: ``keypoints`` (refined with the network's 2D keypoints first, heading included:
-#: :func:`eigmotion.pose.keypoint_fit.fit_keypoints`), ``auto`` (keypoints when the
+#: :func:`eigmotion.pose.keypoint_fit.fit_keypoints`), ``auto`` (world when the
 #: clip's frames and LiteRT are at hand, else silhouette).
 CUES = ("auto", "silhouette", "world", "keypoints")
 
@@ -338,7 +338,7 @@ def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
         raise InvalidParameterError(f"pose cue must be one of {', '.join(CUES)}, got {cue!r}")
     frames = path is not None and Path(path).suffix.lower() != ".npz"
     if cue == "auto":
-        return "keypoints" if frames and keypoints_available() else "silhouette"
+        return "world" if frames and keypoints_available() else "silhouette"
     if cue in NETWORK_CUES and not frames:
         raise InvalidParameterError(
             f"the {cue} cue needs the clip's frames (a video or images), not stored masks"

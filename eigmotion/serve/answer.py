@@ -17,7 +17,7 @@ import numpy as np
 
 from eigmotion.errors import VideoError
 from eigmotion.mocap.bvh import write_bvh
-from eigmotion.pose.continuous_pose import continuous_pose
+from eigmotion.pose.clip_pose import clip_pose
 from eigmotion.pose.replay import read_input_panel, replay_video, segment_captions
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
@@ -138,7 +138,7 @@ def answer_clip(
     report(0.08, "finding the person in the clip and querying the database")
     result, masks = db.query_clip(clip, background, top_k, every_frame=True)
     report(0.45, "aligning the matched motion to the clip frame by frame")
-    pose = continuous_pose(db, result, masks.masks, masks.fps)
+    pose = clip_pose(db, result, masks, clip)  # the query's default cue
     pose.save_npz(job_dir / "joints.npz")
     rep = pose.as_replay()
     write_bvh(rep.motion, job_dir / "motion.bvh")
