@@ -45,9 +45,8 @@ network's landmarks:
    landmarks, turned into the scene's axes.
 4. **Rotations.** Each bone's new direction is the smallest turn of the joint's world
    rotation from the old one; the local rotations follow, and forward kinematics gives
-   the joints.  The root is raised or lowered in each frame so that the lowest joint
-   lies as high as in the continuous pose, which stands on the floor.
-5. **Half way to the network's posture.** The fit and the network's own 3D posture
+   the joints.
+5. **Part of the way to the network's posture.** The fit and the network's own 3D posture
    (its world landmarks) err in different ways, so a point between them is nearer the
    truth than either (``docs/tracker.md``).  In each frame the network's 12 limb
    landmarks are brought onto the fitted joints by the similarity (rotation, scale,
@@ -58,7 +57,9 @@ network's landmarks:
    Applied alone to the continuous pose (:func:`toward_network`: steps 1 to 4
    skipped, the silhouettes' heading kept) it is the ``world`` cue.
 
-The output keeps the continuous pose's skeleton, joint set and axes.
+The output keeps the continuous pose's skeleton, joint set and axes; its root is raised
+or lowered in each frame so that the lowest joint lies as high as in the continuous
+pose, which stands on the floor.
 """
 
 from __future__ import annotations
@@ -311,7 +312,7 @@ def _mirror_image(motion):
 
 def _toward_network(motion, local_r, local_t, keypoints, config, fps: float) -> np.ndarray:
     """Local rotations (F, J, 3, 3) with the trunk and limbs (:data:`BONES`, parents
-    first) turned toward the network's posture (step 4 of the module's description).
+    first) turned toward the network's posture (step 5 of the module's description).
 
     In each frame where the network found the person, its world landmarks of the 12
     limb joints are brought onto the fitted joints (:func:`~eigmotion.mocap.rotations.
@@ -549,9 +550,9 @@ def fit_keypoints(pose, keypoints: ClipKeypoints, config: KeypointFitConfig | No
             local_r[:, j] = np.swapaxes(parent_global, -1, -2) @ new_global
             rotations, points = current_positions()
 
-    # 4. half way to the network's own posture, brought onto the fitted one
+    # 5. part of the way to the network's own posture, brought onto the fitted one
     if config.network_share > 0:
         local_r = _toward_network(motion, local_r, local_t, keypoints, config, pose.fps)
 
-    # 5. the output, as the continuous pose's
+    # the output, as the continuous pose's, standing as high
     return _refitted(pose, motion, local_r, local_t, started)
