@@ -139,6 +139,24 @@ def test_time_warped_clip_beats_the_linear_stretch(aligned, clip):
     assert abs(pose.azimuth_deg - 30.0) <= abs(pose.matched_azimuth_deg - 30.0)
 
 
+def test_query_says_how_its_3d_answer_was_made(db_path, clip, tmp_path, capsys):
+    """``--linear-replay`` stretches the matched window for the BVH; the joints of
+    ``--pose-out`` are still aligned frame by frame; the closing line says which."""
+    masks, _ = clip
+    clip_path = tmp_path / "clip.npz"
+    np.savez_compressed(clip_path, masks=masks, fps=CLIP_FPS)
+    bvh, joints = tmp_path / "clip.bvh", tmp_path / "pose.npz"
+    base = ["query", str(clip_path), "--db", str(db_path), "--bvh-out", str(bvh), "--linear-replay"]
+    assert main(base) == 0
+    assert capsys.readouterr().err.strip().endswith(f"wrote {bvh} (stretched linearly)")
+    assert main([*base, "--pose-out", str(joints)]) == 0
+    said = capsys.readouterr().err.strip().splitlines()[-1]
+    assert said == (
+        f"wrote {bvh}, {joints} (the BVH and replay stretched linearly, the joints aligned "
+        "frame by frame, --pose-cue silhouette)"
+    )
+
+
 def test_query_writes_pose_and_bvh(db_path, clip, tmp_path, capsys):
     masks, _ = clip
     clip_path = tmp_path / "clip.npz"
@@ -157,7 +175,8 @@ def test_query_writes_pose_and_bvh(db_path, clip, tmp_path, capsys):
         ]
     )
     assert rc == 0
-    assert "wrote" in capsys.readouterr().err
+    # stored masks: no frames for the pose network, so the silhouette cue, and it says so
+    assert "aligned frame by frame, --pose-cue silhouette)" in capsys.readouterr().err
     with np.load(pose_path) as data:
         assert set(data.files) == {"names", "positions", "reference_frames", "fps"}
         names = tuple(str(s) for s in data["names"])

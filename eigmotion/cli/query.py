@@ -194,8 +194,9 @@ def _write_replay(db, result, clip, args) -> None:
     best = result.best
     masks, fps = clip.masks, clip.fps
     pose = None
+    pose_cue = resolve_cue(args.pose_cue, args.clip)
     if args.pose_out or not args.linear_replay:
-        config = ContinuousPoseConfig(cue=args.pose_cue)
+        config = ContinuousPoseConfig(cue=pose_cue)
         pose = clip_pose(db, result, clip, args.clip, config, progress=True)
     if args.pose_out:
         pose.save_npz(args.pose_out)
@@ -218,5 +219,12 @@ def _write_replay(db, result, clip, args) -> None:
         replay_video(
             rep, frames, masks, picture, args.replay_out, fps, progress=True, captions=captions
         )
-    written = (args.bvh_out, args.replay_out, args.pose_out)
-    print("wrote " + ", ".join(str(p) for p in written if p), file=sys.stderr)
+    written = ", ".join(str(p) for p in (args.bvh_out, args.replay_out, args.pose_out) if p)
+    aligned = "" if pose is None else f"aligned frame by frame, --pose-cue {pose_cue}"
+    if not args.linear_replay:
+        how = aligned
+    elif args.pose_out:
+        how = f"the BVH and replay stretched linearly, the joints {aligned}"
+    else:
+        how = "stretched linearly"
+    print(f"wrote {written} ({how})", file=sys.stderr)
