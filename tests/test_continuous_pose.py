@@ -141,16 +141,22 @@ def test_time_warped_clip_beats_the_linear_stretch(aligned, clip):
 
 def test_query_says_how_its_3d_answer_was_made(db_path, clip, tmp_path, capsys):
     """``--linear-replay`` stretches the matched window for the BVH; the joints of
-    ``--pose-out`` are still aligned frame by frame; the closing line says which."""
+    ``--pose-out`` are still aligned frame by frame, which the command announces before
+    it starts; the closing line says which."""
     masks, _ = clip
     clip_path = tmp_path / "clip.npz"
     np.savez_compressed(clip_path, masks=masks, fps=CLIP_FPS)
     bvh, joints = tmp_path / "clip.bvh", tmp_path / "pose.npz"
     base = ["query", str(clip_path), "--db", str(db_path), "--bvh-out", str(bvh), "--linear-replay"]
     assert main(base) == 0
-    assert capsys.readouterr().err.strip().endswith(f"wrote {bvh} (stretched linearly)")
+    said = capsys.readouterr().err.strip()
+    assert said.endswith(f"wrote {bvh} (stretched linearly)") and "aligning" not in said
     assert main([*base, "--pose-out", str(joints)]) == 0
-    said = capsys.readouterr().err.strip().splitlines()[-1]
+    *before, said = capsys.readouterr().err.strip().splitlines()
+    assert any(
+        line.startswith("aligning ") and "frame by frame (--pose-cue silhouette)" in line
+        for line in before
+    )
     assert said == (
         f"wrote {bvh}, {joints} (the BVH and replay stretched linearly, the joints aligned "
         "frame by frame, --pose-cue silhouette)"

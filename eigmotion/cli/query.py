@@ -196,6 +196,11 @@ def _write_replay(db, result, clip, args) -> None:
     pose = None
     pose_cue = resolve_cue(args.pose_cue, args.clip)
     if args.pose_out or not args.linear_replay:
+        # seconds of work with nothing else on screen: say what it is
+        print(
+            f"aligning {best.motion} to the clip frame by frame (--pose-cue {pose_cue}) …",
+            file=sys.stderr, flush=True,
+        )  # fmt: skip
         config = ContinuousPoseConfig(cue=pose_cue)
         pose = clip_pose(db, result, clip, args.clip, config, progress=True)
     if args.pose_out:
