@@ -375,15 +375,20 @@ _END_OF_CLIP = object()
 FRAME_BAR_DELAY_S = 1.0
 
 
+def progress_bar(total: int | None, desc: str, initial: int = 0):
+    """A progress bar on stderr over ``total`` frames (None: unknown), cleared when done.
+
+    tqdm is imported here: callers make the bar only once a job has taken a second
+    (:data:`FRAME_BAR_DELAY_S`), so a short one never loads it."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, desc=desc, unit="frame", file=sys.stderr, leave=False)
+
+
 def _frame_bar(expected_frames: int):
     """A progress bar on stderr over a video's frames (made once the reading has taken
     :data:`FRAME_BAR_DELAY_S`: most clips are read before, and never load tqdm)."""
-    from tqdm import tqdm
-
-    return tqdm(
-        total=expected_frames or None, desc="reading frames", unit="frame", file=sys.stderr,
-        leave=False,
-    )  # fmt: skip
+    return progress_bar(expected_frames or None, "reading frames")
 
 
 def sample_indices(n_frames: int, clip_fps: float, sample_fps: float) -> np.ndarray:

@@ -362,12 +362,15 @@ def _refitted(pose, motion, local_r: np.ndarray, local_t: np.ndarray, started: f
     silhouettes stood the body on the floor, and a leg bent or straightened by the fit
     must not sink it into the floor or lift it off.  ``timings_s["keypoints_fit"]`` the
     wall time since ``started`` (``time.perf_counter``), seconds."""
+    positions = forward_kinematics(
+        motion.with_local_transforms(local_r, local_t), length_unit_m=1.0, ground=False
+    ).positions
+    # the root's translation moves every joint alike: no second forward kinematics
+    rise = pose.positions[..., 1].min(1) - positions[..., 1].min(1)
     local_t = local_t.copy()
+    local_t[:, 0, 1] += rise
+    positions[..., 1] += rise[:, None]
     moved = motion.with_local_transforms(local_r, local_t)
-    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
-    local_t[:, 0, 1] += pose.positions[..., 1].min(1) - positions[..., 1].min(1)
-    moved = motion.with_local_transforms(local_r, local_t)
-    positions = forward_kinematics(moved, length_unit_m=1.0, ground=False).positions
     timings = dict(pose.timings_s)
     timings["keypoints_fit"] = time.perf_counter() - started
     return dataclasses.replace(pose, motion=moved, positions=positions, timings_s=timings)

@@ -25,7 +25,6 @@ has a wheel); :func:`keypoints_available` says whether it can.
 from __future__ import annotations
 
 import os
-import sys
 import time
 from dataclasses import dataclass
 from functools import cache
@@ -34,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.imaging.media import read_frames
+from eigmotion.imaging.media import progress_bar, read_frames
 from eigmotion.segmentation.learned import (
     CROP_MARGIN,
     CROP_MIN_SIDE_PX,
@@ -231,10 +230,7 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = Fals
     bar = None
     for i in range(n):
         if progress and bar is None and time.perf_counter() - started >= NETWORK_BAR_DELAY_S:
-            from tqdm import tqdm  # lazy: a short clip never loads it
-
-            bar = tqdm(total=n, initial=i, desc="pose network", unit="frame", file=sys.stderr,
-                       leave=False)  # fmt: skip
+            bar = progress_bar(n, "pose network", initial=i)
         if bar is not None:
             bar.update(1)
         square, matrix = crop_input(frames[i], tuple(squares[i]))
