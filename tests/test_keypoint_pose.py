@@ -41,8 +41,10 @@ from eigmotion.pose.keypoint_fit import (
 from eigmotion.pose.keypoints import (
     ClipKeypoints,
     clip_keypoints,
+    front_end_keypoints,
     keypoints_available,
     limb_world_joints,
+    pose_keypoints,
     resolve_cue,
 )
 from eigmotion.retrieval.library_views import BuildConfig, hull_points
@@ -181,6 +183,45 @@ def test_network_keypoints_lie_on_the_rendered_person(video):
     names, world = limb_world_joints(keypoints)
     assert names == LIMB_JOINTS and world.shape == truth.shape
     assert limb_error_mm(names, world, truth) < 120.0
+
+
+@needs_litert
+def test_the_3d_answer_reuses_the_front_ends_network_answer(video, monkeypatch):
+    """The learned front end keeps the pose network's answer it had while it cut the
+    silhouettes, and the 3D answer takes it; the network runs again only on the frames
+    where the front end found no one (on this faceless render, the first ones).  The
+    kept answer lies where a run on squares around the finished silhouettes puts it.
+    Background subtraction keeps none: there the network runs on every frame."""
+    clip, background, truth = video
+    cut = load_clip_masks(clip, background, segmenter="fused")
+    kept = front_end_keypoints(cut)
+    again = clip_keypoints(clip, cut.masks, cut.frame_indices)
+    assert kept.image_px.shape == again.image_px.shape and kept.seconds_per_frame == 0
+    assert np.all((kept.visibility >= 0) & (kept.visibility <= 1))
+    assert np.isnan(kept.world_m[~kept.found]).all() and (kept.visibility[~kept.found] == 0).all()
+    both = kept.found & again.found
+    assert both.sum() >= 10
+    apart = np.linalg.norm(kept.image_px[both] - again.image_px[both], axis=-1)
+    assert np.median(apart) < 2.0, np.median(apart)  # pixels of the masks
+    assert np.median(pa_mpjpe_per_frame(kept.world_m[both], again.world_m[both])) < 40.0
+
+    runs = []
+    network = keypoints_module._run
+    monkeypatch.setattr(keypoints_module, "_run", lambda *a: runs.append(1) or network(*a))
+    answer = pose_keypoints(cut, clip)
+    assert len(runs) == (~kept.found).sum() > 0
+    np.testing.assert_array_equal(answer.world_m[kept.found], kept.world_m[kept.found])
+    filled = ~kept.found & again.found
+    np.testing.assert_array_equal(answer.world_m[filled], again.world_m[filled])
+    np.testing.assert_array_equal(answer.found, kept.found | again.found)
+    names, world = limb_world_joints(answer)
+    assert limb_error_mm(names, world, truth) < 120.0
+
+    runs.clear()
+    subtracted = load_clip_masks(clip, background, segmenter="subtraction")
+    assert front_end_keypoints(subtracted) is None
+    assert pose_keypoints(subtracted, clip).found.mean() > 0.8
+    assert len(runs) == len(subtracted.masks)
 
 
 @needs_litert

@@ -107,7 +107,7 @@ def test_pose_landmarks_lie_on_the_person():
     sample = read_frame_sample(video, 15.0)
     frames = np.stack([learned.stored_frame(f) for f in sample.frames])
     size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
-    masks, people, landmarks = learned.learned_masks_and_landmarks(
+    masks, people, landmarks, world = learned.learned_masks_and_landmarks(
         frames, size, QUERY_CONFIG, second_look="pose"
     )
     assert landmarks.shape == (len(frames), 33, 4) and landmarks.dtype == np.float32
@@ -127,6 +127,13 @@ def test_pose_landmarks_lie_on_the_person():
         assert landmarks[i, 0, 1] < hips_y < landmarks[i, [27, 28], 1].mean()
     assert np.mean(inside) >= 0.9, f"{np.mean(inside):.2f} of the landmarks on the person"
     assert np.all((landmarks[seen, :, 2:] >= 0) & (landmarks[seen, :, 2:] <= 1))
+    # the same frames' world landmarks: metres, centred between the hips, y down
+    assert world.shape == (len(frames), 33, 3) and world.dtype == np.float32
+    np.testing.assert_array_equal(np.isnan(world).any(axis=(1, 2)), ~seen)
+    assert np.abs(world[seen][:, [23, 24]].mean(axis=1)).max() < 0.05
+    assert np.all(world[seen][:, 0, 1] < -0.3), "the nose above the hips"
+    height = world[seen][:, [27, 28], 1].mean(axis=1) - world[seen][:, 0, 1]
+    assert 1.0 < np.median(height) < 2.0, height  # nose to ankles, the kick's leg raised
     expected, _ = learned.learned_masks(frames, size, QUERY_CONFIG)
     np.testing.assert_array_equal(masks, expected)
     assert people.max() == 1
@@ -145,7 +152,7 @@ def test_the_square_follows_the_whole_person_where_the_first_look_lost_the_legs(
     video = SAMPLES / "kick.mp4"
     frames = np.stack([learned.stored_frame(f) for f in read_frame_sample(video, 15.0).frames])
     size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
-    whole, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
+    whole, _, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
     boxes = learned._person_boxes  # the real first look, then its boxes cut
 
     def upper_halves(probabilities, config, frame_size):
@@ -155,7 +162,7 @@ def test_the_square_follows_the_whole_person_where_the_first_look_lost_the_legs(
         ]
 
     monkeypatch.setattr(learned, "_person_boxes", upper_halves)
-    followed, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
+    followed, _, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
     bottom = [
         (np.flatnonzero(a.any(axis=1))[-1], np.flatnonzero(b.any(axis=1))[-1])
         for a, b in zip(whole, followed, strict=True) if a.any() and b.any()
@@ -171,11 +178,13 @@ def test_without_the_pose_network_the_selfie_network_looks_twice(monkeypatch):
     sample = read_frame_sample(SAMPLES / "kick.mp4", 15.0)
     frames = np.stack([learned.stored_frame(f) for f in sample.frames[-6:]])
     size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
-    selfie, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "selfie")
+    selfie, _, _, _ = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "selfie")
     monkeypatch.setattr(learned, "pose_network", lambda: None)
-    masks, people, landmarks = learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG)
+    masks, people, landmarks, world = learned.learned_masks_and_landmarks(
+        frames, size, QUERY_CONFIG
+    )
     np.testing.assert_array_equal(masks, selfie)
-    assert masks.any() and np.isnan(landmarks).all()
+    assert masks.any() and np.isnan(landmarks).all() and np.isnan(world).all()
     with pytest.raises(InvalidParameterError, match="LiteRT"):
         learned.learned_masks_and_landmarks(frames, size, QUERY_CONFIG, "pose")
     with pytest.raises(InvalidParameterError, match="second_look"):

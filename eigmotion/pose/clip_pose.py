@@ -15,7 +15,7 @@ from eigmotion.pose.continuous_pose import (
     continuous_pose,
 )
 from eigmotion.pose.keypoint_fit import KeypointFitConfig, fit_keypoints, toward_network
-from eigmotion.pose.keypoints import clip_keypoints, resolve_cue
+from eigmotion.pose.keypoints import pose_keypoints, resolve_cue
 
 if TYPE_CHECKING:
     from eigmotion.retrieval.database import MotionDatabase, QueryResult
@@ -48,13 +48,16 @@ def clip_pose(
     config : ContinuousPoseConfig, optional
     fit_config : KeypointFitConfig, optional
     progress : bool
-        A progress bar while the pose network runs on the clip's frames.
+        A progress bar while the pose network runs on the clip's frames (only where
+        the front end kept no answer of its own:
+        :func:`~eigmotion.pose.keypoints.pose_keypoints`).
 
     Returns
     -------
     ContinuousPose
-        ``timings_s["keypoints"]``: the network's time, with the world and keypoints
-        cues.
+        ``timings_s["keypoints"]``: the time to get the network's answer, with the
+        world and keypoints cues (next to nothing where the learned front end kept
+        its own).
     """
     config = config or ContinuousPoseConfig()
     cue = resolve_cue(config.cue, path)
@@ -62,7 +65,7 @@ def clip_pose(
     if cue == "silhouette":
         return pose
     started = time.perf_counter()
-    keypoints = clip_keypoints(path, clip.masks, clip.frame_indices, progress)
+    keypoints = pose_keypoints(clip, path, progress)
     pose.timings_s["keypoints"] = time.perf_counter() - started
     if cue == "world":
         return toward_network(pose, keypoints, fit_config)

@@ -42,6 +42,7 @@ from eigmotion.segmentation.learned import (
     stored_frame,
 )
 from eigmotion.segmentation.networks import N_POSE_LANDMARKS, POSE_PATH, litert_interpreter
+from eigmotion.segmentation.video import ClipMasks
 
 #: Development-set limb joint -> the pose network's landmark index (MediaPipe's order;
 #: left and right are the person's).
@@ -185,7 +186,9 @@ def person_squares(masks: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray
 NETWORK_BAR_DELAY_S = 1.0
 
 
-def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = False) -> ClipKeypoints:
+def frame_keypoints(
+    frames: np.ndarray, masks: np.ndarray, progress: bool = False, only: np.ndarray | None = None
+) -> ClipKeypoints:
     """The pose network's keypoints for frames whose silhouettes are known.
 
     Parameters
@@ -197,6 +200,9 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = Fals
     progress : bool
         A progress bar on stderr, once the network has run for
         :data:`NETWORK_BAR_DELAY_S` (a short clip never shows one).
+    only : (F,) bool, optional
+        The frames the network runs on (the others: found no one); every frame when
+        None.  A frame's square comes from the silhouettes either way.
 
     Returns
     -------
@@ -219,18 +225,21 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = Fals
             f"frames (F, H, W, 3) and masks (F, h, w) must match, got {frames.shape} and "
             f"{masks.shape}"
         )
-    started = time.perf_counter()
     n = len(frames)
+    if only is not None and np.shape(only) != (n,):
+        raise InvalidParameterError(f"only must be ({n},) bool, got shape {np.shape(only)}")
+    started = time.perf_counter()
     squares = person_squares(masks, frames.shape[1:3])
     to_mask = np.array([masks.shape[2] / frames.shape[2], masks.shape[1] / frames.shape[1]])
     image = np.full((n, N_POSE_LANDMARKS, 2), np.nan)
     visibility = np.zeros((n, N_POSE_LANDMARKS))
     world = np.full((n, N_POSE_LANDMARKS, 3), np.nan)
     found = np.zeros(n, bool)
+    runs = np.flatnonzero(np.ones(n, bool) if only is None else np.asarray(only, bool))
     bar = None
-    for i in range(n):
+    for done, i in enumerate(runs):
         if progress and bar is None and time.perf_counter() - started >= NETWORK_BAR_DELAY_S:
-            bar = progress_bar(n, "pose network", initial=i)
+            bar = progress_bar(len(runs), "pose network", initial=done)
         if bar is not None:
             bar.update(1)
         square, matrix = crop_input(frames[i], tuple(squares[i]))
@@ -246,12 +255,16 @@ def frame_keypoints(frames: np.ndarray, masks: np.ndarray, progress: bool = Fals
         world[i] = world_i[:N_POSE_LANDMARKS]
     if bar is not None:
         bar.close()
-    seconds = (time.perf_counter() - started) / max(n, 1)
+    seconds = (time.perf_counter() - started) / max(len(runs), 1)
     return ClipKeypoints(image, visibility, world, found, seconds)
 
 
 def clip_keypoints(
-    path: str | os.PathLike, masks: np.ndarray, frame_indices: np.ndarray, progress: bool = False
+    path: str | os.PathLike,
+    masks: np.ndarray,
+    frame_indices: np.ndarray,
+    progress: bool = False,
+    only: np.ndarray | None = None,
 ) -> ClipKeypoints:
     """The pose network's keypoints for a clip on disk whose silhouettes are known.
 
@@ -265,6 +278,8 @@ def clip_keypoints(
         The clip frame each silhouette belongs to.
     progress : bool
         A progress bar while the network runs (:func:`frame_keypoints`).
+    only : (F,) bool, optional
+        The silhouettes' frames the network runs on (:func:`frame_keypoints`).
 
     Returns
     -------
@@ -287,7 +302,7 @@ def clip_keypoints(
             f"{path}: {len(frames)} frames, but silhouettes of frames "
             f"{frame_indices.min()}..{frame_indices.max()} were given"
         )
-    return frame_keypoints(frames[frame_indices], masks, progress)
+    return frame_keypoints(frames[frame_indices], masks, progress, only)
 
 
 def limb_world_joints(keypoints: ClipKeypoints) -> tuple[tuple[str, ...], np.ndarray]:
@@ -344,3 +359,83 @@ def resolve_cue(cue: str, path: str | os.PathLike | None) -> str:
             f"the {cue} cue runs the pose network through LiteRT: pip install ai-edge-litert"
         )
     return cue
+
+
+def front_end_keypoints(clip: ClipMasks) -> ClipKeypoints | None:
+    """The pose network's answer the learned front end already gave while it cut the
+    clip's silhouettes, as :func:`clip_keypoints` gives it, without running the
+    network again.
+
+    The front end's square around the person comes from its own first look (the
+    module :mod:`eigmotion.segmentation.learned`), not from the finished silhouettes,
+    so the answer is close to, not equal to, :func:`clip_keypoints`'s.
+
+    Parameters
+    ----------
+    clip : ClipMasks
+        Silhouettes cut by the learned or fused front end.
+
+    Returns
+    -------
+    ClipKeypoints or None
+        Image coordinates in the pixels of ``clip.masks``; ``seconds_per_frame`` 0 (no
+        network ran).  None where the front end kept no landmarks (background
+        subtraction, stored masks, the selfie network's second look).
+    """
+    if clip.landmarks is None or clip.world_landmarks is None or clip.frame_size is None:
+        return None
+    landmarks = np.asarray(clip.landmarks, np.float64)
+    found = np.isfinite(landmarks[:, :, :2]).all(axis=(1, 2))
+    if not found.any():
+        return None
+    h, w = clip.masks.shape[1:]
+    image = landmarks[:, :, :2] * np.array([w / clip.frame_size[1], h / clip.frame_size[0]])
+    visibility = np.where(found[:, None], landmarks[:, :, 2] * landmarks[:, :, 3], 0.0)
+    world = np.where(found[:, None, None], np.asarray(clip.world_landmarks, np.float64), np.nan)
+    return ClipKeypoints(image, np.nan_to_num(visibility), world, found, 0.0)
+
+
+def pose_keypoints(
+    clip: ClipMasks, path: str | os.PathLike, progress: bool = False
+) -> ClipKeypoints:
+    """The pose network's answer for every silhouette of a clip: the learned front
+    end's own (:func:`front_end_keypoints`) where it kept one, and the network run on
+    the clip's frames (:func:`clip_keypoints`) for the frames where it did not (all of
+    them after background subtraction or the selfie network's second look).
+
+    Parameters
+    ----------
+    clip : ClipMasks
+        The clip's silhouettes.
+    path : str or PathLike
+        The video (or folder of frames, or GIF) they were cut from.
+    progress : bool
+        A progress bar while the network runs.
+
+    Returns
+    -------
+    ClipKeypoints
+        Image coordinates in the pixels of ``clip.masks``; ``seconds_per_frame`` is
+        the network's time per frame it ran on (0 when it did not run).
+
+    Raises
+    ------
+    InvalidParameterError
+        The network must run and cannot (:func:`clip_keypoints`).
+    VideoError
+        The clip cannot be read.
+    """
+    kept = front_end_keypoints(clip)
+    if kept is None:
+        return clip_keypoints(path, clip.masks, clip.frame_indices, progress)
+    if kept.found.all():
+        return kept
+    again = clip_keypoints(path, clip.masks, clip.frame_indices, progress, only=~kept.found)
+    take = again.found & ~kept.found
+    return ClipKeypoints(
+        np.where(take[:, None, None], again.image_px, kept.image_px),
+        np.where(take[:, None], again.visibility, kept.visibility),
+        np.where(take[:, None, None], again.world_m, kept.world_m),
+        kept.found | take,
+        again.seconds_per_frame,
+    )

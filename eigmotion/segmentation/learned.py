@@ -36,7 +36,7 @@ person covers more than :data:`OUTLIER_AREA` times the clip's median area is lef
 the network has taken part of the scene (a rendered floor) for the person there.  The
 masks go on to the motion image exactly as the classical masks do.
 :func:`learned_masks_and_landmarks` also returns the pose network's landmarks, in the
-frame's pixels.
+frame's pixels and in 3D.
 
 Every blob beside the largest one and at least :data:`PERSON_SHARE` of its area is
 counted as one more person in view (:func:`people_in_view`): a clip with two people
@@ -263,16 +263,16 @@ def learned_masks(
     masks : (F, H', W') bool
     people : (F,) int64
     """
-    masks, people, _ = learned_masks_and_landmarks(frames, size, config)
+    masks, people, _, _ = learned_masks_and_landmarks(frames, size, config)
     return masks, people
 
 
 def learned_masks_and_landmarks(
     frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig,
     second_look: str | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The person in each frame, the people in view, and the person's body landmarks
-    (two passes of the networks: the module's description).
+    in the image and in 3D (two passes of the networks: the module's description).
 
     Parameters
     ----------
@@ -301,6 +301,10 @@ def learned_masks_and_landmarks(
         MediaPipe's order); NaN in a frame the pose network did not see or where it
         found no person (flag under :data:`PERSON_PROBABILITY`), and everywhere when
         the second look is the selfie network's.
+    world : (F, 33, 3) float32
+        The same frames' world landmarks (:class:`~eigmotion.segmentation.networks.
+        PoseOutput`): metres, centred between the hips, the camera's axes (x right, y
+        down, z away from it); NaN where ``landmarks`` are.
     """
     pose = pose_network()
     if second_look is None:
@@ -322,6 +326,7 @@ def learned_masks_and_landmarks(
     whole_frame_people = [person_in_frame(p > PERSON_PROBABILITY, config)[1] for p in probabilities]
     boxes = _person_boxes(probabilities, config, frame_size)
     landmarks = np.full((len(frames), N_POSE_LANDMARKS, 4), np.nan, np.float32)
+    world = np.full((len(frames), N_POSE_LANDMARKS, 3), np.nan, np.float32)
     longest = max(frame_size)
     masks = np.zeros((len(frames), h, w), bool)
     people = np.zeros(len(frames), np.int64)
@@ -340,7 +345,7 @@ def learned_masks_and_landmarks(
                 found = out is not None and out.person >= PERSON_PROBABILITY
                 if found:
                     second = out.probabilities
-                    landmarks[i] = out.landmarks
+                    landmarks[i], world[i] = out.landmarks, out.world
                     # the square's pixels (continuous) back to the frame's
                     scale, shift = matrix[[0, 1], [0, 1]], matrix[:2, 2]
                     landmarks[i, :, :2] = (out.landmarks[:, :2] - 0.5 - shift) / scale + 0.5
@@ -355,7 +360,7 @@ def learned_masks_and_landmarks(
     if area.any():
         outliers = area > OUTLIER_AREA * np.median(area[area > 0])
         masks[outliers], people[outliers] = False, 0
-    return masks, people, landmarks
+    return masks, people, landmarks, world
 
 
 def _person_boxes(

@@ -65,11 +65,15 @@ class PoseOutput:
         [0, 1]) of each body landmark.
     person : float
         Probability that a person is in the square.
+    world : (33, 3) float32
+        The same landmarks in metres, centred between the hips, the camera's axes (x
+        right, y down, z away from the camera): the network's "world landmarks".
     """
 
     probabilities: np.ndarray
     landmarks: np.ndarray
     person: float
+    world: np.ndarray
 
 
 def runtime() -> str:
@@ -154,6 +158,7 @@ def pose_network() -> Callable[[np.ndarray], PoseOutput] | None:
     source = interpreter.get_input_details()[0]["index"]
     outputs = {tuple(d["shape"][1:]): d["index"] for d in interpreter.get_output_details()}
     landmarks_at = outputs[(5 * (N_POSE_LANDMARKS + 6),)]
+    world_at = outputs[(3 * (N_POSE_LANDMARKS + 6),)]
     flag_at = outputs[(1,)]
     mask_at = outputs[(MODEL_SIDE_PX, MODEL_SIDE_PX, 1)]
 
@@ -165,7 +170,9 @@ def pose_network() -> Callable[[np.ndarray], PoseOutput] | None:
         landmarks[:, :2] = raw[:, :2]
         landmarks[:, 2:] = _sigmoid(raw[:, 3:5])
         probabilities = _sigmoid(interpreter.get_tensor(mask_at)[0, :, :, 0])
-        return PoseOutput(probabilities, landmarks, float(interpreter.get_tensor(flag_at)[0, 0]))
+        world = interpreter.get_tensor(world_at).reshape(-1, 3)[:N_POSE_LANDMARKS]
+        person = float(interpreter.get_tensor(flag_at)[0, 0])
+        return PoseOutput(probabilities, landmarks, person, world.astype(np.float32))
 
     return run
 

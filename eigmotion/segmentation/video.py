@@ -179,6 +179,13 @@ class ClipMasks:
         y in pixels of the clip's frames (continuous: 0 is the left or top edge of the
         first pixel), visibility, presence; NaN where the network saw no person.  None
         with the other front ends.
+    world_landmarks : (F', 33, 3) float32 or None
+        The same landmarks in 3D (the network's world landmarks: metres, centred
+        between the hips, the camera's axes: x right, y down, z away from it); NaN and
+        None where ``landmarks`` are.
+    frame_size : (int, int) or None
+        (H, W) of the clip's frames, the pixels ``landmarks`` are given in; None where
+        ``landmarks`` are.
     """
 
     masks: np.ndarray
@@ -190,6 +197,8 @@ class ClipMasks:
     segmenter: str = "subtraction"
     hidden_below_px: int = 0
     landmarks: np.ndarray | None = None
+    world_landmarks: np.ndarray | None = None
+    frame_size: tuple[int, int] | None = None
 
 
 def load_clip_masks(
@@ -317,7 +326,7 @@ def _learned_clip_masks(
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
-    masks, people, landmarks = learned_masks_and_landmarks(
+    masks, people, landmarks, world = learned_masks_and_landmarks(
         inputs, working_size(*sizes[0], config), config
     )
     hidden_below = hidden_rows_below(masks, landmarks, masks.shape[1] / inputs.shape[1])
@@ -337,7 +346,7 @@ def _learned_clip_masks(
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
         people_in_view(people), segmenter, hidden_below, _in_frame_pixels(landmarks, sizes[0],
-        inputs.shape[1:3]),
+        inputs.shape[1:3]), world, (int(sizes[0][0]), int(sizes[0][1])),
     )  # fmt: skip
 
 
