@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -17,9 +18,10 @@ import pytest
 
 from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError
-from eigmotion.imaging.media import read_frame_sample
+from eigmotion.imaging.media import read_frame_sample, read_frames, read_image_rgb, write_video
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
+from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.fused import fuse_masks
@@ -368,6 +370,43 @@ def test_query_warns_when_two_people_are_in_view(db_path, tmp_path, capsys):
     # One person: no warning.
     one = SAMPLES / "kick.mp4"
     assert main(["query", str(one), "--db", str(db_path), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["warnings"] == []
+
+
+def test_lost_person_warning_names_the_frames():
+    """Few empty frames: no warning; many: their count and the clip frames, in runs."""
+    empty = np.zeros(20, bool)
+    assert lost_person_warning(empty, np.arange(20)) is None
+    empty[7] = True  # one of 20: under the share
+    assert lost_person_warning(empty, np.arange(20)) is None
+    empty[[3, 4, 5, 10, 15, 16, 18]] = True
+    warning = lost_person_warning(empty, 2 * np.arange(20))
+    assert warning.startswith(
+        "no person found in 8 of 20 frames taken (clip frames 6-10, 14, 20 and"
+    )
+    assert "2 more)" in warning
+
+
+def test_query_warns_when_the_person_is_lost_in_many_frames(db_path, tmp_path, capsys):
+    """Frames 12-29 of the kick sample replaced by its empty scene: the answer says in
+    which frames no person was found; the clip as it is gets no such warning."""
+    kick, background = SAMPLES / "kick.mp4", SAMPLES / "kick_background.png"
+    frames, fps = read_frames(kick)
+    frames[12:30] = read_image_rgb(background)
+    clip = write_video(frames, tmp_path / "gone.mp4", fps)
+    argv = ["query", str(clip), "--db", str(db_path), "--background", str(background)]
+    assert main([*argv, "--json"]) == 0
+    warnings = json.loads(capsys.readouterr().out)["warnings"]
+    lost = [w for w in warnings if w.startswith("no person found in")]
+    assert len(lost) == 1, warnings
+    # the empty frames' runs, in clip frames: from the first replaced frame to the last
+    # (the network may take a piece of the empty scene for a person in one or two)
+    runs = re.search(r"clip frames ([^)]*)\)", lost[0])[1].split(", ")
+    assert 12 <= int(runs[0].split("-")[0]) <= 13 and 26 <= int(runs[-1].split("-")[-1]) <= 29
+    assert main(argv) == 0
+    assert "  warning: no person found in" in capsys.readouterr().out
+    argv[1] = str(kick)
+    assert main([*argv, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["warnings"] == []
 
 

@@ -40,7 +40,13 @@ from eigmotion.retrieval.query_windows import (
     search_windows,
     specific_window_entry,
 )
-from eigmotion.retrieval.results import IndexReport, Match, QueryResult, people_warning
+from eigmotion.retrieval.results import (
+    IndexReport,
+    Match,
+    QueryResult,
+    lost_person_warning,
+    people_warning,
+)
 from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import (
     CANDIDATE_MOTIONS,
@@ -493,8 +499,10 @@ class MotionDatabase:
         result : QueryResult
             Segment frames are frames of the clip; ``warnings`` says when more than
             one person is in view (:attr:`~eigmotion.segmentation.video.ClipMasks.
-            people`).  ``timing_ms["silhouettes"]`` is the time the answer's
-            silhouettes took; with ``every_frame``,
+            people`) and when no person was found in many of the frames taken
+            (:func:`~eigmotion.retrieval.results.lost_person_warning`).
+            ``timing_ms["silhouettes"]`` is the time the answer's silhouettes took;
+            with ``every_frame``,
             ``timing_ms["every_frame_silhouettes"]`` that of the others.
         clip : ClipMasks
             The silhouettes the answer was computed from; with ``every_frame``, those
@@ -510,6 +518,7 @@ class MotionDatabase:
         result = self.query_masks(
             clip.masks, clip.fps, top_k, false_rejection, clip.hidden_below_px
         )
+        lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.
         starts = np.append(clip.frame_indices, clip.n_frames)
         segments = [
@@ -526,6 +535,7 @@ class MotionDatabase:
             timing["every_frame_silhouettes"] = (time.perf_counter() - t2) * 1e3
         timing["total"] = (time.perf_counter() - t0) * 1e3
         warnings = () if clip.people <= 1 else (people_warning(clip.people),)
+        warnings += () if lost is None else (lost,)
         result = dataclasses.replace(result, segments=segments, timing_ms=timing, warnings=warnings)
         return result, clip
 

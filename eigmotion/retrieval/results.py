@@ -185,6 +185,45 @@ def people_warning(people: int) -> str:
     )
 
 
+#: A clip whose silhouettes are empty in at least this share of its frames (and in
+#: :data:`LOST_PERSON_MIN_FRAMES` or more) gets :func:`lost_person_warning`.
+LOST_PERSON_SHARE = 0.1
+LOST_PERSON_MIN_FRAMES = 2
+
+
+def lost_person_warning(empty: np.ndarray, frame_indices: np.ndarray) -> str | None:
+    """The answer's warning for a clip where no person was found in many frames.
+
+    Parameters
+    ----------
+    empty : (F',) bool
+        Frames taken whose silhouette is empty.
+    frame_indices : (F',) int
+        The clip frame of each.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"no person found in 18 of 33 frames taken (clip frames 22-39): the
+        answer rests on the others"``; None when fewer than :data:`LOST_PERSON_SHARE`
+        of the frames (or :data:`LOST_PERSON_MIN_FRAMES`) are empty.
+    """
+    empty = np.asarray(empty, bool)
+    count = int(empty.sum())
+    if count < max(LOST_PERSON_MIN_FRAMES, LOST_PERSON_SHARE * len(empty)):
+        return None
+    frames = np.asarray(frame_indices)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], empty.view(np.int8), [0]])))
+    starts, stops = edges[::2], edges[1::2]
+    runs = [(int(frames[a]), int(frames[b - 1])) for a, b in zip(starts, stops, strict=True)]
+    spans = ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in runs[:3])
+    more = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
+    return (
+        f"no person found in {count} of {len(empty)} frames taken (clip frames {spans}{more}): "
+        "the answer rests on the others"
+    )
+
+
 @dataclass(frozen=True)
 class BuildReport:
     """What a build made.
