@@ -18,7 +18,8 @@ import pytest
 
 from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError
-from eigmotion.imaging.media import read_frame_sample, read_frames, read_image_rgb, write_video
+from eigmotion.imaging.media import read_frame_sample, read_frames, write_video
+from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.results import lost_person_warning

@@ -13,14 +13,13 @@ from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import (
     FrameSampleStream,
     as_rgb_frames,
-    image_files,
     mp4_fourcc,
     read_frame_sample,
     read_frames,
-    read_image_rgb,
     sample_indices,
     write_video,
 )
+from eigmotion.imaging.still_images import image_files, read_image_rgb
 
 
 def _smooth_clip(n_frames=8, height=48, width=64):

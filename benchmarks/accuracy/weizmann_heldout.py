@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from eigmotion.imaging.media import read_image_rgb, write_video
+from eigmotion.imaging.media import write_video
+from eigmotion.imaging.still_images import read_image_rgb
 
 #: MoCoGAN's action folder -> (the Weizmann action, the label it is scored against).
 ACTIONS = {"0": ("wave1", "wave"), "1": ("wave2", "wave"), "3": ("jack", "unknown"),

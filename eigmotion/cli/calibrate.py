@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 
 from eigmotion.errors import InvalidParameterError
-from eigmotion.imaging.media import IMAGE_EXTENSIONS
+from eigmotion.imaging.still_images import IMAGE_EXTENSIONS
 from eigmotion.tracking.calibration import (
     calibrate_cameras,
     group_images_by_camera,

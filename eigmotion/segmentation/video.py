@@ -24,9 +24,9 @@ from eigmotion.imaging.media import (
     FRAME_RATE_FPS,
     VIDEO_EXTENSIONS,
     FrameSampleStream,
-    read_image_rgb,
     sample_indices,
 )
+from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
@@ -366,7 +366,7 @@ def read_background(path: str | Path) -> np.ndarray:
     ----------
     path : str or Path
         Any still image Pillow reads (``.png``, ``.jpg``, ``.bmp``, ``.tif``, ``.webp`` …;
-        see :func:`eigmotion.imaging.media.read_image_rgb`).
+        see :func:`eigmotion.imaging.still_images.read_image_rgb`).
 
     Returns
     -------
