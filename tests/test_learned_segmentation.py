@@ -249,6 +249,34 @@ def test_fused_masks_follow_the_person_the_background_image_shows():
     assert np.median(both) >= np.median(overlap)
 
 
+@pytest.mark.parametrize("kind", ["25fps", "24fps", "folder", "gif"])
+def test_fused_masks_of_clips_of_every_rate_and_kind(tmp_path, kind):
+    """The fused front end cuts each frame twice (the networks, the subtraction) from one
+    reading: videos at 24 and 25 frames/s whose last frame the 15 frames/s sample leaves
+    out, a folder of images at 30 and a GIF each give one mask per sampled frame, the
+    same as the learned masks' frames, and find the person in nearly all of them."""
+    frames, fps = read_frames(SAMPLES / "walk_3s.mp4")
+    background = SAMPLES / "walk_3s_background.png"
+    if kind in ("25fps", "24fps"):  # 74 and 71 frames: the last is not in the sample
+        rate, n = (25.0, 74) if kind == "25fps" else (24.0, 71)
+        times = np.arange(n) / rate
+        clip = write_video(frames[np.rint(times * fps).astype(int)], tmp_path / "c.mp4", rate)
+    elif kind == "folder":
+        clip = tmp_path / "frames"
+        clip.mkdir()
+        for i, frame in enumerate(frames[:40]):
+            cv2.imwrite(str(clip / f"f{i}.png"), frame[..., ::-1])
+    else:
+        clip = write_video(frames[:40:2], tmp_path / "c.gif", fps / 2 + 5)  # 20 frames/s
+    fused = load_clip_masks(clip, background, QUERY_CONFIG, 15.0, segmenter="fused")
+    learned_only = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
+    assert fused.segmenter == "fused"
+    assert len(fused.masks) == len(fused.frame_indices) == len(learned_only.frame_indices) > 1
+    np.testing.assert_array_equal(fused.frame_indices, learned_only.frame_indices)
+    assert fused.masks.any(axis=(1, 2)).mean() >= 0.9  # (a GIF's palette loses a frame)
+    assert np.all(fused.masks | ~learned_only.masks)  # the fused masks add to the learned
+
+
 def test_a_crop_goes_back_where_it_was_cut():
     """:func:`crop_input` and :func:`crop_probabilities_back` are inverse maps: a
     bright square in a frame, cut out, taken as probabilities and put back on the

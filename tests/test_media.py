@@ -10,6 +10,7 @@ import pytest
 from PIL import Image
 
 from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.imaging import media
 from eigmotion.imaging.media import (
     FrameSampleStream,
     as_rgb_frames,
@@ -64,6 +65,47 @@ def test_frame_sample_stream_hands_over_the_sample_in_chunks(tmp_path, suffix, s
     np.testing.assert_array_equal(np.concatenate(chunks), whole.frames)
     np.testing.assert_array_equal(stream.frame_indices, whole.frame_indices)
     assert (stream.n_frames, stream.clip_fps, stream.fps) == (23, whole.clip_fps, whole.fps)
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+@pytest.mark.parametrize("clip_fps, n_frames", [(25.0, 74), (24.0, 71), (30.0, 23), (25.0, 23)])
+def test_frame_sample_stream_transforms_exactly_the_frames_it_hands_over(
+    tmp_path, suffix, clip_fps, n_frames
+):
+    """The last frame decoded is held back until the clip's length tells whether the
+    sample takes it; a frame left out must not have been given to the transform, which
+    may keep what it sees (the fused front end keeps each frame at its working size)."""
+    path = write_video(_smooth_clip(n_frames=n_frames), tmp_path / f"c{suffix}", fps=clip_fps)
+    seen = []
+
+    def keep(frame):
+        seen.append(frame.copy())
+        return frame[::2, ::2]
+
+    stream = FrameSampleStream(path, 15.0, transform=keep)
+    handed = np.concatenate(list(stream.chunks(8)))
+    whole = read_frame_sample(path, 15.0)
+    assert len(seen) == len(handed) == len(stream.frame_indices)
+    np.testing.assert_array_equal(np.stack(seen), whole.frames)
+    np.testing.assert_array_equal(handed, whole.frames[:, ::2, ::2])
+
+
+def test_a_folder_s_sample_reads_only_its_own_images(tmp_path, monkeypatch):
+    frames = _smooth_clip(n_frames=23)
+    for i, frame in enumerate(frames):
+        Image.fromarray(frame).save(tmp_path / f"f{i}.png")
+    reads = []
+    original = media.read_image_rgb
+    monkeypatch.setattr(media, "read_image_rgb", lambda p: reads.append(p) or original(p))
+    stream = FrameSampleStream(tmp_path, 15.0, transform=lambda f: f[::2])
+    handed = np.concatenate(list(stream.chunks(5)))
+    expected = sample_indices(23, media.DEFAULT_FPS, 15.0)
+    np.testing.assert_array_equal(stream.frame_indices, expected)
+    assert [p.name for p in reads] == [f"f{i}.png" for i in expected]
+    np.testing.assert_array_equal(handed, frames[expected][:, ::2])  # PNG is lossless
+    assert (stream.n_frames, stream.clip_fps, stream.fps) == (23, media.DEFAULT_FPS, 15.0)
+    with pytest.raises(InvalidParameterError, match="fps"):
+        FrameSampleStream(tmp_path, 15.0, fps=-1.0)
 
 
 def test_frame_sample_stream_counts_every_decoded_frame_on_its_bar(tmp_path, monkeypatch):

@@ -106,8 +106,7 @@ def read_frames(
         :data:`~eigmotion.limits.MAX_CLIP_BYTES` (checked as it is decoded).
     """
     path = Path(path)
-    if fps is not None and not (np.isfinite(fps) and fps > 0):
-        raise InvalidParameterError(f"fps must be > 0 frames/s, got {fps!r}")
+    _checked_fps(fps)
     if max_frames is not None and int(max_frames) < 1:
         raise InvalidParameterError(f"max_frames must be >= 1, got {max_frames!r}")
     if not path.exists():
@@ -195,8 +194,8 @@ class FrameSampleStream:
     frames of a query its frame threading costs more time than it saves (a 3 s,
     320×240 clip: about 10 ms on one thread, 17 ms on two).  However the reading of
     :meth:`chunks` ends — the last frame, an error, or the caller closing it early —
-    the decoding thread is stopped and joined before control returns.  A GIF, a folder
-    of images, or a video with ``fps`` given is read whole first.
+    the decoding thread is stopped and joined before control returns.  A GIF or a video
+    with ``fps`` given is read whole first; of a folder of images, the sample's.
 
     Parameters
     ----------
@@ -206,9 +205,10 @@ class FrameSampleStream:
         A bar on stderr of the video's frames decoded, shown once the reading has
         taken more than a second (a long clip).
     transform : callable, optional
-        Applied to each RGB frame (H, W, 3) uint8 taken, as soon as it is decoded (by
-        the reading thread, while the next is decoded): a clip shrunk this way is
-        never held at its full size.
+        Applied to each RGB frame (H, W, 3) uint8 taken, once, in order, as it is
+        handed over, and to no other frame (it may keep what it sees): a clip shrunk
+        this way is never held whole at its full size.  A folder's sample is known from
+        its file count, so only those images are read.
 
     Attributes
     ----------
@@ -247,10 +247,20 @@ class FrameSampleStream:
                 target=self._decode, name="eigmotion-decode", daemon=True
             )
             self._decoder.start()
-        else:
-            self._frames, clip_fps = read_frames(self.path, fps, transform=transform)
-            self._transform = None  # applied as the frames were read
-            self._finish(len(self._frames), clip_fps)
+        elif self.path.is_dir():  # only the images of the sample are read
+            clip_fps = float(_checked_fps(fps) or DEFAULT_FPS)
+
+            def sample(n_files: int) -> np.ndarray:
+                self._finish(n_files, clip_fps)
+                return self.frame_indices
+
+            held = _HeldFrames(self.path, transform)
+            self._frames, _ = _read_folder(self.path, None, held, sample)
+            self._transform = None  # applied as the images were read
+        else:  # read whole, the sample transformed as it is handed over
+            frames, clip_fps = read_frames(self.path, fps)
+            self._finish(len(frames), clip_fps)
+            self._frames = frames[self.frame_indices]
 
     def chunks(self, size: int) -> Iterator[np.ndarray]:
         """The frames, ``size`` at a time (the last chunk may be shorter).
@@ -266,8 +276,8 @@ class FrameSampleStream:
             The video cannot be opened or holds no frame; a frame of another size.
         """
         if self._decoded is None:
-            for start in range(0, len(self.frame_indices), size):
-                chunk = self._frames[self.frame_indices[start : start + size]]
+            for start in range(0, len(self._frames), size):
+                chunk = self._frames[start : start + size]
                 if self._transform is not None:
                     chunk = np.stack([self._transform(frame) for frame in chunk])
                 yield chunk
@@ -286,9 +296,7 @@ class FrameSampleStream:
                         bar = _frame_bar(self._expected_frames)
                 if bar is not None:
                     bar.update(item[0] + 1 - bar.n)
-                if self._transform is not None:
-                    item = (item[0], self._transform(item[1]))
-                held.append(item)
+                held.append(item)  # transformed when handed over: the last may be dropped
                 if len(held) > size:
                     yield self._stacked(held[:size])
                     del held[:size]
@@ -314,7 +322,11 @@ class FrameSampleStream:
             self._decoder.join()
 
     def _stacked(self, frames: list[tuple[int, np.ndarray]]) -> np.ndarray:
-        return _stack([frame for _, frame in frames], self.path)
+        """The frames handed over, each through the transform (once)."""
+        images = [frame for _, frame in frames]
+        if self._transform is not None:
+            images = [self._transform(image) for image in images]
+        return _stack(images, self.path)
 
     def _finish(self, n_frames: int, clip_fps: float) -> None:
         rate = clip_fps if self._sample_fps is None else self._sample_fps
@@ -498,9 +510,21 @@ def _read_gif(path: Path, max_frames: int | None, held: _HeldFrames) -> tuple[np
     return held.stacked(), fps
 
 
+def _checked_fps(fps: float | None) -> float | None:
+    """``fps`` itself; InvalidParameterError unless it is None or a rate > 0."""
+    if fps is not None and not (np.isfinite(fps) and fps > 0):
+        raise InvalidParameterError(f"fps must be > 0 frames/s, got {fps!r}")
+    return fps
+
+
 def _read_folder(
-    folder: Path, max_frames: int | None, held: _HeldFrames
+    folder: Path,
+    max_frames: int | None,
+    held: _HeldFrames,
+    sample: Callable[[int], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, float]:
+    """The folder's images in name order (``sample(n_files)``: the indices of those to
+    read, increasing; every one without it)."""
     files = image_files(folder)
     if not files:
         raise VideoError(
@@ -508,6 +532,8 @@ def _read_folder(
         )
     if max_frames is not None:
         files = files[:max_frames]
+    if sample is not None:
+        files = [files[i] for i in sample(len(files))]
     for file in files:
         held.add(read_image_rgb(file), file.name)
     return held.stacked(), DEFAULT_FPS
