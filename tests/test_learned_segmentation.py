@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from eigmotion.cli.main import main
-from eigmotion.errors import InvalidParameterError
+from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import read_frame_sample, read_frames, write_video
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.database import MotionDatabase
@@ -247,6 +247,22 @@ def test_fused_masks_follow_the_person_the_background_image_shows():
     assert np.all(fused.masks | ~cut.masks)  # nothing learned is lost
     both = np.array([_iou(a, b) for a, b in zip(fused.masks, reference.masks, strict=True)])
     assert np.median(both) >= np.median(overlap)
+
+
+def test_where_the_subtraction_finds_no_one_the_fused_masks_are_the_learned_ones(tmp_path):
+    """An image of the scene taken with the person standing in it: nothing differs from
+    it, so the subtraction finds no one; the networks still do, and their masks stand."""
+    frames, fps = read_frames(SAMPLES / "walk_3s.mp4")
+    still = np.repeat(frames[45:46], 12, axis=0)
+    clip = write_video(still, tmp_path / "still.mp4", fps)
+    scene = tmp_path / "scene.png"
+    cv2.imwrite(str(scene), read_frames(clip)[0][0][..., ::-1])  # the person in it
+    with pytest.raises(VideoError, match="no person found"):
+        load_clip_masks(clip, scene, QUERY_CONFIG, 15.0, segmenter="subtraction")
+    fused = load_clip_masks(clip, scene, QUERY_CONFIG, 15.0, segmenter="fused")
+    learned_only = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
+    assert fused.segmenter == "fused" and fused.masks.any(axis=(1, 2)).all()
+    np.testing.assert_array_equal(fused.masks, learned_only.masks)
 
 
 @pytest.mark.parametrize("kind", ["25fps", "24fps", "folder", "gif"])

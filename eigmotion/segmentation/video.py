@@ -341,7 +341,9 @@ def _learned_clip_masks(
         chunks = (
             np.stack(working[i : i + CHUNK_FRAMES]) for i in range(0, len(working), CHUNK_FRAMES)
         )
-        subtracted = _person_found(segment_chunks(chunks, small, config), config)
+        # The subtraction may find no one (clothes the colour of the scene, a dim room):
+        # the learned masks then stand as they are.
+        subtracted = segment_chunks(chunks, small, config)
         masks, segmenter = fuse_masks(masks, subtracted, config), "fused"
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
