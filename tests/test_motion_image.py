@@ -277,8 +277,12 @@ def test_empty_masks_have_no_person(frame):
 
 
 def test_too_few_frames():
-    with pytest.raises(VideoError, match="step=2 needs at least 3"):
+    with pytest.raises(VideoError, match=r"in 2 of the 2 .* \(step=2\) needs at least 3"):
         motion_image(walk()[:2], MotionImageConfig(step=2))
+    one_person = np.zeros((6, 120, 160), bool)
+    one_person[2] = walk()[0]
+    with pytest.raises(VideoError, match=r"the person is in 1 of the 6 frame"):
+        motion_image(one_person, MotionImageConfig(frame="person"))
 
 
 @pytest.mark.parametrize(

@@ -384,11 +384,13 @@ class ClipMotionImages:
                 f"masks: no person: all {len(frames)} silhouettes are empty; "
                 "expected pixels > 0 where the person is"
             )
+        n_sampled = len(frames)
         frames = self._kept(frames)
         if len(frames) < config.step + 1:
             raise VideoError(
-                f"masks: {len(frames)} usable frame(s) after sampling at "
-                f"{config.sample_fps:g} fps; step={config.step} needs at least {config.step + 1}"
+                f"masks: the person is in {len(frames)} of the {n_sampled} frame(s) sampled "
+                f"at {config.sample_fps:g} fps; a motion image (step={config.step}) needs "
+                f"at least {config.step + 1}"
             )
         rows, cols = self._rows[frames], self._cols[frames]
         size = config.size if size is None else int(size)
