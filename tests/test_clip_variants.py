@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from eigmotion.evaluation.devset import load_dev_clips
-from eigmotion.imaging.media import read_frames
+from eigmotion.imaging.media import read_frames, sample_indices
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.library_views import BuildConfig
 
@@ -68,10 +68,11 @@ def test_each_copy_is_a_clip_of_the_size_and_rate_it_claims(dev_set, tmp_path, n
                 "wide": (h, 2 * round((h * 16 / 9 - w) / 2) + w),
                 "tall": (2 * round((w * 16 / 9 - h) / 2) + h, w)}.get(name, (h, w))  # fmt: skip
     assert frames.shape[1:3] == expected
-    if name == "fps60":
-        assert fps == pytest.approx(60.0) and len(frames) == 2 * len(original) - 1
-    if name == "fps24":
-        assert fps == pytest.approx(24.0) and len(frames) < len(original)
+    if name == "fps60":  # each frame twice
+        assert fps == pytest.approx(60.0) and len(frames) == 2 * len(original)
+    if name == "fps24":  # the frames nearest to each 1/24 s
+        assert fps == pytest.approx(24.0)
+        assert len(frames) == len(sample_indices(len(original), 30.0, 24.0)) < len(original)
     if variant.background is None:  # a moving camera has no one image of the empty scene
         assert not (copy.folder / "background.png").exists()
     else:  # the query refuses an empty-scene image of another size than the frames

@@ -44,7 +44,7 @@ from eigmotion.evaluation.devset import (
     find_dev_set,
     load_dev_clips,
 )
-from eigmotion.imaging.media import read_frames, write_video
+from eigmotion.imaging.media import read_frames, sample_indices, write_video
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.database import MotionDatabase
 
@@ -126,14 +126,6 @@ def _tall(images: np.ndarray) -> np.ndarray:
     )
 
 
-def _resampled(frames: np.ndarray, fps: float, new_fps: float) -> np.ndarray:
-    """The frame nearest to each time ``k / new_fps`` (a camera at another rate; a
-    higher rate repeats frames)."""
-    duration_s = (len(frames) - 1) / fps
-    times_s = np.arange(int(np.floor(duration_s * new_fps + 1e-9)) + 1) / new_fps
-    return frames[np.minimum(np.rint(times_s * fps).astype(int), len(frames) - 1)]
-
-
 def _shaken(frames: np.ndarray, fps: float, rng: np.random.Generator):
     h, w = frames.shape[1:3]
     path = np.cumsum(rng.normal(0.0, SHAKE_STEP_PX * w / 320, (len(frames), 2)), axis=0)
@@ -181,9 +173,10 @@ VARIANTS = {
         Variant("tall", "padded to 9:16 (portrait) with the frame's own edges",
                 lambda f, fps, rng: (_tall(f), fps), lambda i, rng: _tall(i[None])[0]),
         Variant("fps60", "60 frames/s (50 for the real clips): each frame twice",
-                lambda f, fps, rng: (_resampled(f, fps, 2 * fps), 2 * fps), _same),
+                lambda f, fps, rng: (np.repeat(f, 2, axis=0), 2 * fps), _same),
         Variant("fps24", "24 frames/s (20 for the real clips): the nearest frames",
-                lambda f, fps, rng: (_resampled(f, fps, 0.8 * fps), 0.8 * fps), _same),
+                lambda f, fps, rng: (f[sample_indices(len(f), fps, 0.8 * fps)], 0.8 * fps),
+                _same),
         Variant("shake", "a handheld camera: the view wanders up to 4 % of the frame, "
                 "zoomed 8 %", _shaken, None),
         Variant("dark", f"low light: × {DARK_GAIN} and sensor noise σ {DARK_NOISE:g}",
