@@ -174,6 +174,39 @@ def test_the_square_follows_the_whole_person_where_the_first_look_lost_the_legs(
     assert len(bottom) >= 0.8 * len(frames) and np.mean(reached) >= 0.8, bottom
 
 
+@pytest.mark.parametrize("second_look", learned.SECOND_LOOKS)
+def test_where_the_second_look_finds_no_one_the_first_look_s_person_stands(
+    monkeypatch, second_look
+):
+    """A person bent double is lost by both networks on the square around them, though
+    the first look, at the whole frame, found them: that person stands, rather than an
+    empty frame.  Here every square is cut from the frame's empty top-left corner."""
+    if second_look == "pose" and learned.pose_network() is None:
+        pytest.skip("the pose network runs through LiteRT (pip install ai-edge-litert)")
+    sample = read_frame_sample(SAMPLES / "kick.mp4", 15.0)
+    frames = np.stack([learned.stored_frame(f) for f in sample.frames[-6:]])
+    size = learned.working_size(*frames.shape[1:3], QUERY_CONFIG)
+    first = person_probabilities(np.stack([model_input(f) for f in frames]))
+    h, w = size
+    first_look = [
+        person_in_frame(cv2.resize(p, (w, h)) > learned.PERSON_PROBABILITY, QUERY_CONFIG)[0]
+        for p in first
+    ]
+    monkeypatch.setattr(
+        learned,
+        "_person_boxes",
+        lambda probabilities, config, frame_size: [(0.0, 0.0, 8.0, 8.0)] * len(probabilities),
+    )
+    corner = crop_input(frames[0], (4.0, 4.0, learned.CROP_MIN_SIDE_PX))[0]
+    assert (person_probabilities(corner[None])[0] <= learned.PERSON_PROBABILITY).all()
+    masks, _, landmarks, _ = learned.learned_masks_and_landmarks(
+        frames, size, QUERY_CONFIG, second_look
+    )
+    assert all(m.any() for m in first_look)
+    np.testing.assert_array_equal(masks, np.stack(first_look))
+    assert np.isnan(landmarks).all()
+
+
 def test_without_the_pose_network_the_selfie_network_looks_twice(monkeypatch):
     """Where LiteRT is missing there is no pose network: the selfie network looks at
     the square too, no landmarks come back, and asking for the pose network says what

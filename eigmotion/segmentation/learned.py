@@ -20,7 +20,10 @@ second look's network (:data:`SECOND_LOOK`): the pose network when LiteRT is ins
 else the selfie network again.  Its probabilities, put back in place, replace the first
 ones: a small or distant person fills the network's input instead of a few of its
 pixels.  Where the pose network's flag says no person (under
-:data:`PERSON_PROBABILITY`), the selfie network looks at the square instead.  The frames
+:data:`PERSON_PROBABILITY`), the selfie network looks at the square instead, and where
+that finds no one either, the first look's person stands if the network was sure of it
+(:data:`SURE_PROBABILITY`; a person bent double, the head below the hips, is lost by
+both networks on the square).  The frames
 are looked at in order: where the person the pose network found in the frame before was
 taller than the frame's box (:data:`FOLLOW_TALLER`), the square also holds that person —
 the selfie network, made for faces and shoulders, loses the legs of a person in dark
@@ -33,7 +36,9 @@ network (the first pass stands); the pose network always sees a square centred o
 person, black beyond the frame.  Then, as in the classical path, the largest blob and
 the big pieces beside it are the person (:func:`person_in_frame`), and a frame whose
 person covers more than :data:`OUTLIER_AREA` times the clip's median area is left empty:
-the network has taken part of the scene (a rendered floor) for the person there.  The
+the network has taken part of the scene (a rendered floor) for the person there
+(the median over the frames whose second look stands, where there are any: a first
+look sure of a floor in many frames does not set it).  The
 masks go on to the motion image exactly as the classical masks do.
 :func:`learned_masks_and_landmarks` also returns the pose network's landmarks, in the
 frame's pixels and in 3D.
@@ -93,6 +98,11 @@ SECOND_LOOKS = ("pose", "selfie")
 
 #: The one that does when LiteRT is installed (the pose network needs it).
 SECOND_LOOK = "pose"
+
+#: Where neither network finds anyone on the square, the first look's person stands
+#: when the mean of its probabilities over the person is at least this: real people
+#: bent double measured 0.87-0.98, what it took for a person in an empty scene 0.56-0.58.
+SURE_PROBABILITY = 0.8
 
 #: A frame whose person covers more than this many times the clip's median person area
 #: is left empty (the network took part of the scene for the person).
@@ -331,6 +341,7 @@ def learned_masks_and_landmarks(
     masks = np.zeros((len(frames), h, w), bool)
     people = np.zeros(len(frames), np.int64)
     followed = None  # the box of the pose network's person in the frame before
+    looked_again = np.zeros(len(frames), bool)  # frames whose second look stands
     for i, box in enumerate(boxes):
         before, followed, found = followed, None, False
         if box is not None:
@@ -351,16 +362,35 @@ def learned_masks_and_landmarks(
                     landmarks[i, :, :2] = (out.landmarks[:, :2] - 0.5 - shift) / scale + 0.5
                 else:  # the selfie network's second look, or no one the pose network knows
                     second = person_probabilities(view[None])[0]
-                probabilities[i] = crop_probabilities_back(second, matrix, frame_size, size)
+                second = crop_probabilities_back(second, matrix, frame_size, size)
+                if (
+                    found
+                    or (second > PERSON_PROBABILITY).any()
+                    or not _sure(probabilities[i], config)
+                ):
+                    probabilities[i], looked_again[i] = second, True
+                # else the first look's person stands
         masks[i], people[i] = person_in_frame(probabilities[i] > PERSON_PROBABILITY, config)
         people[i] = max(people[i], whole_frame_people[i])
         if found and masks[i].any():
             followed = _mask_box(masks[i], frame_size)
     area = masks.sum(axis=(1, 2))
     if area.any():
-        outliers = area > OUTLIER_AREA * np.median(area[area > 0])
+        # the typical person is the second look's where it has one (a first look that
+        # took the floor for a person in many frames does not set it)
+        typical = (
+            area[(area > 0) & looked_again] if (area[looked_again] > 0).any() else area[area > 0]
+        )
+        outliers = area > OUTLIER_AREA * np.median(typical)
         masks[outliers], people[outliers] = False, 0
     return masks, people, landmarks, world
+
+
+def _sure(probabilities: np.ndarray, config: SilhouetteConfig) -> bool:
+    """Whether the person in a frame's (H', W') probabilities is one the network is
+    sure of: their mean over the person's pixels is at least :data:`SURE_PROBABILITY`."""
+    person, _ = person_in_frame(probabilities > PERSON_PROBABILITY, config)
+    return bool(person.any()) and float(probabilities[person].mean()) >= SURE_PROBABILITY
 
 
 def _person_boxes(
