@@ -15,8 +15,10 @@ from eigmotion.retrieval.motion_image import ClipMotionImages, MotionImageConfig
 from eigmotion.segmentation.cut_bodies import (
     ANKLE_PRESENCE,
     FEET,
+    HIPS,
     continued_below,
     hidden_rows_below,
+    restored_legs,
 )
 from eigmotion.synth.scene import stick_figure_masks
 
@@ -95,6 +97,52 @@ def test_a_wild_guess_adds_at_most_the_frame_s_height():
 def test_wrong_shapes_are_named():
     with pytest.raises(ValueError, match="landmarks"):
         hidden_rows_below(np.zeros((3, 8, 8), bool), np.zeros((2, 33, 4)), 1.0)
+
+
+def standing_landmarks(n_frames: int) -> np.ndarray:
+    """(F, 33, 4): the waving figure's hips on row 65, knees on 88, feet on 110, all at
+    its centre column 80, seen and present."""
+    landmarks = np.full((n_frames, 33, 4), 0.9)
+    landmarks[:, :, 0] = 80.0
+    landmarks[:, :, 1] = 40.0
+    landmarks[:, HIPS, 1] = 65.0
+    landmarks[:, (25, 26), 1] = 88.0
+    landmarks[:, FEET, 1] = FEET_ROW
+    return landmarks
+
+
+def test_legs_lost_in_some_frames_come_back_from_a_frame_where_they_stand_the_same():
+    """Light trousers lost below the thighs in frames 10-14: the legs of the nearest
+    frame whose hips, knees and ankles lie where theirs do come back, the rest of the
+    frame as it was."""
+    whole = waving()
+    masks = whole.copy()
+    masks[10:15, 85:] = False
+    restored = restored_legs(masks, standing_landmarks(len(masks)), 1.0)
+    donors = {10: 9, 11: 9, 12: 9, 13: 15, 14: 15}  # the nearest whole frame (ties: earlier)
+    expected = whole.copy()
+    for frame, donor in donors.items():
+        expected[frame, 65:] = masks[frame, 65:] | whole[donor, 65:]
+    np.testing.assert_array_equal(restored, expected)
+    assert restored[10:15, 85:].sum() > 0.9 * whole[10:15, 85:].sum()
+    assert not masks[10:15, 85:].any()  # the caller's masks are left as they were
+
+
+def test_legs_that_move_are_not_made_up():
+    """Where no whole frame has the legs where the lost frame's landmarks put them (a
+    jump, a kick), the frame stays as it is; so do frames without landmarks, and a clip
+    whose legs are all whole comes back as it is."""
+    masks = waving()
+    masks[10:15, 85:] = False
+    landmarks = standing_landmarks(len(masks))
+    landmarks[10:15, (25, 26, 27, 28), 0] += 20.0  # knees and ankles 20 px aside
+    np.testing.assert_array_equal(restored_legs(masks, landmarks, 1.0), masks)
+    unseen = np.full((len(masks), 33, 4), np.nan)
+    assert restored_legs(masks, unseen, 1.0) is masks
+    whole = waving()
+    assert restored_legs(whole, standing_landmarks(len(whole)), 1.0) is whole
+    with pytest.raises(ValueError, match="landmarks"):
+        restored_legs(masks, landmarks[:3], 1.0)
 
 
 def test_continued_below_copies_the_bottom_row():

@@ -1,4 +1,4 @@
-"""People whose feet are out of the picture: how much of the body lies below the frame.
+"""People whose legs the silhouettes leave out: below the frame, or lost in some frames.
 
 Real footage often frames a person from the head down to the knees or the shins: the
 camera is close, or tilted up.  The silhouette then ends at the frame's bottom edge,
@@ -18,8 +18,12 @@ many rows (the legs go on straight down, as the bottom row shows them).  Without
 pose network's landmarks (no LiteRT, the selfie network's second look, the classical
 front end) nothing is estimated and nothing changes.
 
+Legs can also be lost inside the picture: light trousers against a light wall, cut out
+in some frames and not in others.  :func:`restored_legs` gives such frames the legs of
+the nearest frame whose hips, knees and ankles stand where theirs do.
+
 Measured on the development set's real clips (64 × 64, people cut off at the shins or
-the knees in half of them; ``docs/accuracy.md``).
+the knees in half of them; ``docs/accuracy.md``, ``docs/segmentation.md``).
 """
 
 from __future__ import annotations
@@ -111,3 +115,75 @@ def continued_below(masks: np.ndarray, rows: int) -> np.ndarray:
     if rows <= 0:
         return masks
     return np.concatenate([masks, np.repeat(masks[:, -1:, :], rows, axis=1)], axis=1)
+
+
+#: The hips, knees and ankles: where the legs stand.
+LEGS = (23, 24, 25, 26, 27, 28)
+HIPS = (23, 24)
+
+#: A frame has lost its legs when its silhouette ends above the lowest landmark of the
+#: feet (or the frame's bottom edge, if higher) by more than this share of the length
+#: from the hips down to there ...
+LOST_LEG_SHARE = 0.25
+
+#: ... and it takes them from the nearest frame in time that has not, whose hips, knees
+#: and ankles lie within this share of that length of its own (the mean distance).
+SAME_LEGS_SHARE = 0.2
+
+
+def restored_legs(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: float) -> np.ndarray:
+    """The silhouettes with legs the segmentation lost taken from a frame where the
+    legs stand the same.
+
+    A network that cuts people out loses light trousers against a light wall in some
+    frames and not in others: the silhouette then ends at the thighs, and the person
+    seems to rise and fall.  The pose network's landmarks still place the hips, knees
+    and ankles there; where the silhouette ends well above them
+    (:data:`LOST_LEG_SHARE`), the silhouette below the hips is joined with that of the
+    nearest frame whose legs are whole and stand where these do
+    (:data:`SAME_LEGS_SHARE`).  A frame without such a frame stays as it is: legs that
+    move (a jump, a kick) are not made up.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+        The person's silhouette per frame.
+    landmarks : (F, 33, 4) float
+        The pose network's landmarks per frame (as :func:`hidden_rows_below`).
+    landmark_scale : float
+        Mask pixels per landmark pixel.
+
+    Returns
+    -------
+    (F, H, W) bool
+        ``masks`` itself when no frame is restored, else a copy.
+    """
+    masks = np.asarray(masks, dtype=bool)
+    landmarks = np.asarray(landmarks, dtype=np.float64)
+    if masks.ndim != 3 or landmarks.shape != (len(masks), 33, 4):
+        raise ValueError(
+            f"masks (F, H, W) and landmarks (F, 33, 4) expected, got {masks.shape} and "
+            f"{landmarks.shape}"
+        )
+    height = masks.shape[1]
+    points = landmarks[:, :, :2] * landmark_scale
+    feet = np.minimum(np.max(points[:, FEET, 1], axis=1), height)
+    hips = np.mean(points[:, HIPS, 1], axis=1)
+    length = feet - hips
+    rows = masks.any(axis=2)
+    bottom = np.where(rows.any(axis=1), height - np.argmax(rows[:, ::-1], axis=1), 0)
+    known = np.isfinite(points[:, LEGS + FEET]).all(axis=(1, 2)) & rows.any(axis=1)
+    known &= length > 0
+    lost = known & (feet - bottom > LOST_LEG_SHARE * length)
+    whole = np.flatnonzero(known & ~lost)
+    if not lost.any() or not whole.size:
+        return masks
+    out = masks.copy()
+    for i in np.flatnonzero(lost):
+        apart = np.linalg.norm(points[whole][:, LEGS] - points[i, LEGS], axis=2).mean(axis=1)
+        same = whole[apart <= SAME_LEGS_SHARE * length[i]]
+        if same.size:
+            donor = same[np.argmin(np.abs(same - i))]
+            cut = int(np.clip(np.floor(hips[i]), 0, height))
+            out[i, cut:] |= masks[donor, cut:]
+    return out

@@ -30,7 +30,7 @@ from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
-from eigmotion.segmentation.cut_bodies import hidden_rows_below
+from eigmotion.segmentation.cut_bodies import hidden_rows_below, restored_legs
 from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_tables
 from eigmotion.segmentation.fused import fuse_masks
 from eigmotion.segmentation.learned import (
@@ -329,7 +329,9 @@ def _learned_clip_masks(
     masks, people, landmarks, world = learned_masks_and_landmarks(
         inputs, working_size(*sizes[0], config), config
     )
-    hidden_below = hidden_rows_below(masks, landmarks, masks.shape[1] / inputs.shape[1])
+    landmark_scale = masks.shape[1] / inputs.shape[1]
+    masks = restored_legs(masks, landmarks, landmark_scale)
+    hidden_below = hidden_rows_below(masks, landmarks, landmark_scale)
     if not masks.any():
         raise VideoError(
             f"no person found in {len(masks)} frame(s): the person segmenter found no one "
