@@ -53,6 +53,19 @@ ANKLE_PRESENCE = 0.5
 MAX_HIDDEN_SHARE = 1.0
 
 
+def _checked(masks, landmarks) -> tuple[np.ndarray, np.ndarray]:
+    """``masks`` as (F, H, W) bool and ``landmarks`` as (F, 33, 4) float64, or a
+    ValueError naming both shapes."""
+    masks = np.asarray(masks, dtype=bool)
+    landmarks = np.asarray(landmarks, dtype=np.float64)
+    if masks.ndim != 3 or landmarks.shape != (len(masks), 33, 4):
+        raise ValueError(
+            f"masks (F, H, W) and landmarks (F, 33, 4) expected, got {masks.shape} and "
+            f"{landmarks.shape}"
+        )
+    return masks, landmarks
+
+
 def hidden_rows_below(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: float) -> int:
     """Rows of the person's body below the frame's bottom edge, at the masks' scale.
 
@@ -75,13 +88,7 @@ def hidden_rows_below(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: 
         lowest landmark of the feet lies, in mask rows (at most
         :data:`MAX_HIDDEN_SHARE` × H).
     """
-    masks = np.asarray(masks, dtype=bool)
-    landmarks = np.asarray(landmarks, dtype=np.float64)
-    if masks.ndim != 3 or landmarks.shape != (len(masks), 33, 4):
-        raise ValueError(
-            f"masks (F, H, W) and landmarks (F, 33, 4) expected, got {masks.shape} and "
-            f"{landmarks.shape}"
-        )
+    masks, landmarks = _checked(masks, landmarks)
     height = masks.shape[1]
     occupied = masks.any(axis=(1, 2))
     touching = masks[:, -1, :].sum(axis=1) >= EDGE_PX
@@ -158,13 +165,7 @@ def restored_legs(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: floa
     (F, H, W) bool
         ``masks`` itself when no frame is restored, else a copy.
     """
-    masks = np.asarray(masks, dtype=bool)
-    landmarks = np.asarray(landmarks, dtype=np.float64)
-    if masks.ndim != 3 or landmarks.shape != (len(masks), 33, 4):
-        raise ValueError(
-            f"masks (F, H, W) and landmarks (F, 33, 4) expected, got {masks.shape} and "
-            f"{landmarks.shape}"
-        )
+    masks, landmarks = _checked(masks, landmarks)
     height = masks.shape[1]
     points = landmarks[:, :, :2] * landmark_scale
     feet = np.minimum(np.max(points[:, FEET, 1], axis=1), height)
