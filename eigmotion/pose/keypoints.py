@@ -27,7 +27,6 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +40,7 @@ from eigmotion.segmentation.learned import (
     crop_input,
     stored_frame,
 )
-from eigmotion.segmentation.networks import N_POSE_LANDMARKS, POSE_PATH, litert_interpreter
+from eigmotion.segmentation.networks import N_POSE_LANDMARKS, pose_network
 from eigmotion.segmentation.video import ClipMasks
 
 #: Development-set limb joint -> the pose network's landmark index (MediaPipe's order;
@@ -71,11 +70,6 @@ CUES = ("auto", "silhouette", "world", "keypoints")
 
 #: The cues that run the pose network on the clip's frames.
 NETWORK_CUES = ("world", "keypoints")
-
-#: Landmarks of all 39 points, 5 numbers each (x, y, z, visibility, presence logits).
-_LANDMARK_VALUES = 5 * (N_POSE_LANDMARKS + 6)
-#: World landmarks of all 39 points, 3 numbers each (metres).
-_WORLD_VALUES = 3 * (N_POSE_LANDMARKS + 6)
 
 
 @dataclass(frozen=True)
@@ -113,32 +107,7 @@ class ClipKeypoints:
 
 def keypoints_available() -> bool:
     """Whether the pose network can run here (LiteRT installed)."""
-    return _interpreter() is not None
-
-
-@cache
-def _interpreter():
-    """The pose network's LiteRT interpreter, tensors allocated (on the threads
-    :func:`~eigmotion.segmentation.networks.set_network_threads` gives); ``None``
-    without LiteRT."""
-    return litert_interpreter(POSE_PATH)
-
-
-def _run(interpreter, square: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """(39, 5) raw landmarks (square pixels, logits), (39, 3) world metres, person
-    probability, for one (256, 256, 3) uint8 square."""
-    outputs = {int(np.prod(d["shape"][1:])): d["index"] for d in interpreter.get_output_details()}
-    source = interpreter.get_input_details()[0]["index"]
-    interpreter.set_tensor(source, (square.astype(np.float32) * np.float32(1 / 255.0))[None])
-    interpreter.invoke()
-    raw = interpreter.get_tensor(outputs[_LANDMARK_VALUES]).reshape(-1, 5)
-    world = interpreter.get_tensor(outputs[_WORLD_VALUES]).reshape(-1, 3)
-    flag = float(interpreter.get_tensor(outputs[1]).ravel()[0])
-    return raw, world, flag
-
-
-def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-np.clip(x, -60.0, 60.0)))
+    return pose_network() is not None
 
 
 def person_squares(masks: np.ndarray, frame_size: tuple[int, int]) -> np.ndarray:
@@ -214,8 +183,8 @@ def frame_keypoints(
     InvalidParameterError
         LiteRT not installed, frame and mask counts differ, or no silhouette.
     """
-    interpreter = _interpreter()
-    if interpreter is None:
+    pose = pose_network()
+    if pose is None:
         raise InvalidParameterError(
             "the pose network runs through LiteRT only: pip install ai-edge-litert"
         )
@@ -243,16 +212,16 @@ def frame_keypoints(
         if bar is not None:
             bar.update(1)
         square, matrix = crop_input(frames[i], tuple(squares[i]))
-        raw, world_i, flag = _run(interpreter, square)
-        if flag < PERSON_PROBABILITY:
+        out = pose(square.astype(np.float32) * np.float32(1.0 / 255.0))
+        if out.person < PERSON_PROBABILITY:
             continue
         found[i] = True
-        xy = raw[:N_POSE_LANDMARKS, :2].astype(np.float64)
+        xy = out.landmarks[:, :2].astype(np.float64)
         # the square's pixels (continuous) back to the frame's, then the masks'
         frame_xy = (xy - 0.5 - matrix[:, 2]) / np.diag(matrix) + 0.5
         image[i] = frame_xy * to_mask
-        visibility[i] = _sigmoid(raw[:N_POSE_LANDMARKS, 3]) * _sigmoid(raw[:N_POSE_LANDMARKS, 4])
-        world[i] = world_i[:N_POSE_LANDMARKS]
+        visibility[i] = out.landmarks[:, 2].astype(np.float64) * out.landmarks[:, 3]
+        world[i] = out.world
     if bar is not None:
         bar.close()
     seconds = (time.perf_counter() - started) / max(len(runs), 1)
