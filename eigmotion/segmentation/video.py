@@ -364,26 +364,9 @@ def _in_frame_pixels(landmarks: np.ndarray, frame_size, stored_size) -> np.ndarr
 
 
 def read_background(path: str | Path) -> np.ndarray:
-    """Read an image of the empty scene.
-
-    Parameters
-    ----------
-    path : str or Path
-        Any still image Pillow reads (``.png``, ``.jpg``, ``.bmp``, ``.tif``, ``.webp`` …;
-        see :func:`eigmotion.imaging.still_images.read_image_rgb`).
-
-    Returns
-    -------
-    (H, W, 3) uint8
-        RGB.
-
-    Raises
-    ------
-    VideoError
-        Missing or not a readable image.
-    InvalidParameterError
-        An image beyond :data:`~eigmotion.limits.MAX_FRAME_PIXELS`.
-    """
+    """An image of the empty scene, (H, W, 3) uint8 RGB, as
+    :func:`~eigmotion.imaging.still_images.read_image_rgb` reads it (the same errors),
+    and a VideoError naming it as the background image when the file is missing."""
     path = Path(path)
     if not path.is_file():
         raise VideoError(f"{path}: background image not found")
