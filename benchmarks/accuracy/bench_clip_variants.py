@@ -126,6 +126,18 @@ def _tall(images: np.ndarray) -> np.ndarray:
     )
 
 
+def _far(images: np.ndarray) -> np.ndarray:
+    """The frames twice the size, padded on every side with their own edges to four
+    times the size (a wide shot in high definition: the person fills a quarter of the
+    height, drawn with as many pixels as in the twice-as-large copy)."""
+    large = _resize(images, 2.0)
+    h, w = large.shape[1:3]
+    top, side = h // 2, w // 2
+    return np.stack(
+        [cv2.copyMakeBorder(i, top, top, side, side, cv2.BORDER_REPLICATE) for i in large]
+    )
+
+
 def _shaken(frames: np.ndarray, fps: float, rng: np.random.Generator):
     h, w = frames.shape[1:3]
     path = np.cumsum(rng.normal(0.0, SHAKE_STEP_PX * w / 320, (len(frames), 2)), axis=0)
@@ -166,6 +178,9 @@ VARIANTS = {
         Variant("hd", "4 × the size (1280 × 960; 256 × 256 for the real clips)",
                 *_scaled(4.0)),
         Variant("x2", "2 × the size (640 × 480)", *_scaled(2.0)),
+        Variant("far", "a wide shot in high definition: 2 × the size, padded on every side "
+                "to 4 × (1280 × 960): the person a quarter of the height",
+                lambda f, fps, rng: (_far(f), fps), lambda i, rng: _far(i[None])[0]),
         Variant("half", "half the size: a person 35–50 px tall (32 px for the real clips)",
                 *_scaled(0.5)),
         Variant("wide", "padded to 16:9 with the frame's own edges",

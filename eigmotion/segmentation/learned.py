@@ -13,7 +13,11 @@ Each frame is looked at twice.  First the selfie network sees it whole, resized 
 input (no cropping); its probabilities, resized back to the working size of the
 classical path
 (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
-:data:`PERSON_PROBABILITY`, give a box around the person.  Then a square around that box
+:data:`PERSON_PROBABILITY`, give a box around the person.  Where it finds no one and
+there is no person of the frame before to follow (below), it looks again at
+overlapping squares of the frame (:data:`TILE_SHARE`): a small person in a wide,
+high-definition frame is a few pixels of the network's input when the frame is seen
+whole.  Then a square around that box
 (:data:`CROP_MARGIN` times its longer side, at least :data:`CROP_MIN_SIDE_PX` pixels so
 the network never sees the frame enlarged more than twice) is cut out and given to the
 second look's network (:data:`SECOND_LOOK`): the pose network when LiteRT is installed,
@@ -24,7 +28,9 @@ pixels.  Where the pose network's flag says no person (under
 that finds no one either, the first look's person stands if the network was sure of it
 (:data:`SURE_PROBABILITY`; a person bent double, the head below the hips, is lost by
 both networks on the square).  The frames
-are looked at in order: where the person the pose network found in the frame before was
+are looked at in order: where the look at the whole frame found no one and the pose
+network found the person in the frame before, the square is that person's; where the
+person the pose network found in the frame before was
 taller than the frame's box (:data:`FOLLOW_TALLER`), the square also holds that person —
 the selfie network, made for faces and shoulders, loses the legs of a person in dark
 trousers who raises the arms, and a square around the upper body alone would cut the
@@ -50,6 +56,7 @@ side by side is answered from the largest, and the answer carries a warning.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import cv2
@@ -112,6 +119,13 @@ OUTLIER_AREA = 3.0
 #: when that person was more than this many times as tall as the frame's own box (the
 #: first look lost part of the person; the module's description).
 FOLLOW_TALLER = 1.15
+
+#: Where the first look at the whole frame finds no one (and there is no person of the
+#: frame before to follow), it looks again at overlapping squares of this share of the
+#: frame's longer side (at least :data:`CROP_MIN_SIDE_PX`), half a square apart: a
+#: person a tenth of a high-definition frame's height is a few pixels of the network's
+#: input when the frame is seen whole.
+TILE_SHARE = 0.5
 
 #: Frames are kept for the network at most this many pixels on their longer side.
 STORE_MAX_SIDE_PX = 640
@@ -334,6 +348,7 @@ def learned_masks_and_landmarks(
     probabilities = np.stack([cv2.resize(p, (w, h), interpolation=cv2.INTER_LINEAR) for p in first])
     # people are counted on the whole frame too: a square may leave out a person beside
     whole_frame_people = [person_in_frame(p > PERSON_PROBABILITY, config)[1] for p in probabilities]
+    seen = np.array(whole_frame_people) > 0  # the whole frame shows someone
     boxes = _person_boxes(probabilities, config, frame_size)
     landmarks = np.full((len(frames), N_POSE_LANDMARKS, 4), np.nan, np.float32)
     world = np.full((len(frames), N_POSE_LANDMARKS, 3), np.nan, np.float32)
@@ -344,6 +359,12 @@ def learned_masks_and_landmarks(
     looked_again = np.zeros(len(frames), bool)  # frames whose second look stands
     for i, box in enumerate(boxes):
         before, followed, found = followed, None, False
+        if not seen[i]:  # the whole frame shows no one
+            if before is not None:  # follow the person of the frame before
+                box = before
+            elif (tiled := _tiles_look(frames[i], size)) is not None:
+                np.maximum(probabilities[i], tiled, out=probabilities[i])
+                box = _own_box(probabilities[i], config, frame_size) or box
         if box is not None:
             if before is not None and before[3] - before[1] > FOLLOW_TALLER * (box[3] - box[1]):
                 box = _union(box, before)  # the first look lost part of the person
@@ -386,6 +407,27 @@ def learned_masks_and_landmarks(
     return masks, people, landmarks, world
 
 
+def _tiles_look(frame: np.ndarray, size: tuple[int, int]) -> np.ndarray | None:
+    """The selfie network's looks at overlapping squares of one frame (H, W, 3)
+    (:data:`TILE_SHARE`), the most of their probabilities at the working ``size``
+    (H', W') float32; None where one square would cover the frame."""
+    frame_size = frame.shape[:2]
+    side = max(TILE_SHARE * max(frame_size), CROP_MIN_SIDE_PX)
+    if side >= max(frame_size):
+        return None
+    out = np.zeros(size, np.float32)
+    for cy, cx in itertools.product(*(_tile_centres(extent, side) for extent in frame_size)):
+        view, matrix = crop_input(frame, (cx, cy, side))
+        tile = person_probabilities(view[None])[0]
+        np.maximum(out, crop_probabilities_back(tile, matrix, frame_size, size), out=out)
+    return out
+
+
+def _tile_centres(extent: int, side: float) -> np.ndarray:
+    """Centres, pixels, of squares of ``side`` half a square apart along ``extent``."""
+    return np.linspace(side / 2, extent - side / 2, max(1, math.ceil(2 * extent / side - 1)))
+
+
 def _sure(probabilities: np.ndarray, config: SilhouetteConfig) -> bool:
     """Whether the person in a frame's (H', W') probabilities is one the network is
     sure of: their mean over the person's pixels is at least :data:`SURE_PROBABILITY`."""
@@ -400,18 +442,11 @@ def _person_boxes(
     person of each frame of the first pass's (F, H', W') probabilities; a frame without
     one takes its neighbours' (the module's description); all None when no frame has
     one."""
-    h, w = probabilities.shape[1:]
-    ay, ax = frame_size[0] / h, frame_size[1] / w
     own = np.full((len(probabilities), 4), np.nan)
     for i, p in enumerate(probabilities):
-        person, _ = person_in_frame(p > PERSON_PROBABILITY, config)
-        if not person.any():
-            person = _largest_blob(p > PERSON_PROBABILITY)
-        if not person.any():
-            person = _largest_blob(p > SEED_PROBABILITY)
-        if person.any():
-            ys, xs = np.nonzero(person)
-            own[i] = xs.min() * ax, ys.min() * ay, (xs.max() + 1) * ax, (ys.max() + 1) * ay
+        box = _own_box(p, config, frame_size)
+        if box is not None:
+            own[i] = box
     found = np.flatnonzero(~np.isnan(own[:, 0]))
     boxes: list[tuple[float, float, float, float] | None] = []
     for i in range(len(own)):
@@ -427,6 +462,23 @@ def _person_boxes(
             box = np.median(own[near], axis=0)
         boxes.append(tuple(float(v) for v in box))
     return boxes
+
+
+def _own_box(
+    probabilities: np.ndarray, config: SilhouetteConfig, frame_size: tuple[int, int]
+) -> tuple[float, float, float, float] | None:
+    """The box (x0, y0, x1, y1), pixels of a frame of ``frame_size`` (H, W), around the
+    person of one frame's (H', W') first-look probabilities: the person above
+    :data:`PERSON_PROBABILITY`, else its largest blob, else the largest blob above
+    :data:`SEED_PROBABILITY`; None where there is none."""
+    person, _ = person_in_frame(probabilities > PERSON_PROBABILITY, config)
+    if not person.any():
+        person = _largest_blob(probabilities > PERSON_PROBABILITY)
+    if not person.any():
+        person = _largest_blob(probabilities > SEED_PROBABILITY)
+    if not person.any():
+        return None
+    return _mask_box(person, frame_size)
 
 
 def _union(
