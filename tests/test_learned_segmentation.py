@@ -144,6 +144,27 @@ def test_a_small_person_in_a_wide_high_definition_shot_is_found(tmp_path):
     assert np.count_nonzero(cut.masks & ~fused.masks) <= 0.01 * np.count_nonzero(cut.masks)
 
 
+def test_the_look_at_squares_puts_the_person_back_in_place_and_skips_small_frames():
+    """Frames of 128 pixels or less (the 64-pixel real clips) get no squares: one would
+    cover them.  A larger frame's squares are half its longer side, half a square
+    apart, and their probabilities go back where they were cut: the walk sample's
+    first frame in the bottom-right quarter of a frame twice as large (its own edges
+    around it) shows the avatar where the sample's masks have it."""
+    assert learned._tiles_look(np.zeros((64, 64, 3), np.uint8), (64, 64)) is None
+    assert learned._tiles_look(np.zeros((96, 128, 3), np.uint8), (96, 128)) is None
+    centres = learned._tile_centres(480, 320.0)
+    assert centres[0] == 160 and centres[-1] == 320 and len(centres) == 2
+    frame = read_frame_sample(SAMPLES / "walk_3s.mp4", 15.0).frames[0]
+    own = _cut_and_reference("walk_3s")[0].masks[0]  # (120, 160): the frame halved
+    wide = cv2.copyMakeBorder(frame, 240, 0, 320, 0, cv2.BORDER_REPLICATE)
+    probabilities = learned._tiles_look(wide, (120, 160))  # the wide frame quartered
+    assert probabilities.shape == (120, 160)
+    person, _ = person_in_frame(probabilities > learned.PERSON_PROBABILITY, QUERY_CONFIG)
+    there = np.zeros_like(person)
+    there[60:, 80:] = cv2.resize(own.view(np.uint8), (80, 60), interpolation=cv2.INTER_AREA)
+    assert _iou(person, there) >= 0.65, _iou(person, there)
+
+
 @pytest.mark.skipif(
     importlib.util.find_spec("ai_edge_litert") is None,
     reason="the pose network runs through LiteRT (pip install ai-edge-litert)",
