@@ -128,8 +128,8 @@ def _tall(images: np.ndarray) -> np.ndarray:
 
 def _far(images: np.ndarray) -> np.ndarray:
     """The frames twice the size, padded on every side with their own edges to four
-    times the size (a wide shot in high definition: the person fills a quarter of the
-    height, drawn with as many pixels as in the twice-as-large copy)."""
+    times the size (a wide shot in high definition: the person fills a fifth of the
+    height or less, drawn with as many pixels as in the twice-as-large copy)."""
     large = _resize(images, 2.0)
     h, w = large.shape[1:3]
     top, side = h // 2, w // 2
@@ -179,7 +179,7 @@ VARIANTS = {
                 *_scaled(4.0)),
         Variant("x2", "2 × the size (640 × 480)", *_scaled(2.0)),
         Variant("far", "a wide shot in high definition: 2 × the size, padded on every side "
-                "to 4 × (1280 × 960): the person a quarter of the height",
+                "to 4 × (1280 × 960): the person a fifth of the height or less",
                 lambda f, fps, rng: (_far(f), fps), lambda i, rng: _far(i[None])[0]),
         Variant("half", "half the size: a person 35–50 px tall (32 px for the real clips)",
                 *_scaled(0.5)),
