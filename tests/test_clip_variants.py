@@ -9,6 +9,7 @@ import shutil
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -50,7 +51,7 @@ def dev_set(tmp_path_factory):
 
 
 @pytest.mark.parametrize(
-    "name", ["hd", "x2", "half", "wide", "tall", "fps60", "fps24", "shake", "dark", "jpeg"]
+    "name", ["hd", "x2", "far", "half", "wide", "tall", "fps60", "fps24", "shake", "dark", "jpeg"]
 )
 def test_each_copy_is_a_clip_of_the_size_and_rate_it_claims(dev_set, tmp_path, name):
     bench = _bench()
@@ -64,10 +65,21 @@ def test_each_copy_is_a_clip_of_the_size_and_rate_it_claims(dev_set, tmp_path, n
     assert fps == pytest.approx(meta["fps"]) == pytest.approx(copy.fps)
     assert len(frames) == meta["frames"]
     h, w = original.shape[1:3]
-    expected = {"hd": (4 * h, 4 * w), "x2": (2 * h, 2 * w), "half": (h // 2, w // 2),
+    expected = {"hd": (4 * h, 4 * w), "x2": (2 * h, 2 * w), "far": (4 * h, 4 * w),
+                "half": (h // 2, w // 2),
                 "wide": (h, 2 * round((h * 16 / 9 - w) / 2) + w),
                 "tall": (2 * round((w * 16 / 9 - h) / 2) + h, w)}.get(name, (h, w))  # fmt: skip
     assert frames.shape[1:3] == expected
+    if name == "far":  # the twice-as-large clip in the middle, the edges around it
+        middle = frames[0, h : 3 * h, w : 3 * w].astype(np.int16)
+        large = cv2.resize(original[0], (2 * w, 2 * h), interpolation=cv2.INTER_CUBIC)
+        assert np.abs(middle - large).mean() < 8  # (the copy is written as a video)
+        assert (
+            np.abs(
+                frames[0, :h, w : 3 * w].astype(np.int16) - frames[0, h : h + 1, w : 3 * w]
+            ).mean()
+            < 8
+        )
     if name == "fps60":  # each frame twice
         assert fps == pytest.approx(60.0) and len(frames) == 2 * len(original)
     if name == "fps24":  # the frames nearest to each 1/24 s
