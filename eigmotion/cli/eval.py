@@ -13,7 +13,9 @@ Examples::
 Every clip is answered in this process exactly as ``eigmotion query CLIP --json``
 answers it (:mod:`eigmotion.evaluation.devset`), in each mode asked: ``bg`` (the video
 with its empty-scene image), ``nobg`` (the video alone), ``masks`` (the true masks as
-an ``.npz``: the representation's ceiling), ``real`` (the real clips).  The tables
+an ``.npz``: the representation's ceiling), ``masks_small`` (the same shrunk to the size
+a video query cuts its silhouettes at: a video query's ceiling), ``real`` (the real
+clips).  The tables
 (:mod:`eigmotion.evaluation.devset_report`) are printed as Markdown; ``--json-out``
 keeps every clip's answer and the summaries.
 
@@ -82,7 +84,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=MODES,
         default=list(MODES),
         help="recognition: bg: video and empty-scene image; nobg: video alone; masks: true "
-        "masks; real: real clips (default all four)",
+        "masks; masks_small: true masks at the video query's working size; real: real clips "
+        "(default all five)",
     )
     parser.add_argument(
         "--segmenter",

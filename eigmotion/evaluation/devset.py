@@ -7,7 +7,7 @@ empty scene, ``meta.json`` with the ``label``, ``masks.npz`` with the true ``mas
 ``unknown`` for an action outside the label set).  Nothing here copies them anywhere:
 the folder is read where it lies.
 
-Each clip is asked in one of four :data:`MODES`, every time through
+Each clip is asked in one of five :data:`MODES`, every time through
 :meth:`~eigmotion.retrieval.database.MotionDatabase.query_clip`, with the arguments
 ``eigmotion query CLIP --json`` passes it (:func:`answer_clip`):
 
@@ -15,6 +15,9 @@ Each clip is asked in one of four :data:`MODES`, every time through
 * ``nobg``: the retrieval clip's video alone;
 * ``masks``: the true masks as an ``.npz`` query (``masks`` and ``fps``, written as
   ``shared/eval/score.py`` writes them): the ceiling of the representation;
+* ``masks_small``: the same masks shrunk to the size a video query cuts its
+  silhouettes at (:data:`~eigmotion.retrieval.database.QUERY_SILHOUETTE_SIDE_PX` on the
+  longer side, :func:`true_masks_at`): the ceiling of a video query, like with like;
 * ``real``: the real clips, no background.
 
 For ``bg`` and ``nobg`` the query's own silhouettes are compared with the true masks
@@ -37,21 +40,27 @@ from tqdm import tqdm
 from eigmotion.errors import EigmotionError, InvalidParameterError
 from eigmotion.evaluation.measures import iou
 from eigmotion.evaluation.query_clips import TOP_K
-from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX, MotionDatabase
+from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.learned import working_size
 
 #: The ways a clip is asked, in the order they are run and printed.
-MODES = ("bg", "nobg", "masks", "real")
+MODES = ("bg", "nobg", "masks", "masks_small", "real")
 
 #: What each mode asks, as the tables title it.
 MODE_TITLES = {
     "bg": "retrieval clips, video with its empty-scene image",
     "nobg": "retrieval clips, video alone",
     "masks": "retrieval clips, true masks (.npz)",
+    "masks_small": "retrieval clips, true masks at the video query's working size (.npz)",
     "real": "real clips, video alone",
 }
 
 #: The folder of the clips each mode asks.
-MODE_KIND = {"bg": "retrieval", "nobg": "retrieval", "masks": "retrieval", "real": "real"}
+MODE_KIND = {
+    "bg": "retrieval", "nobg": "retrieval", "masks": "retrieval", "masks_small": "retrieval",
+    "real": "real",
+}  # fmt: skip
 
 #: The real clips' label for an action outside the label set (jumping jacks).
 UNKNOWN_LABEL = "unknown"
@@ -319,11 +328,16 @@ def answer_clip(
     path, background = clip.video, None
     if mode == "bg" and segmenter != "learned":
         background = clip.background
-    elif mode == "masks":
+    elif mode in ("masks", "masks_small"):
         if scratch is None:
-            raise InvalidParameterError("the masks mode needs a scratch folder")
+            raise InvalidParameterError(f"the {mode} mode needs a scratch folder")
         path = Path(scratch) / f"{clip.clip_id}.npz"
-        np.savez_compressed(path, masks=clip.true_masks(), fps=np.float64(clip.fps))
+        masks = clip.true_masks()
+        if mode == "masks_small":
+            query_config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+            small = working_size(*masks.shape[1:], query_config)
+            masks = true_masks_at(masks, np.arange(len(masks)), small)
+        np.savez_compressed(path, masks=masks, fps=np.float64(clip.fps))
     t0 = time.perf_counter()
     try:
         result, cut = db.query_clip(path, background, TOP_K, segmenter=segmenter)
