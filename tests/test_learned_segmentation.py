@@ -296,21 +296,22 @@ def test_without_the_pose_network_the_selfie_network_looks_twice(monkeypatch):
 
 
 def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
-    """A learned mask that rounds off an arm: the subtraction's arm is added where it
-    lies within two pixels of the mask, not beyond; its shadow away from the person is
-    not added, and a frame where the network found no one stays empty whatever the
+    """A learned mask that rounds off an arm, where the subtraction loses the legs (the
+    trousers the colour of the scene): the subtraction's arm is added where it lies
+    within two pixels of the mask, not beyond; its shadow away from the person is not
+    added, and a frame where the network found no one stays empty whatever the
     subtraction found."""
     config = SilhouetteConfig()
     learned_mask = np.zeros((2, 120, 160), bool)
     learned_mask[0, 30:100, 60:85] = True  # the body
     subtracted = np.zeros_like(learned_mask)
-    subtracted[0, 30:100, 61:84] = True  # the body, a pixel thinner
+    subtracted[0, 30:70, 61:84] = True  # the upper body, a pixel thinner: legs lost
     subtracted[0, 40:44, 84:110] = True  # an arm the network rounded off
     subtracted[0, 100:106, 100:150] = True  # a shadow on the floor, away from it
     subtracted[1, 30:100, 60:85] = True  # something moved where the network saw no one
     fused = fuse_masks(learned_mask, subtracted, config)
     assert fused[0, 30:100, 60:85].all() and fused[0, 40:44, 84:87].all()
-    assert not fused[0, :, 88:].any()
+    assert not fused[0, :, 88:].any() and not fused[0, 100:, :].any()
     assert not fused[0, 100:106, 100:150].any()
     assert not fused[1].any()
     with pytest.raises(InvalidParameterError, match="one shape"):
@@ -318,22 +319,28 @@ def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
 
 
 def test_where_the_network_lost_part_of_the_person_the_subtraction_s_pieces_come_whole():
-    """Three frames of one person; in the last the network found only the upper body
+    """Four frames of one person. In the third the network found only the upper body
     (colours like the scene's): there the subtraction's piece that touches it comes
-    whole (the legs), a piece apart from it (a shadow) does not, and the other frames
-    keep the two-pixel rule."""
+    whole (the legs and an arm). In the first two the subtraction sees the body the
+    network sees (covers 80 % of it or more): the arm the network lost comes whole, a
+    line a pixel thick that touches the head (the seam of a wall) does not. In the
+    last it covers less (the legs lost to it): the two-pixel rule. A piece apart from
+    the body (a shadow) never comes."""
     config = SilhouetteConfig()
-    learned_mask = np.zeros((3, 120, 160), bool)
-    learned_mask[:2, 20:100, 60:85] = True  # the whole body
+    learned_mask = np.zeros((4, 120, 160), bool)
+    learned_mask[[0, 1, 3], 20:100, 60:85] = True  # the whole body
     learned_mask[2, 20:55, 60:85] = True  # the upper body only
     subtracted = np.zeros_like(learned_mask)
-    subtracted[:, 20:100, 61:84] = True  # the whole body, every frame
+    subtracted[:3, 20:100, 61:84] = True  # the whole body, a pixel thinner (92 %)
+    subtracted[3, 20:80, 61:84] = True  # the legs below the knees lost (69 %)
     subtracted[:, 40:44, 84:110] = True  # an arm
     subtracted[:, 104:110, 100:150] = True  # a shadow apart from the body
+    subtracted[:2, 22, 20:60] = True  # a seam a pixel thick, touching the head
     fused = fuse_masks(learned_mask, subtracted, config)
-    assert fused[2, 20:100, 61:84].all() and fused[2, 40:44, 84:110].all()
+    assert fused[2, 20:100, 61:84].all() and fused[:3, 40:44, 84:110].all()
+    assert fused[:2, 22, 58:60].all() and not fused[:2, 22, :57].any()
     assert not fused[:, 104:110, 100:150].any()
-    assert not fused[:2, :, 88:].any()  # the two-pixel rule where nothing was lost
+    assert fused[3, 40:44, 84:87].all() and not fused[3, :, 88:].any()  # two pixels only
 
 
 def test_fused_masks_follow_the_person_the_background_image_shows():

@@ -10,13 +10,20 @@ subtraction finds within :data:`NEAR_PX` pixels (working size) of it is added:
     person = learned | (subtracted & grown(learned, NEAR_PX))
 
 then the largest blob and the big pieces beside it, as everywhere
-(:func:`~eigmotion.segmentation.learned.person_in_frame`).  In a frame where the
-learned mask is much smaller than usual in the clip (under :data:`LOST_SHARE` of its
-median area: the network lost part of a person dressed like the scene), every piece
-the subtraction finds that touches it is added whole instead.  A frame where the learned
-front end finds no one stays empty (the subtraction alone there is the shadow or the
-scene that moved).  ``docs/segmentation.md`` compares this with the other ways of
-combining them, measured on the development set.
+(:func:`~eigmotion.segmentation.learned.person_in_frame`).  Every piece the
+subtraction finds that touches the learned mask is added whole instead in two kinds of
+frame: where the learned mask is much smaller than usual in the clip (under
+:data:`LOST_SHARE` of its median area: the network lost part of a person dressed like
+the scene), and where the subtraction covers most of the learned mask (at least
+:data:`AGREEING_SHARE`: it sees the body the network sees, so a limb it finds attached
+is the person's — a kicking leg, an arm held out, which the networks round off or
+lose).  In the second kind only limbs come whole: the pieces beyond the two pixels
+that are large (:data:`LIMB_SHARE` of the learned mask) and thick (they outlast an
+opening by :data:`LIMB_MIN_WIDTH_PX`), not the seam of a wall the head passes or the
+gap between the legs.  A frame where the learned front end finds no one stays empty
+(the subtraction alone there is the shadow or the scene that moved).
+``docs/segmentation.md`` compares this with the other ways of combining them, measured
+on the development set.
 """
 
 from __future__ import annotations
@@ -36,6 +43,20 @@ NEAR_PX = 2
 #: learned area, the network has lost part of the person (colours like the scene's):
 #: every piece of the subtraction that touches the learned mask is kept whole.
 LOST_SHARE = 0.7
+
+#: In a frame where the subtraction covers at least this share of the learned mask, the
+#: two see the same body: every piece of the subtraction that touches the learned mask
+#: is kept whole.
+AGREEING_SHARE = 0.8
+
+#: A piece the subtraction finds beyond :data:`NEAR_PX` of the learned mask, in a frame
+#: where the two agree, is a limb when it covers at least this share of the learned
+#: mask's area...
+LIMB_SHARE = 0.03
+
+#: ... and part of it is at least this many pixels (working size) thick: it outlasts a
+#: morphological opening by a square of this side.
+LIMB_MIN_WIDTH_PX = 3
 
 
 def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
@@ -69,9 +90,26 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
         if not mine.any():
             continue
         near = cv2.dilate(mine.view(np.uint8), kernel).view(bool)
-        if areas[i] < LOST_SHARE * typical:  # whole pieces of the subtraction touching it
+        lost = areas[i] < LOST_SHARE * typical
+        agreeing = np.count_nonzero(mine & theirs) >= AGREEING_SHARE * areas[i]
+        if lost or agreeing:  # whole pieces of the subtraction touching it
             _, labels = cv2.connectedComponents(theirs.view(np.uint8), connectivity=8)
             touching = np.unique(labels[near & theirs])
-            near = np.isin(labels, touching[touching > 0])
+            whole = np.isin(labels, touching[touching > 0])
+            near = whole if lost else near | _limbs(whole & ~near, areas[i])
         fused[i] = person_in_frame(mine | (theirs & near), config)[0]
     return fused
+
+
+def _limbs(beyond: np.ndarray, area: int) -> np.ndarray:
+    """The pieces of ``beyond`` (H, W) bool that are limbs: at least :data:`LIMB_SHARE` of
+    ``area`` pixels, and thick enough to outlast an opening by :data:`LIMB_MIN_WIDTH_PX`."""
+    pieces = beyond.view(np.uint8)
+    n, parts, stats, _ = cv2.connectedComponentsWithStats(pieces, connectivity=8)
+    square = np.ones((LIMB_MIN_WIDTH_PX, LIMB_MIN_WIDTH_PX), np.uint8)
+    core = cv2.morphologyEx(pieces, cv2.MORPH_OPEN, square).view(bool)
+    keep = np.zeros(n, bool)
+    keep[np.unique(parts[core])] = True
+    keep &= stats[:, cv2.CC_STAT_AREA] >= LIMB_SHARE * area
+    keep[0] = False  # the background
+    return keep[parts]
