@@ -45,8 +45,8 @@ NEAR_PX = 2
 LOST_SHARE = 0.7
 
 #: In a frame where the subtraction covers at least this share of the learned mask, the
-#: two see the same body: every piece of the subtraction that touches the learned mask
-#: is kept whole.
+#: two see the same body: the pieces of the subtraction that touch the learned mask and
+#: are limbs (:func:`_limbs`) are kept whole.
 AGREEING_SHARE = 0.8
 
 #: A piece the subtraction finds beyond :data:`NEAR_PX` of the learned mask, in a frame
@@ -92,7 +92,7 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
         near = cv2.dilate(mine.view(np.uint8), kernel).view(bool)
         lost = areas[i] < LOST_SHARE * typical
         agreeing = np.count_nonzero(mine & theirs) >= AGREEING_SHARE * areas[i]
-        if lost or agreeing:  # whole pieces of the subtraction touching it
+        if lost or agreeing:  # pieces of the subtraction touching it, whole (agreeing: limbs)
             _, labels = cv2.connectedComponents(theirs.view(np.uint8), connectivity=8)
             touching = np.unique(labels[near & theirs])
             whole = np.isin(labels, touching[touching > 0])
