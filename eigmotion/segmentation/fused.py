@@ -91,11 +91,17 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
             continue
         near = cv2.dilate(mine.view(np.uint8), kernel).view(bool)
         lost = areas[i] < LOST_SHARE * typical
-        agreeing = np.count_nonzero(mine & theirs) >= AGREEING_SHARE * areas[i]
+        # where the two agree, a limb needs LIMB_SHARE of the area beyond the two pixels
+        agreeing = (
+            np.count_nonzero(mine & theirs) >= AGREEING_SHARE * areas[i]
+            and np.count_nonzero(theirs & ~near) >= LIMB_SHARE * areas[i]
+        )
         if lost or agreeing:  # pieces of the subtraction touching it, whole (agreeing: limbs)
-            _, labels = cv2.connectedComponents(theirs.view(np.uint8), connectivity=8)
-            touching = np.unique(labels[near & theirs])
-            whole = np.isin(labels, touching[touching > 0])
+            n, labels = cv2.connectedComponents(theirs.view(np.uint8), connectivity=8)
+            touching = np.zeros(n, bool)
+            touching[labels[near & theirs]] = True
+            touching[0] = False  # the background
+            whole = touching[labels]
             near = whole if lost else near | _limbs(whole & ~near, areas[i])
         fused[i] = person_in_frame(mine | (theirs & near), config)[0]
     return fused
