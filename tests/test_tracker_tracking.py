@@ -93,6 +93,21 @@ def test_tracks_an_unseen_walk(walk_setup):
     assert motion.n_frames == tree.n_estimates
 
 
+def test_trackers_of_one_dictionary_share_its_cluster_tree(walk_setup):
+    dictionary, bodies, cams, *_ = walk_setup
+    first = SilhouetteTracker(dictionary, cams, bodies).cluster_tree()
+    assert SilhouetteTracker(dictionary, cams, bodies).cluster_tree() is first
+    other = SilhouetteTracker(dictionary, cams, bodies, TrackerConfig(init_branching=8))
+    tree = other.cluster_tree()
+    assert tree is not first and len(tree) == 8
+
+    # every posture is in each tree once: the shared tree is the whole dictionary's
+    def items(nodes):
+        return [n.item for n in nodes] + [i for n in nodes for i in items(n.children)]
+
+    assert sorted(items(first)) == sorted(items(tree)) == list(range(len(dictionary)))
+
+
 def test_single_camera_aligns_a_known_motion(cmu):
     """The single-camera use: the dictionary is one motion's frames, one camera, and
     the candidate silhouettes are also scaled in 2D (another body size)."""

@@ -21,8 +21,8 @@ resolution); areas are then sums of weights.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
-import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -30,18 +30,6 @@ from eigmotion.imaging.cameras import Camera
 
 #: Score of a candidate whose silhouette is empty (the lowest possible).
 EMPTY_SCORE = -1.0
-
-
-def _shift_sums(padded: np.ndarray, template: np.ndarray, y0: int, x0: int, r: int) -> np.ndarray:
-    """(2r+1, 2r+1) float64: ``sum(template * image[shifted window])`` for every shift.
-
-    ``padded`` is the image with ``r`` zero pixels added on every side; ``template``
-    sits at rows ``y0…`` and columns ``x0…`` of the (unpadded) image.  Entry
-    ``[dy + r, dx + r]`` is the sum with the template moved by ``(dx, dy)``.
-    """
-    th, tw = template.shape
-    window = padded[y0 : y0 + th + 2 * r, x0 : x0 + tw + 2 * r]
-    return cv2.matchTemplate(window, template, cv2.TM_CCORR).astype(np.float64)
 
 
 def similarity(
@@ -107,39 +95,70 @@ def score_masks(
         raise InvalidParameterError(
             f"candidates must be (M, {obs.shape[0]}, {obs.shape[1]}), got {cands.shape}"
         )
-    h, w = obs.shape
-    area_r = float(h * w)
-    obs_total = float(obs.sum(dtype=np.float64))
-    padded = np.pad(obs, r)
-    padded_ones = None
     scores = np.full(len(cands), EMPTY_SCORE)
     shifts = np.zeros((len(cands), 2), dtype=np.int64)
-    rows_any = cands.any(axis=2)
-    cols_any = cands.any(axis=1)
-    for i in range(len(cands)):
-        rows = np.flatnonzero(rows_any[i])
-        if rows.size == 0:
-            continue
-        cols = np.flatnonzero(cols_any[i])
-        y0, y1, x0, x1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-        template = cands[i, y0:y1, x0:x1].astype(np.float32)
-        area = float(np.count_nonzero(cands[i, y0:y1, x0:x1]))
-        inside = _shift_sums(padded, template, y0, x0, r)
-        if y0 - r >= 0 and x0 - r >= 0 and y1 + r <= h and x1 + r <= w:
-            area_in_r = area
-        else:
-            if padded_ones is None:
-                padded_ones = np.pad(np.ones_like(obs), r)
-            area_in_r = _shift_sums(padded_ones, template, y0, x0, r)
-        outside_area = area_r - area_in_r
-        with np.errstate(divide="ignore", invalid="ignore"):
-            outside = np.where(outside_area > 0, (obs_total - inside) / outside_area, 0.0)
-        s = inside / area - outside
-        best = int(np.argmax(s))
-        dy, dx = divmod(best, 2 * r + 1)
-        scores[i] = float(s.flat[best])
-        shifts[i] = (dx - r, dy - r)
+    if len(cands):
+        _score_kernel()(np.pad(obs, r), cands, r, float(obs.sum(dtype=np.float64)), scores, shifts)
     return scores, shifts
+
+
+@lru_cache(maxsize=1)
+def _score_kernel():
+    """The compiled :func:`_score_candidates` (numba is imported and it is compiled
+    here, once)."""
+    from numba import njit
+
+    return njit(cache=True, nogil=True)(_score_candidates)
+
+
+def _score_candidates(padded, cands, r, obs_total, scores, shifts):  # pragma: no cover - JIT
+    """Fill ``scores`` (M,) and ``shifts`` (M, 2) (``(dx, dy)``) of the candidates
+    ``cands`` (M, H, W) bool against the observed silhouette ``padded`` (H + 2r,
+    W + 2r) float32 (zero rows and columns ``r`` wide around it; ``obs_total`` its
+    sum); empty candidates are left as they are.
+
+    Per candidate, its pixels are listed once; for every shift in row-major order of
+    ``(dy, dx)`` the observed weights under them and, where the shifted candidate may
+    leave ``R``, how many of them stay inside are summed in float64, in the pixels'
+    order (block averages of 2 × 2 pixels are quarters: those sums are exact), and
+    the first best score is kept.
+    """
+    n, h, w = cands.shape
+    area_r = float(h * w)
+    side = 2 * r + 1
+    ys = np.empty(h * w, np.int64)
+    xs = np.empty(h * w, np.int64)
+    for i in range(n):
+        count = 0
+        y0, y1, x0, x1 = h, -1, w, -1
+        for y in range(h):
+            for x in range(w):
+                if cands[i, y, x]:
+                    ys[count], xs[count] = y, x
+                    count += 1
+                    y0, y1 = min(y0, y), max(y1, y)
+                    x0, x1 = min(x0, x), max(x1, x)
+        if count == 0:
+            continue
+        stays = y0 - r >= 0 and x0 - r >= 0 and y1 + r < h and x1 + r < w
+        best, best_shift = -np.inf, 0
+        for shift in range(side * side):
+            dy, dx = shift // side - r, shift % side - r
+            inside = 0.0
+            in_r = 0
+            for k in range(count):
+                yy, xx = ys[k] + dy, xs[k] + dx
+                inside += padded[yy + r, xx + r]
+                if not stays and 0 <= yy < h and 0 <= xx < w:
+                    in_r += 1
+            outside_area = area_r - (count if stays else in_r)
+            outside = (obs_total - inside) / outside_area if outside_area > 0 else 0.0
+            s = inside / count - outside
+            if s > best:
+                best, best_shift = s, shift
+        scores[i] = best
+        shifts[i, 0] = best_shift % side - r
+        shifts[i, 1] = best_shift // side - r
 
 
 @dataclass(frozen=True, eq=False)

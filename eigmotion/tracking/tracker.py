@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from numbers import Integral, Real
 from typing import ClassVar
+from weakref import WeakKeyDictionary
 
 import numpy as np
 
@@ -56,6 +57,12 @@ from eigmotion.tracking.search import (
 )
 from eigmotion.tracking.temporal import along_best_path
 from eigmotion.validation import Interval, Options, SequenceOf, validate_params
+
+#: Each posture dictionary's cluster trees (:meth:`SilhouetteTracker.cluster_tree`),
+#: by ``init_branching``; an entry goes with its dictionary.
+_CLUSTER_TREES: WeakKeyDictionary[PostureDictionary, dict[int, tuple[ClusterNode, ...]]] = (
+    WeakKeyDictionary()
+)
 
 RenderMasks = Callable[[np.ndarray, np.ndarray, Camera], np.ndarray]
 
@@ -391,7 +398,6 @@ class SilhouetteTracker:
                 )
         self.render_masks = render_masks if render_masks is not None else _default_renderer()
         self._default_height_m = float(np.median(dictionary.body_height_m))
-        self._cluster_tree: tuple[ClusterNode, ...] | None = None
         names = dictionary.joint_names
         has_pairs = all(a in names and b in names for a, b in FACING_PAIRS)
         self.facing_deg = facing_deg(dictionary.joint_positions, names) if has_pairs else None
@@ -400,17 +406,21 @@ class SilhouetteTracker:
 
     # -- state ---------------------------------------------------------------------
     def cluster_tree(self) -> tuple[ClusterNode, ...]:
-        """The dictionary's clusters for coarse-to-fine searches (built on first use)."""
-        if self._cluster_tree is None:
+        """The dictionary's clusters for coarse-to-fine searches: built on first use,
+        once per dictionary and ``init_branching``, and shared by every tracker of that
+        dictionary (the clusters depend on nothing else)."""
+        trees = _CLUSTER_TREES.setdefault(self.dictionary, {})
+        branching = self.config.init_branching
+        if branching not in trees:
             vectors = self.dictionary.vectors
 
             def distance_to(a: int, items: np.ndarray) -> np.ndarray:
                 return d1_distance(vectors[items], vectors[a])
 
-            self._cluster_tree = build_cluster_tree(
-                np.arange(len(self.dictionary)), distance_to, self.config.init_branching
+            trees[branching] = build_cluster_tree(
+                np.arange(len(self.dictionary)), distance_to, branching
             )
-        return self._cluster_tree
+        return trees[branching]
 
     def reset(self) -> None:
         """Forget the previous posture and body scale: start afresh."""
