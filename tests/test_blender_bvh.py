@@ -26,7 +26,9 @@ AUTHORED = REPO / "database" / "motions" / "authored"
 
 # The same small database as tests/test_database.py (built once per session).
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,7 @@ from eigmotion.retrieval.library_views import (
     window_labels,
 )
 
-CONFIG = BuildConfig(garments=((),))
+CONFIG = BuildConfig(garments=((),), body_shapes=((None, 1.0),))
 
 
 @pytest.fixture(scope="module")

@@ -35,7 +35,9 @@ REPO = Path(__file__).resolve().parents[1]
 RIG = REPO / "virtual_cameras" / "ring6.toml"
 #: The motions and configuration of tests/test_database.py: its local build is shared.
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 
 def _free_port() -> int:

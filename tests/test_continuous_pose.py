@@ -35,7 +35,9 @@ from eigmotion.synth.clips import time_warped
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS = ("kick_135_04", "wave_14_24")
-CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=12, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 CLIP_FPS = 30.0
 #: The clip plays the first half of the motion at 0.7× and the second at 1.3× speed.
 SPEEDS = (0.7, 1.3)

@@ -25,7 +25,9 @@ from eigmotion.synth.scene import stick_figure_masks
 FEET_ROW = 110
 #: The database of tests/test_continuous_pose.py (built once per session).
 MOTIONS = ("kick_135_04", "wave_14_24")
-CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=12, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 
 def waving(n_frames=40) -> np.ndarray:

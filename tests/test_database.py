@@ -54,7 +54,9 @@ from eigmotion.retrieval.sequences import POSE_COMPONENTS
 REPO = Path(__file__).resolve().parents[1]
 
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 
 @pytest.fixture(scope="module")
@@ -140,6 +142,31 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     same = np.full(700, 2)
     assert leave_one_motion_out_threshold(points, performance, whole, same) == np.quantile(
         found, 0.95
+    )
+    # two builds in two outfits: each entry against the bodies of the other build in
+    # the other outfit only (bodies shape by shape: (1.0, plain), (1.0, shorts),
+    # (1.25, plain), (1.25, shorts))
+    config = BuildConfig(body_shapes=((None, 1.0), (None, 1.25)), garments=((), ("wide_shorts",)))
+    alike = config.alike_bodies()
+    np.testing.assert_array_equal(alike, ~np.eye(4, dtype=bool)[::-1])
+    body4 = rng.integers(0, 4, size=700)
+    found_unlike = [
+        float(
+            np.linalg.norm(
+                points[(performance != performance[i]) & (body4 == 3 - body4[i])] - points[i],
+                axis=1,
+            ).min()
+        )
+        for i in np.flatnonzero(whole)
+    ]
+    distances = leave_one_motion_out_distances(points, performance, whole, body4, alike)
+    np.testing.assert_array_equal(np.sort(distances), np.sort(found_unlike))
+    # one build in several outfits, or one outfit on several builds: the body alone
+    one_build = BuildConfig(body_shapes=((None, 1.0),), garments=((), ("wide_shorts",)))
+    np.testing.assert_array_equal(one_build.alike_bodies(), np.eye(2, dtype=bool))
+    np.testing.assert_array_equal(
+        BuildConfig(body_shapes=((None, 1.0), (None, 1.25)), garments=((),)).alike_bodies(),
+        np.eye(2, dtype=bool),
     )
     one = np.zeros(700, dtype=int)
     radius = np.linalg.norm(points - points.mean(axis=0), axis=1).max()
@@ -246,14 +273,15 @@ def test_rejection_ceiling_asks_each_whole_entry_both_ways(db_path):
     with MotionDatabase.open(db_path) as db:
         table = EntryTable(db)
         whole, body = table.calibration(db)
+        alike = db.config.alike_bodies()
         label, known, unknown, known_answer, unknown_answer = ask_both_ways(
-            table, whole, body, own_body=False
+            table, whole, body, own_body=False, alike=alike
         )
         assert len(label) == whole.sum() and sorted(set(label)) == sorted(set(table.label))
         np.testing.assert_array_equal(known, unknown)  # one performance per label
         assert not np.any(unknown_answer == label)
         assert np.quantile(known, 0.95) == pytest.approx(db.threshold, rel=1e-6)
-        _, own_known, *_ = ask_both_ways(table, whole, body, own_body=True)
+        _, own_known, *_ = ask_both_ways(table, whole, body, own_body=True, alike=alike)
         assert np.all(own_known <= known)
     out = rejection_ceiling_report(db_path)
     for name in set(label):

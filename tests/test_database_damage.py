@@ -28,7 +28,9 @@ from eigmotion.retrieval.store import Store
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 AUTHORED = REPO / "database" / "motions" / "authored" / "cover_head_crouching.bvh"
 
 

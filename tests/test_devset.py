@@ -41,7 +41,9 @@ from eigmotion.synth.scene import compose_scene
 
 # The database of tests/test_database.py: built once per session for both.
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 
 def _answer(clip_id, truth, labels, accepted=True, p_known=0.5, query_s=0.1, **kw):

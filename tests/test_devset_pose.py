@@ -51,7 +51,9 @@ from eigmotion.tracking.calibration import save_calibration
 from eigmotion.tracking.postures import yaw_rotation
 
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 #: A standing body facing +Z (+X its left), in the development set's joint names.
 BODY = {

@@ -297,6 +297,9 @@ def test_build_config_with_garments_round_trips():
     assert BuildConfig.from_dict(stored) == config
     old = {k: v for k, v in BuildConfig().to_dict().items() if k != "garments"}
     assert BuildConfig.from_dict(old).garments == ((),)  # a database made before garments
+    # the default build: the avatar's own build first, then a slimmer and a stouter one
+    assert BuildConfig().body_shapes == ((None, 1.0), (None, 0.85), (None, 1.25))
+    assert len(BuildConfig().bodies) == 3 * len(BuildConfig().garments)
 
 
 @pytest.mark.parametrize(
@@ -340,7 +343,12 @@ def test_build_renders_every_body_shape_in_every_outfit():
         licence="",
         role="basic",
     )
-    config = BuildConfig(garments=((), ("wide_shorts",)), window_s=0.3, window_step_s=0.3)
+    config = BuildConfig(
+        body_shapes=((None, 1.0),),
+        garments=((), ("wide_shorts",)),
+        window_s=0.3,
+        window_step_s=0.3,
+    )
     rig = virtual_rig([0, 90], [0], 48, 64)
     views = list(render_views([item], rig, config, workers=1, progress=False))
     assert sorted((v.shape_index, v.view_index) for v in views) == [(0, 0), (0, 1), (1, 0), (1, 1)]

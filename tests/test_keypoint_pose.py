@@ -52,7 +52,9 @@ from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.synth.clips import render_clip
 
 MOTIONS = ("kick_135_04", "wave_14_24")  # the database of tests/test_continuous_pose.py
-CONFIG = BuildConfig(n_components=12, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=12, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 CLIP_FPS = 30.0
 AVATAR = load_default_avatar()
 #: The avatar's joint for each development-set limb joint.

@@ -42,7 +42,9 @@ REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
 # The database of tests/test_database.py (built once per session for both).
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 QUERY_CONFIG = SilhouetteConfig(work_max_side_px=160)
 
 

@@ -31,7 +31,9 @@ SAMPLES = REPO / "database" / "samples"
 
 # the database of tests/test_database.py (the session fixture builds it once for both)
 MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(n_components=16, key_axes=3, key_sections=6, garments=((),))
+CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
 
 #: (clip, empty-scene image or None) of the four concurrent queries.
 QUERIES = (

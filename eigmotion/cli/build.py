@@ -4,7 +4,7 @@ Examples::
 
     eigmotion build                                   # bundled library and rig
     eigmotion build --motions my_library.toml --rig virtual_cameras/ring6.toml --db my.fs
-    eigmotion build --girth 1 --girth 0.85 --girth 1.25 --db bodies.fs   # three builds
+    eigmotion build --girth 1 --db plain.fs           # the avatar's own build alone
     eigmotion build --scheduler tcp://10.0.0.5:8786   # rendered by a Dask cluster's workers
 """
 
@@ -49,7 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         action="append",
         help="a body girth factor: every motion is rendered, in every outfit, on a body of "
-        "each girth given (repeatable; 0.7-1.8; default 1.0 alone, the avatar's own build)",
+        "each girth given (repeatable; 0.7-1.8; default 1.0, 0.85 and 1.25: the avatar's own "
+        "build, a slimmer and a stouter one)",
     )
     add_scheduler_argument(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -193,7 +193,7 @@ def unknown_all(db_path: Path, clips: list[HeldOutClip]) -> tuple[list[QueryOutc
             without = entries.label != label
             distances = leave_one_motion_out_distances(
                 entries.points[without], entries.performance[without], whole[without],
-                None if body is None else body[without],
+                None if body is None else body[without], db.config.alike_bodies(),
             )  # fmt: skip
             quantiles = calibration_quantiles(distances)
             thresholds[label] = float(np.quantile(distances, THRESHOLD_QUANTILE))

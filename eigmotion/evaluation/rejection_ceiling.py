@@ -42,8 +42,12 @@ def auc(known: np.ndarray, unknown: np.ndarray) -> float:
     return float(roc_auc_score(truth, np.r_[known, unknown]))
 
 
-def ask_both_ways(table: EntryTable, whole: np.ndarray, body: np.ndarray, own_body: bool):
-    """Every whole-motion entry asked as a new performance and as an unknown action.
+def ask_both_ways(
+    table: EntryTable, whole: np.ndarray, body: np.ndarray, own_body: bool, alike: np.ndarray
+):
+    """Every whole-motion entry asked as a new performance and as an unknown action,
+    against the bodies unlike its own (``alike``, (B, B) bool, as the calibration
+    takes them) or, with ``own_body``, every body.
 
     Returns
     -------
@@ -62,7 +66,7 @@ def ask_both_ways(table: EntryTable, whole: np.ndarray, body: np.ndarray, own_bo
         label = table.label[mine][0]
         for own in np.unique(body[whole & mine]):
             queries = points[whole & mine & (body == own)]
-            searched = np.ones(len(points), bool) if own_body else body != own
+            searched = np.ones(len(points), bool) if own_body else ~alike[own][body]
             for key, kept in (("known", ~mine), ("unknown", table.label != label)):
                 candidates = np.flatnonzero(searched & kept)
                 distance, index = nearest(queries, points[candidates])
@@ -99,12 +103,13 @@ def rejection_ceiling_report(db_path: str | os.PathLike, own_body: bool = False)
     with MotionDatabase.open(db_path) as db:
         table = EntryTable(db)
         whole, body = table.calibration(db)
+        alike = db.config.alike_bodies()
     if body is None:
         body = np.zeros(len(table.points), np.int64)
     if len(np.unique(table.label)) < 2:
         raise InvalidParameterError(f"{db_path}: one label only, nothing to leave out")
     label, known, unknown, known_answer, unknown_answer = ask_both_ways(
-        table, whole, body, own_body
+        table, whole, body, own_body, alike
     )
     searched = "every body" if own_body else "the other bodies"
     lines.append(

@@ -156,7 +156,9 @@ def build_database(
     whole = (start == 0) & (stop == np.array([m.motion.n_frames for m in library])[motion_of])
     originals = [m.mirror_of or m.name for m in library]
     performance = np.unique(originals, return_inverse=True)[1]
-    calibration = leave_one_motion_out_distances(points, performance[motion_of], whole, body_of)
+    calibration = leave_one_motion_out_distances(
+        points, performance[motion_of], whole, body_of, config.alike_bodies()
+    )
     threshold = threshold_from_distances(calibration, points)
     recon = space.reconstruction_error(X)
     stored_config = {

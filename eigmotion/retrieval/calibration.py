@@ -2,7 +2,7 @@
 own motions lie from the database.
 
 A build measures, for each whole-motion entry, its distance to the nearest entry of
-the other performances rendered on the other bodies
+the other performances rendered on bodies unlike its own in build and outfit
 (:func:`leave_one_motion_out_distances`); the :data:`THRESHOLD_QUANTILE` of those
 distances is the database's threshold and their quantiles at
 :data:`CALIBRATION_LEVELS` are stored beside it (:func:`calibration_quantiles`).  A
@@ -29,14 +29,15 @@ def leave_one_motion_out_distances(
     performance_of: np.ndarray,
     whole: np.ndarray,
     body_of: np.ndarray | None = None,
+    alike: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """How far new performances of the library's motions lie from the database.
 
     Each whole-motion entry is queried as a query would be, against every entry of
-    the OTHER performances rendered on the OTHER bodies (as if that performance were
-    new, by someone whose body and clothes the database does not hold, as in every
-    real query): its nearest distance is what a known motion done by someone else
-    looks like.  The "unknown" threshold is the :data:`THRESHOLD_QUANTILE` of these
+    the OTHER performances rendered on bodies UNLIKE its own (as if that performance
+    were new, by someone whose body and clothes the database does not hold, as in
+    every real query): its nearest distance is what a known motion done by someone
+    else looks like.  The "unknown" threshold is the :data:`THRESHOLD_QUANTILE` of these
     distances (:func:`leave_one_motion_out_threshold`), and their quantiles, stored
     (:func:`calibration_quantiles`), give each answer its ``p_known``.
 
@@ -53,6 +54,11 @@ def leave_one_motion_out_distances(
         The body (shape and outfit, an index into ``BuildConfig.bodies``) each entry
         was rendered on.  Not given, or one body in all: every body of the other
         performances is compared with.
+    alike : (B, B) bool, optional
+        ``alike[i, j]``: body ``j`` counts as the same person's as body ``i`` and is
+        left out of body ``i``'s comparisons (:meth:`~eigmotion.retrieval.
+        library_views.BuildConfig.alike_bodies`: the same build or the same outfit).
+        Not given: each body is alike only to itself.
 
     Returns
     -------
@@ -66,12 +72,14 @@ def leave_one_motion_out_distances(
     points = np.asarray(points)
     several_bodies = body_of is not None and len(np.unique(body_of)) > 1
     body_of = np.asarray(body_of) if several_bodies else np.zeros(len(points), np.int64)
+    if alike is None:
+        alike = np.eye(int(body_of.max()) + 1, dtype=bool)
     found = []
     for performance in np.unique(performance_of[whole]):
         mine = performance_of == performance
         for body in np.unique(body_of[whole & mine]):
             queries = np.flatnonzero(whole & mine & (body_of == body))
-            others = points[~mine & (body_of != body) if several_bodies else ~mine]
+            others = points[~mine & ~alike[body][body_of] if several_bodies else ~mine]
             for block in np.array_split(queries, -(-len(queries) // _QUERY_BLOCK)):
                 found.append(_nearest_distances(points[block], others))
     return np.concatenate(found).astype(np.float64)
@@ -82,6 +90,7 @@ def leave_one_motion_out_threshold(
     performance_of: np.ndarray,
     whole: np.ndarray,
     body_of: np.ndarray | None = None,
+    alike: np.ndarray | None = None,
 ) -> float:
     """The "unknown" threshold from the database itself: the
     :data:`THRESHOLD_QUANTILE` of :func:`leave_one_motion_out_distances` (same
@@ -94,7 +103,7 @@ def leave_one_motion_out_threshold(
         centre of its entries: the threshold then accepts anything as near as the
         database is wide.
     """
-    distances = leave_one_motion_out_distances(points, performance_of, whole, body_of)
+    distances = leave_one_motion_out_distances(points, performance_of, whole, body_of, alike)
     return threshold_from_distances(distances, points)
 
 

@@ -44,8 +44,13 @@ from eigmotion.retrieval.sequences import SEQUENCE_SIZE, sequence_frames
 from eigmotion.validation import Interval, validate_params
 
 #: Body shapes of the default build: (height in metres or None for the avatar's own,
-#: girth factor).  Several shapes stand in for several people.
-DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = ((None, 1.0),)
+#: girth factor).  Several shapes stand in for several people: the avatar's own build
+#: first, then a slimmer and a stouter one (docs/database.md).
+DEFAULT_BODY_SHAPES: tuple[tuple[float | None, float], ...] = (
+    (None, 1.0),
+    (None, 0.85),
+    (None, 1.25),
+)
 #: Outfits of the default build: tuples of garment names (see
 #: :mod:`eigmotion.body.garments`); ``()`` is the plain body.  Database garments only: the
 #: benchmark's (:data:`eigmotion.body.garments.BENCHMARK_GARMENTS`) stay unseen.
@@ -140,6 +145,23 @@ class BuildConfig:
     def bodies(self) -> tuple[tuple[tuple[float | None, float], tuple[str, ...]], ...]:
         """Every (body shape, outfit) rendered, shape by shape."""
         return tuple((shape, outfit) for shape in self.body_shapes for outfit in self.garments)
+
+    def alike_bodies(self) -> np.ndarray:
+        """(B, B) bool over :attr:`bodies`: which count as the same person's when the
+        "unknown" threshold is calibrated (:func:`~eigmotion.retrieval.calibration.
+        leave_one_motion_out_distances`): a body itself, the bodies in its outfit where
+        there are several outfits, and the bodies of its shape where there are several
+        shapes.  A new performance is then compared with bodies unlike its own in both
+        build and clothes, as a query's person is."""
+        n_outfits = len(self.garments)
+        index = np.arange(len(self.bodies))
+        shape, outfit = index // n_outfits, index % n_outfits
+        alike = np.eye(len(index), dtype=bool)
+        if len(self.body_shapes) > 1:
+            alike |= shape[:, None] == shape[None, :]
+        if n_outfits > 1:
+            alike |= outfit[:, None] == outfit[None, :]
+        return alike
 
     def to_dict(self) -> dict:
         """Plain values only, for the store."""
