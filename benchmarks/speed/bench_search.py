@@ -336,9 +336,11 @@ def bench_eigenspace(n_rows: int, n_features: int, k: int, rng) -> None:
         print(f"| PCA(svd_solver={solver!r}) | {pca_s:.2f} | {cos.min():.7f} | {err:.1e} |")
 
 
-def load_real(uri: str) -> tuple[np.ndarray, dict]:
-    """A database's entry points (N, k) float32 and, per entry, its motion, clothing
-    (``body``), view azimuth and elevation (degrees) and window (frames)."""
+def load_real(uri: str) -> tuple[np.ndarray, dict, np.ndarray]:
+    """A database's entry points (N, k) float32; per entry, its motion, body (build and
+    clothing, ``body``), view azimuth and elevation (degrees) and window (frames); and
+    which bodies count as one person's ((B, B) bool, ``BuildConfig.alike_bodies``)."""
+    from eigmotion.retrieval.library_views import BuildConfig
     from eigmotion.retrieval.store import Store
 
     fields = ("motion", "body", "view_azimuth_deg", "view_elevation_deg", "start_frame",
@@ -346,8 +348,9 @@ def load_real(uri: str) -> tuple[np.ndarray, dict]:
     with Store.open(uri) as store:
         arrays = store.arrays()
         rows = [store.entry(int(i)) for i in arrays.ids]
+        alike = BuildConfig.from_dict(store.config["build"]).alike_bodies()
     meta = {f: np.array([row.get(f, 0) for row in rows]) for f in fields}
-    return np.array(arrays.points, dtype=np.float32), meta
+    return np.array(arrays.points, dtype=np.float32), meta, alike
 
 
 def interpolate_renderings(points, meta, rows: np.ndarray, target: int, rng) -> np.ndarray:
@@ -397,21 +400,24 @@ def real_sets(uri: str, target: int, n_queries: int, rng):
 
     * Held out: a tenth of the motions (chosen by the seed), every rendering of them
       — their entries are the **unknown-motion** queries; and of the other motions
-      every entry with the last clothing (``body``) of the build — these are the
-      **known-motion** queries: the same motions and views rendered on another
-      person, real motion-image points that no entry equals.
-    * ``base``: every other entry of the database.
+      every entry on the build's last body (``body``) — these are the **known-motion**
+      queries: the same motions and views rendered on another person, real
+      motion-image points that no entry equals.
+    * ``base``: every other entry of the database, but those on bodies of the last
+      body's build or clothing (``BuildConfig.alike_bodies``, as the "unknown"
+      threshold's calibration leaves them out).
     * ``resampled``: ``base`` and bilinear points between its neighbouring windows and
       views (:func:`interpolate_renderings`) up to ``target`` entries.
     """
-    points, meta = load_real(uri)
+    points, meta, alike = load_real(uri)
     motions = np.unique(meta["motion"])
     held = rng.choice(motions, max(1, motions.size // 10), replace=False)
     unknown = np.isin(meta["motion"], held)
-    known = ~unknown & (meta["body"] == meta["body"].max())
-    if not known.any():
-        raise SystemExit(f"{uri}: one clothing only, no known-motion queries to hold out")
-    base = ~unknown & ~known
+    last = meta["body"].max()
+    known = ~unknown & (meta["body"] == last)
+    if not known.any() or last == 0:
+        raise SystemExit(f"{uri}: one body only, no known-motion queries to hold out")
+    base = ~unknown & ~alike[last][meta["body"]]
     resampled = interpolate_renderings(points, meta, np.flatnonzero(base), target, rng)
 
     def pick(mask):

@@ -537,13 +537,14 @@ class TreeIndex:
     #: A search over at most ``scan_entries`` entries is answered by scanning every
     #: entry (:class:`~eigmotion.retrieval.brute_force.BruteForceIndex`: a few queries
     #: measured exactly in NumPy, a larger batch screened by matrix products), and the
-    #: tree is then not built.  Measured on the default database (59,700 entries,
-    #: ``bench_scan_or_walk.py``, idle machine): one query scanned takes about 1 ms, a
+    #: tree is then not built.  Measured on a database of 59,700 entries
+    #: (``bench_scan_or_walk.py``, idle machine): one query scanned takes about 1 ms, a
     #: batch of 32 5–17 ms, while the walk's compiled loop and the tree cost a new
     #: process about 0.4 s to load (a cold query of a 3 s sample: 0.7–0.8 s wall
-    #: scanned, 1.25–1.5 s walked).  Larger databases are walked.  Set
-    #: ``scan_entries = 0`` to always walk.
-    scan_entries = 100_000
+    #: scanned, 1.25–1.5 s walked); the default database (179,105 entries) is scanned
+    #: too (docs/retrieval.md).  Larger databases are walked.  Set ``scan_entries = 0``
+    #: to always walk.
+    scan_entries = 250_000
     #: In a process that has loaded numba already (its load is then paid), a small
     #: database's searches for at most ``walk_top_k`` nearest entries are walked all the
     #: same: warm, the walk beats the scan there (``bench_scan_or_walk.py``).
