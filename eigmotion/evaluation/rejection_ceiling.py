@@ -86,8 +86,8 @@ def rejection_ceiling_report(db_path: str | os.PathLike, own_body: bool = False)
     ----------
     db_path : str or PathLike
     own_body : bool
-        Search every body, the query's own too (else only the other bodies, as the
-        threshold's calibration does).
+        Search every body, the query's own too (else only the bodies unlike its own in
+        build and outfit, as the threshold's calibration does).
 
     Returns
     -------
@@ -111,7 +111,7 @@ def rejection_ceiling_report(db_path: str | os.PathLike, own_body: bool = False)
     label, known, unknown, known_answer, unknown_answer = ask_both_ways(
         table, whole, body, own_body, alike
     )
-    searched = "every body" if own_body else "the other bodies"
+    searched = "every body" if own_body else "the bodies unlike its own"
     lines.append(
         f"{len(label)} whole-motion entries of {db_path}, each asked against {searched}: "
         f"as a new performance (its own left out) and as an unknown action (its label "
