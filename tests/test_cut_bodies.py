@@ -16,6 +16,8 @@ from eigmotion.segmentation.cut_bodies import (
     ANKLE_PRESENCE,
     FEET,
     HIPS,
+    KNEES,
+    SHANK_PER_THIGH,
     continued_below,
     hidden_rows_below,
     restored_legs,
@@ -94,6 +96,24 @@ def test_a_wild_guess_adds_at_most_the_frame_s_height():
     masks = waving()[:, :80]
     landmarks = landmarks_with_feet(len(masks), feet_row=1e6, presence=0.0)
     assert hidden_rows_below(masks, landmarks, 1.0) == 80
+
+
+def test_feet_guessed_too_far_below_the_knees_are_taken_up_to_the_legs_length():
+    """Hips on row 40 and knees on 60 (a thigh of 20 rows): feet the network puts on
+    row 120 lie at most SHANK_PER_THIGH thighs below the knees."""
+    masks = waving()[:, :80]
+    landmarks = landmarks_with_feet(len(masks), feet_row=120.0, presence=0.1)
+    landmarks[:, HIPS, 1] = 40.0
+    landmarks[:, KNEES, 1] = 60.0
+    reach = 60.0 + SHANK_PER_THIGH * 20.0
+    assert hidden_rows_below(masks, landmarks, 1.0) == int(np.ceil(reach - 80))
+    # feet within the legs' reach stay where the network puts them
+    landmarks[:, FEET, 1] = 82.0
+    assert hidden_rows_below(masks, landmarks, 1.0) == 2
+    # and a frame whose knees are not below its hips bounds nothing
+    landmarks[:, FEET, 1] = 120.0
+    landmarks[:, KNEES, 1] = 40.0
+    assert hidden_rows_below(masks, landmarks, 1.0) == 40
 
 
 def test_wrong_shapes_are_named():

@@ -12,9 +12,10 @@ The pose landmark network (:mod:`eigmotion.segmentation.learned`'s second look) 
 its 33 landmarks even where the body is out of view, and says how likely each one is
 in view (its *presence*).  Where the silhouette touches the bottom edge in most frames
 and the ankles are out of view (median presence under :data:`ANKLE_PRESENCE`), the
-feet lie where the network puts them: :func:`hidden_rows_below` is how many rows of
-body the frame leaves out, and the motion image continues the silhouette down by as
-many rows (the legs go on straight down, as the bottom row shows them).  Without the
+feet lie where the network puts them, but no further below the knees than the body's
+proportions allow (:data:`SHANK_PER_THIGH`): :func:`hidden_rows_below` is how many
+rows of body the frame leaves out, and the motion image continues the silhouette down
+by as many rows (the legs go on straight down, as the bottom row shows them).  Without the
 pose network's landmarks (no LiteRT, the selfie network's second look, the classical
 front end) nothing is estimated and nothing changes.
 
@@ -47,6 +48,19 @@ CUT_SHARE = 0.5
 #: people whose feet are in view (at the very edge) score 0.7-0.95, those cut off at
 #: the shins or knees 0.07-0.45.
 ANKLE_PRESENCE = 0.5
+
+#: The hips, knees and ankles: where the legs stand.
+LEGS = (23, 24, 25, 26, 27, 28)
+HIPS = (23, 24)
+KNEES = (25, 26)
+
+#: The lowest landmark of the feet lies at most this many thigh lengths (hips to
+#: knees, as the picture shows them) below the knees.  Knee to sole is 1.16 thigh
+#: lengths in the standard segment proportions (knee height 0.285, hip height 0.530 of
+#: the stature: Drillis and Contini); the margin allows for a thigh seen shortened.  The
+#: network guesses feet out of the picture, and on real people cut off at the shins in
+#: 64-row frames it put them 1.7-2.3 thigh lengths below the knees: 8-11 rows too low.
+SHANK_PER_THIGH = 1.35
 
 #: At most this share of the frame's height is added below it: a wild landmark (a
 #: person lying down, a network's guess from a head and shoulders) adds no more.
@@ -85,8 +99,9 @@ def hidden_rows_below(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: 
     int
         0 when the body is not cut by the bottom edge, or the landmarks cannot tell;
         else the median, over the frames that touch the edge, of how far below it the
-        lowest landmark of the feet lies, in mask rows (at most
-        :data:`MAX_HIDDEN_SHARE` × H).
+        lowest landmark of the feet lies, in mask rows, each frame's taken no lower
+        than :data:`SHANK_PER_THIGH` thigh lengths below its knees where its knees lie
+        below its hips (at most :data:`MAX_HIDDEN_SHARE` × H).
     """
     masks, landmarks = _checked(masks, landmarks)
     height = masks.shape[1]
@@ -99,7 +114,11 @@ def hidden_rows_below(masks: np.ndarray, landmarks: np.ndarray, landmark_scale: 
         return 0
     if float(np.median(landmarks[seen][:, ANKLES, 3])) >= ANKLE_PRESENCE:
         return 0
-    feet_rows = landmarks[seen][:, FEET, 1].max(axis=1) * landmark_scale
+    rows = landmarks[seen][:, :, 1] * landmark_scale
+    knees = rows[:, KNEES].mean(axis=1)
+    thighs = knees - rows[:, HIPS].mean(axis=1)
+    reach = np.where(thighs > 0, knees + SHANK_PER_THIGH * thighs, np.inf)
+    feet_rows = np.minimum(rows[:, FEET].max(axis=1), reach)
     below = float(np.median(feet_rows)) - height
     return int(np.clip(np.ceil(below), 0, MAX_HIDDEN_SHARE * height))
 
@@ -123,10 +142,6 @@ def continued_below(masks: np.ndarray, rows: int) -> np.ndarray:
         return masks
     return np.concatenate([masks, np.repeat(masks[:, -1:, :], rows, axis=1)], axis=1)
 
-
-#: The hips, knees and ankles: where the legs stand.
-LEGS = (23, 24, 25, 26, 27, 28)
-HIPS = (23, 24)
 
 #: A frame has lost its legs when its silhouette ends above the lowest landmark of the
 #: feet (or the frame's bottom edge, if higher) by more than this share of the length
