@@ -44,6 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.gait_speed import GAITS
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -82,6 +83,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="call the motion unknown beyond the distance that turns away this share of "
         "new performances of library motions (0-1; default the database's threshold, "
         "0.05): a larger share turns away more unknown motions and more known ones",
+    )
+    parser.add_argument(
+        "--no-gait-speed",
+        dest="gait_speed",
+        action="store_false",
+        help="do not let the person's speed over the floor choose between walk and run "
+        "(it assumes a static camera)",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
@@ -130,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
             progress=True,
             false_rejection=args.false_rejection,
             segmenter=args.segmenter,
+            gait_speed=args.gait_speed,
         )
         if answer_3d:
             _write_replay(db, result, clip, args)
@@ -146,6 +155,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {RANKING_IN_WORDS}")
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
+        if result.travel_speed is not None and best.label in GAITS:
+            print(f"  travels {result.travel_speed:.2f} body heights per second")
         for match in result.top[1:]:
             print(f"  then {match.label}  ({_described(match)})")
         for seg in result.segments:

@@ -202,6 +202,8 @@ class ClipAnswer:
         ``bg`` and ``nobg``: :func:`silhouette_iou` of the query's silhouettes.
     iou_frames : int
         Frames the IoU is the mean of.
+    travel_speed : float or None
+        The answer's ``travel_speed``, body heights per second.
     """
 
     clip_id: str
@@ -216,6 +218,7 @@ class ClipAnswer:
     error: str | None = None
     iou: float | None = None
     iou_frames: int = 0
+    travel_speed: float | None = None
 
     @property
     def in_library(self) -> bool:
@@ -244,6 +247,7 @@ class ClipAnswer:
             "error": self.error,
             "iou": None if self.iou is None else round(self.iou, 6),
             "iou_frames": self.iou_frames,
+            "travel_speed": self.travel_speed,
         }
 
 
@@ -364,6 +368,7 @@ def answer_clip(
         query_s,
         iou=score,
         iou_frames=n_frames,
+        travel_speed=None if result.travel_speed is None else round(result.travel_speed, 3),
     )
 
 

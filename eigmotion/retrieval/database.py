@@ -32,6 +32,7 @@ from eigmotion.retrieval.calibration import (
     stored_quantiles,
     threshold_for_false_rejection,
 )
+from eigmotion.retrieval.gait_speed import answer_by_travel, travel_speed
 from eigmotion.retrieval.library_views import BuildConfig, render_views, window_bounds
 from eigmotion.retrieval.motion_image import ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
@@ -270,6 +271,7 @@ class MotionDatabase:
         top_k: int = 3,
         false_rejection: float | None = None,
         hidden_below_px: int = 0,
+        gait_speed: bool = True,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -293,6 +295,11 @@ class MotionDatabase:
             Rows of the body below the frames' bottom edge
             (:attr:`~eigmotion.segmentation.video.ClipMasks.hidden_below_px`): the motion
             images continue the silhouettes down by as many rows.
+        gait_speed : bool
+            Let the person's speed over the floor (:func:`~eigmotion.retrieval.
+            gait_speed.travel_speed`) choose between walk and run among the first three
+            labels (:func:`~eigmotion.retrieval.gait_speed.answer_by_travel`); the
+            speed is reported either way.
 
         Returns
         -------
@@ -331,6 +338,9 @@ class MotionDatabase:
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         ranking = ranked + [m for m in nearest if m.motion_id not in compared]
+        speed = travel_speed(masks, fps)
+        if gait_speed:
+            ranking = answer_by_travel(ranking, speed)
         best = self._most_specific(ranking[0], windowed)
         segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
         ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
@@ -353,6 +363,7 @@ class MotionDatabase:
             self.n_entries,
             timing,
             whole_vector,
+            travel_speed=speed,
         )
 
     def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
@@ -467,6 +478,7 @@ class MotionDatabase:
         progress: bool = False,
         false_rejection: float | None = None,
         segmenter: str = "auto",
+        gait_speed: bool = True,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -493,6 +505,8 @@ class MotionDatabase:
             load_clip_masks`): ``auto`` fuses the learned masks with the subtraction of
             the background image when one is given and runs the learned segmenter
             alone when none is.
+        gait_speed : bool
+            As for :meth:`query_masks`.
 
         Returns
         -------
@@ -516,7 +530,7 @@ class MotionDatabase:
         clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
         t1 = time.perf_counter()
         result = self.query_masks(
-            clip.masks, clip.fps, top_k, false_rejection, clip.hidden_below_px
+            clip.masks, clip.fps, top_k, false_rejection, clip.hidden_below_px, gait_speed
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.

@@ -145,6 +145,10 @@ class QueryResult:
     warnings : tuple of str
         What the user should know about the answer (:func:`people_warning`: more than
         one person in view); empty when nothing.
+    travel_speed : float or None
+        How fast the person travels over the floor, body heights per second
+        (:func:`~eigmotion.retrieval.gait_speed.travel_speed`); None where too few
+        frames show the whole figure.
     """
 
     best: Match
@@ -160,6 +164,7 @@ class QueryResult:
     timing_ms: dict[str, float]
     motion_image: np.ndarray
     warnings: tuple[str, ...] = ()
+    travel_speed: float | None = None
 
     def to_json(self) -> dict:
         out = self.best.to_json()
@@ -174,6 +179,7 @@ class QueryResult:
         out["db_entries"] = int(self.db_entries)
         out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
         out["warnings"] = list(self.warnings)
+        out["travel_speed"] = None if self.travel_speed is None else round(self.travel_speed, 3)
         return out
 
 

@@ -1,0 +1,135 @@
+"""Walking or running, told by how fast the person crosses the floor.
+
+Seen from behind or in front, a walk and a run can cast nearly the same silhouettes:
+the legs swing along the line of sight.  How fast the person travels does not depend on
+the view.  A static camera sees it in the silhouettes themselves: across the frame as
+the figure's sideways shift, along the line of sight as the change of its height in
+pixels.  In body heights per second (so the person's size and the camera's distance
+drop out), with h the figure's height in pixels, x its centre's column from the frame's
+centre and f the focal length in pixels, a person of height H at depth Z shows
+h = f H / Z, so ::
+
+    sideways  dX/dt / H = d(x / h)/dt
+    away      dZ/dt / H = f · d(1 / h)/dt
+
+each slope fitted over the whole clip by least squares.  The focal length of an
+uncalibrated camera is taken as a field of view of :data:`ASSUMED_FIELD_OF_VIEW_DEG`
+across the frame's longer side; a wider lens makes the speed toward or away from the
+camera read higher, a narrower one lower (sideways travel does not depend on it).
+
+People walk at up to about 2 m/s and change to a run near 2 m/s, about 1.1–1.2 body
+heights per second (:data:`WALK_MAX_HEIGHTS_PER_S`, :data:`RUN_MIN_HEIGHTS_PER_S`
+leave a margin on either side).  A query ranked ``run`` first whose person travels at a
+walking speed answers the best-ranked ``walk`` instead, when that label is among the
+first three (and the reverse), see :func:`answer_by_travel`.  A clip where the person
+hardly travels (a treadmill, a camera following the person) says nothing and is left
+as ranked.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from eigmotion.retrieval.results import Match
+
+#: The field of view assumed across the frame's longer side, degrees: between a phone's
+#: main camera (about 65–70°) and a standard lens (about 45–55°).
+ASSUMED_FIELD_OF_VIEW_DEG = 60.0
+
+#: Faster than this is not a walk, body heights per second.
+WALK_MAX_HEIGHTS_PER_S = 1.0
+
+#: Slower than this is not a run, body heights per second.
+RUN_MIN_HEIGHTS_PER_S = 1.3
+
+#: Below this the person does not visibly travel (a run on the spot, a treadmill, a
+#: following camera), and the speed decides nothing, body heights per second.
+TRAVEL_MIN_HEIGHTS_PER_S = 0.4
+
+#: The speed is measured only when at least this share of the frames (and
+#: :data:`MIN_MEASURED_FRAMES`) show the whole figure: not touching the frame's top or
+#: bottom, where its height in pixels is not the person's.
+MIN_MEASURED_SHARE = 0.5
+MIN_MEASURED_FRAMES = 5
+
+#: The labels the rule chooses between.
+WALK, RUN = "walk", "run"
+GAITS = frozenset({WALK, RUN})
+
+
+def travel_speed(masks: np.ndarray, fps: float) -> float | None:
+    """How fast the person travels over the floor, body heights per second.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+        The person's silhouette per frame, from a static camera.
+    fps : float
+        Frames per second of ``masks``.
+
+    Returns
+    -------
+    float or None
+        The speed in body heights per second (>= 0); None where too few frames show
+        the whole figure (:data:`MIN_MEASURED_SHARE`, :data:`MIN_MEASURED_FRAMES`).
+    """
+    masks = np.asarray(masks, dtype=bool)
+    n_frames, height, width = masks.shape
+    rows = masks.any(axis=2)  # (F, H)
+    top = np.argmax(rows, axis=1)
+    bottom = height - 1 - np.argmax(rows[:, ::-1], axis=1)
+    whole = rows.any(axis=1) & (top > 0) & (bottom < height - 1)
+    if whole.sum() < max(MIN_MEASURED_FRAMES, MIN_MEASURED_SHARE * n_frames):
+        return None
+    cols = masks[whole].any(axis=1)  # (F', W)
+    count = cols.sum(axis=1)
+    centre = (cols * np.arange(width)).sum(axis=1) / count - 0.5 * (width - 1)
+    figure_px = (bottom - top + 1)[whole].astype(np.float64)
+    seconds = np.flatnonzero(whole) / float(fps)
+    focal_px = 0.5 * max(height, width) / math.tan(math.radians(ASSUMED_FIELD_OF_VIEW_DEG / 2))
+    design = np.stack([seconds, np.ones_like(seconds)], axis=1)
+    slopes = np.linalg.lstsq(
+        design, np.stack([centre / figure_px, 1.0 / figure_px], axis=1), rcond=None
+    )[0][0]
+    return float(math.hypot(slopes[0], focal_px * slopes[1]))
+
+
+def answer_by_travel(ranking: list[Match], speed: float | None) -> list[Match]:
+    """The ranking with walk or run first where the person's speed says which.
+
+    Parameters
+    ----------
+    ranking : list of Match
+        Distinct motions, the answer first.
+    speed : float or None
+        :func:`travel_speed` of the clip.
+
+    Returns
+    -------
+    list of Match
+        ``ranking`` itself, or with the best-ranked motion of the other gait moved to
+        the front: when the answer is ``run`` and the person travels at a walking
+        speed (from :data:`TRAVEL_MIN_HEIGHTS_PER_S` up to :data:`WALK_MAX_HEIGHTS_PER_S`)
+        or the answer is ``walk`` and the person travels faster than
+        :data:`RUN_MIN_HEIGHTS_PER_S`, and that gait is among the first three labels.
+    """
+    if speed is None or not ranking:
+        return ranking
+    first = ranking[0].label
+    if first == RUN and TRAVEL_MIN_HEIGHTS_PER_S <= speed < WALK_MAX_HEIGHTS_PER_S:
+        wanted = WALK
+    elif first == WALK and speed > RUN_MIN_HEIGHTS_PER_S:
+        wanted = RUN
+    else:
+        return ranking
+    labels: list[str] = []
+    for k, match in enumerate(ranking):
+        if match.label not in labels:
+            labels.append(match.label)
+            if len(labels) > 3:
+                break
+            if match.label == wanted:
+                return [match, *ranking[:k], *ranking[k + 1 :]]
+    return ranking

@@ -1,0 +1,123 @@
+"""Walk or run told by the person's speed over the floor (eigmotion.retrieval.gait_speed):
+the speed measured on silhouettes of known motion, drawn and rendered, and the rule that
+reorders a ranking."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from eigmotion.retrieval.gait_speed import (
+    ASSUMED_FIELD_OF_VIEW_DEG,
+    RUN_MIN_HEIGHTS_PER_S,
+    TRAVEL_MIN_HEIGHTS_PER_S,
+    WALK_MAX_HEIGHTS_PER_S,
+    answer_by_travel,
+    travel_speed,
+)
+from eigmotion.retrieval.results import Match
+
+SIZE = (120, 160)  # rows, columns
+FPS = 15.0
+
+
+def _figure(height_px: np.ndarray, centre_px: np.ndarray, foot_row: int = 110) -> np.ndarray:
+    """(F, 120, 160) masks of an upright box a quarter as wide as tall, standing on
+    ``foot_row``."""
+    masks = np.zeros((len(height_px), *SIZE), dtype=bool)
+    for k, (h, x) in enumerate(zip(height_px, centre_px, strict=True)):
+        h, half = int(round(h)), max(1, int(round(h / 8)))
+        c = int(round(x))
+        masks[k, foot_row - h + 1 : foot_row + 1, max(0, c - half) : c + half + 1] = True
+    return masks
+
+
+def test_sideways_travel_in_body_heights_per_second():
+    frames = 45
+    speed_px = 30.0  # px per second, a figure 80 px tall: 0.375 heights per second
+    centre = 20.0 + speed_px * np.arange(frames) / FPS
+    masks = _figure(np.full(frames, 80.0), centre)
+    assert travel_speed(masks, FPS) == pytest.approx(speed_px / 80.0, rel=0.02)
+    # the same figure standing still
+    assert travel_speed(_figure(np.full(frames, 80.0), np.full(frames, 60.0)), FPS) < 1e-9
+
+
+def test_travel_away_from_the_camera_from_the_figure_shrinking():
+    """A person H tall at depth Z shows f H / Z pixels: walking away at u (heights per
+    second) the figure shrinks so that f · d(1/h)/dt = u, with f the assumed focal
+    length."""
+    frames, fps = 60, 15.0
+    focal = 0.5 * max(SIZE) / math.tan(math.radians(ASSUMED_FIELD_OF_VIEW_DEG / 2))
+    u = 0.8  # body heights per second
+    depth = 2.0 + u * np.arange(frames) / fps  # in body heights
+    heights = focal / depth  # pixels
+    masks = _figure(heights, np.full(frames, 80.0))
+    assert travel_speed(masks, fps) == pytest.approx(u, rel=0.05)
+
+
+def test_no_speed_where_the_figure_is_cut_by_the_frame_or_missing():
+    frames = 30
+    centre = np.linspace(30, 120, frames)
+    tall = _figure(np.full(frames, 119.0), centre, foot_row=119)  # head at the top row
+    assert travel_speed(tall, FPS) is None
+    cut = _figure(np.full(frames, 60.0), centre, foot_row=119)  # feet on the bottom row
+    assert travel_speed(cut, FPS) is None
+    empty = np.zeros((frames, *SIZE), dtype=bool)
+    assert travel_speed(empty, FPS) is None
+    few = _figure(np.full(4, 60.0), centre[:4])  # fewer frames than the speed needs
+    assert travel_speed(few, FPS) is None
+
+
+def test_rendered_walk_seen_from_the_side_travels_at_its_mocap_speed():
+    """The library's walk rendered on the avatar by the project's renderer from a fixed
+    camera at the person's side: the speed read from the silhouettes is the avatar's
+    own speed over the floor in its own heights per second."""
+    from eigmotion.body.avatar import load_default_avatar
+    from eigmotion.body.retarget import animate_avatar
+    from eigmotion.imaging.cameras import virtual_rig
+    from eigmotion.imaging.silhouettes import render_masks
+    from eigmotion.mocap.library import load_library
+
+    walk = next(m for m in load_library() if m.name == "walk_02_01").motion.resample(FPS)
+    body = load_default_avatar().decimated(4000)
+    _, vertices = animate_avatar(body, walk)  # (F, V, 3) metres, Y up
+    cam = virtual_rig([90.0], [0.0], SIZE[1], SIZE[0]).fitted(vertices[:, ::7].reshape(-1, 3))[0]
+    masks = render_masks(vertices, body.faces, cam)
+    centroid = vertices.mean(axis=1)[:, [0, 2]]
+    seconds = np.arange(len(vertices)) / FPS
+    design = np.stack([seconds, np.ones_like(seconds)], axis=1)
+    truth_m_per_s = np.linalg.norm(np.linalg.lstsq(design, centroid, rcond=None)[0][0])
+    stature_m = np.ptp(vertices[0, :, 1])
+    measured = travel_speed(masks, FPS)
+    # the figure's height in a walk is a little under the standing stature
+    assert measured == pytest.approx(truth_m_per_s / stature_m, rel=0.12)
+    assert TRAVEL_MIN_HEIGHTS_PER_S < measured < WALK_MAX_HEIGHTS_PER_S
+
+
+def _match(label: str, k: int) -> Match:
+    return Match(label, f"{label}_{k}", k, 100 + k, 0.1 * (k + 1), 0.0, 0.0, (0, 30))
+
+
+@pytest.mark.parametrize(
+    ("labels", "speed", "first"),
+    [
+        (("run", "run", "walk", "turn"), 0.6, "walk_2"),  # walking speed: the walk
+        (("run", "walk"), TRAVEL_MIN_HEIGHTS_PER_S / 2, "run_0"),  # hardly travels
+        (("run", "walk"), (WALK_MAX_HEIGHTS_PER_S + RUN_MIN_HEIGHTS_PER_S) / 2, "run_0"),
+        (("run", "walk"), None, "run_0"),  # not measured
+        (("run", "kick", "jump", "walk"), 0.6, "run_0"),  # walk not among the first three
+        (("walk", "turn", "run"), RUN_MIN_HEIGHTS_PER_S + 0.5, "run_2"),  # running speed
+        (("walk", "run"), 0.9, "walk_0"),  # a walk at walking speed stays
+        (("kick", "run", "walk"), 0.6, "kick_0"),  # neither gait first: left as ranked
+    ],
+)
+def test_answer_by_travel(labels, speed, first):
+    ranking = [_match(label, k) for k, label in enumerate(labels)]
+    answered = answer_by_travel(ranking, speed)
+    assert answered[0].motion == first
+    # the same motions, the others in their order
+    assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
+    rest = [m.motion for m in ranking if m.motion != first]
+    assert [m.motion for m in answered[1:]] == rest
