@@ -68,6 +68,18 @@ def test_no_speed_where_the_figure_is_cut_by_the_frame_or_missing():
     assert travel_speed(empty, FPS) is None
     few = _figure(np.full(4, 60.0), centre[:4])  # fewer frames than the speed needs
     assert travel_speed(few, FPS) is None
+    entering = _figure(np.full(frames, 60.0), np.linspace(0, 10, frames))  # cut by the side
+    assert travel_speed(entering, FPS) is None
+
+
+def test_frames_cut_by_the_side_are_left_out():
+    """A person walking out of the picture: the frames where the box touches the side
+    would shift its centre; the speed comes from the others."""
+    frames = 45
+    centre = 60.0 + 45.0 * np.arange(frames) / FPS  # leaves the 160-px frame at the end
+    masks = _figure(np.full(frames, 80.0), centre)
+    assert masks[:, :, -1].any() and not masks[0, :, -1].any()
+    assert travel_speed(masks, FPS) == pytest.approx(45.0 / 80.0, rel=0.02)
 
 
 def test_rendered_walk_seen_from_the_side_travels_at_its_mocap_speed():

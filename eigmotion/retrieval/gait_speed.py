@@ -49,8 +49,9 @@ RUN_MIN_HEIGHTS_PER_S = 1.3
 TRAVEL_MIN_HEIGHTS_PER_S = 0.4
 
 #: The speed is measured only when at least this share of the frames (and
-#: :data:`MIN_MEASURED_FRAMES`) show the whole figure: not touching the frame's top or
-#: bottom, where its height in pixels is not the person's.
+#: :data:`MIN_MEASURED_FRAMES`) show the whole figure: touching none of the frame's
+#: edges, where its height or its centre in pixels is not the person's; the other
+#: frames are left out of the fit.
 MIN_MEASURED_SHARE = 0.5
 MIN_MEASURED_FRAMES = 5
 
@@ -73,17 +74,20 @@ def travel_speed(masks: np.ndarray, fps: float) -> float | None:
     -------
     float or None
         The speed in body heights per second (>= 0); None where too few frames show
-        the whole figure (:data:`MIN_MEASURED_SHARE`, :data:`MIN_MEASURED_FRAMES`).
+        the whole figure, touching none of the frame's edges
+        (:data:`MIN_MEASURED_SHARE`, :data:`MIN_MEASURED_FRAMES`).
     """
     masks = np.asarray(masks, dtype=bool)
     n_frames, height, width = masks.shape
     rows = masks.any(axis=2)  # (F, H)
+    cols = masks.any(axis=1)  # (F, W)
     top = np.argmax(rows, axis=1)
     bottom = height - 1 - np.argmax(rows[:, ::-1], axis=1)
-    whole = rows.any(axis=1) & (top > 0) & (bottom < height - 1)
+    inside = ~(cols[:, 0] | cols[:, -1])  # not cut by the frame's sides either
+    whole = rows.any(axis=1) & (top > 0) & (bottom < height - 1) & inside
     if whole.sum() < max(MIN_MEASURED_FRAMES, MIN_MEASURED_SHARE * n_frames):
         return None
-    cols = masks[whole].any(axis=1)  # (F', W)
+    cols = cols[whole]  # (F', W)
     count = cols.sum(axis=1)
     centre = (cols * np.arange(width)).sum(axis=1) / count - 0.5 * (width - 1)
     figure_px = (bottom - top + 1)[whole].astype(np.float64)
