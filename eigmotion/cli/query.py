@@ -44,7 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.gait_speed import GAITS
+from eigmotion.retrieval.motion_cues import GAITS
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -90,6 +90,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_false",
         help="do not let the person's speed over the floor choose between walk and run "
         "(it assumes a static camera)",
+    )
+    parser.add_argument(
+        "--no-raised-foot",
+        dest="raised_foot",
+        action="store_false",
+        help="do not let a foot raised to hip height (the pose network's ankles) make a "
+        "kick among the likeliest three actions the answer",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
@@ -139,6 +146,7 @@ def run(args: argparse.Namespace) -> int:
             false_rejection=args.false_rejection,
             segmenter=args.segmenter,
             gait_speed=args.gait_speed,
+            raised_foot=args.raised_foot,
         )
         if answer_3d:
             _write_replay(db, result, clip, args)

@@ -204,6 +204,8 @@ class ClipAnswer:
         Frames the IoU is the mean of.
     travel_speed : float or None
         The answer's ``travel_speed``, body heights per second.
+    foot_raise : float or None
+        The answer's ``foot_raise``, body heights.
     """
 
     clip_id: str
@@ -219,6 +221,7 @@ class ClipAnswer:
     iou: float | None = None
     iou_frames: int = 0
     travel_speed: float | None = None
+    foot_raise: float | None = None
 
     @property
     def in_library(self) -> bool:
@@ -248,6 +251,7 @@ class ClipAnswer:
             "iou": None if self.iou is None else round(self.iou, 6),
             "iou_frames": self.iou_frames,
             "travel_speed": self.travel_speed,
+            "foot_raise": self.foot_raise,
         }
 
 
@@ -369,6 +373,7 @@ def answer_clip(
         iou=score,
         iou_frames=n_frames,
         travel_speed=None if result.travel_speed is None else round(result.travel_speed, 3),
+        foot_raise=None if result.foot_raise is None else round(result.foot_raise, 3),
     )
 
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import eigmotion.retrieval.database as database_module
-import eigmotion.retrieval.gait_speed as gait_speed_module
+import eigmotion.retrieval.motion_cues as motion_cues_module
 import eigmotion.retrieval.query_windows as query_windows_module
 import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
@@ -59,7 +59,7 @@ QUERY_CONSTANTS = {
         "WINDOW_CANDIDATES", "FILLER_CANDIDATES", "SPECIFIC_MARGIN", "MIN_SPECIFIC_WINDOWS",
         "SEGMENT_SWITCH_COST",
     ),
-    "gait_speed": (
+    "motion_cues": (
         "WALK_MAX_HEIGHTS_PER_S", "RUN_MIN_HEIGHTS_PER_S", "TRAVEL_MIN_HEIGHTS_PER_S",
         "ASSUMED_FIELD_OF_VIEW_DEG",
     ),
@@ -70,7 +70,7 @@ MODULES = {
     "sequences": sequences_module,
     "database": database_module,
     "query_windows": query_windows_module,
-    "gait_speed": gait_speed_module,
+    "motion_cues": motion_cues_module,
 }
 
 

@@ -32,8 +32,13 @@ from eigmotion.retrieval.calibration import (
     stored_quantiles,
     threshold_for_false_rejection,
 )
-from eigmotion.retrieval.gait_speed import answer_by_travel, travel_speed
 from eigmotion.retrieval.library_views import BuildConfig, render_views, window_bounds
+from eigmotion.retrieval.motion_cues import (
+    answer_by_raised_foot,
+    answer_by_travel,
+    foot_raise,
+    travel_speed,
+)
 from eigmotion.retrieval.motion_image import ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
 from eigmotion.retrieval.query_windows import (
@@ -272,6 +277,7 @@ class MotionDatabase:
         false_rejection: float | None = None,
         hidden_below_px: int = 0,
         gait_speed: bool = True,
+        raised_foot: float | None = None,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -297,9 +303,14 @@ class MotionDatabase:
             images continue the silhouettes down by as many rows.
         gait_speed : bool
             Let the person's speed over the floor (:func:`~eigmotion.retrieval.
-            gait_speed.travel_speed`) choose between walk and run among the first three
-            labels (:func:`~eigmotion.retrieval.gait_speed.answer_by_travel`); the
+            motion_cues.travel_speed`) choose between walk and run among the first three
+            labels (:func:`~eigmotion.retrieval.motion_cues.answer_by_travel`); the
             speed is reported either way.
+        raised_foot : float, optional
+            How far one foot rose above the other, body heights
+            (:func:`~eigmotion.retrieval.motion_cues.foot_raise` of the pose network's
+            landmarks): high enough, it makes a kick among the first three labels the
+            answer (:func:`~eigmotion.retrieval.motion_cues.answer_by_raised_foot`).
 
         Returns
         -------
@@ -341,6 +352,7 @@ class MotionDatabase:
         speed = travel_speed(masks, fps)
         if gait_speed:
             ranking = answer_by_travel(ranking, speed)
+        ranking = answer_by_raised_foot(ranking, raised_foot, speed)
         best = self._most_specific(ranking[0], windowed)
         segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
         ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
@@ -364,6 +376,7 @@ class MotionDatabase:
             timing,
             whole_vector,
             travel_speed=speed,
+            foot_raise=raised_foot,
         )
 
     def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
@@ -479,6 +492,7 @@ class MotionDatabase:
         false_rejection: float | None = None,
         segmenter: str = "auto",
         gait_speed: bool = True,
+        raised_foot: bool = True,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -507,6 +521,11 @@ class MotionDatabase:
             alone when none is.
         gait_speed : bool
             As for :meth:`query_masks`.
+        raised_foot : bool
+            Measure how far one foot rose above the other from the pose network's
+            landmarks (the learned and fused front ends keep them) and let a foot raised
+            as only a kick raises it make a kick among the first three labels the
+            answer (:meth:`query_masks`).
 
         Returns
         -------
@@ -530,7 +549,13 @@ class MotionDatabase:
         clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
         t1 = time.perf_counter()
         result = self.query_masks(
-            clip.masks, clip.fps, top_k, false_rejection, clip.hidden_below_px, gait_speed
+            clip.masks,
+            clip.fps,
+            top_k,
+            false_rejection,
+            clip.hidden_below_px,
+            gait_speed,
+            foot_raise(clip.landmarks) if raised_foot else None,
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.

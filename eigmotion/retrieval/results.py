@@ -147,8 +147,12 @@ class QueryResult:
         one person in view); empty when nothing.
     travel_speed : float or None
         How fast the person travels over the floor, body heights per second
-        (:func:`~eigmotion.retrieval.gait_speed.travel_speed`); None where too few
+        (:func:`~eigmotion.retrieval.motion_cues.travel_speed`); None where too few
         frames show the whole figure.
+    foot_raise : float or None
+        How far one foot rose above the other at most, body heights
+        (:func:`~eigmotion.retrieval.motion_cues.foot_raise`); None where the query had
+        no pose landmarks or did not measure it.
     """
 
     best: Match
@@ -165,6 +169,7 @@ class QueryResult:
     motion_image: np.ndarray
     warnings: tuple[str, ...] = ()
     travel_speed: float | None = None
+    foot_raise: float | None = None
 
     def to_json(self) -> dict:
         out = self.best.to_json()
@@ -180,6 +185,7 @@ class QueryResult:
         out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
         out["warnings"] = list(self.warnings)
         out["travel_speed"] = None if self.travel_speed is None else round(self.travel_speed, 3)
+        out["foot_raise"] = None if self.foot_raise is None else round(self.foot_raise, 3)
         return out
 
 

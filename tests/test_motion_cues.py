@@ -1,6 +1,7 @@
-"""Walk or run told by the person's speed over the floor (eigmotion.retrieval.gait_speed):
-the speed measured on silhouettes of known motion, drawn and rendered, and the rule that
-reorders a ranking."""
+"""The body's facts that choose among a query's first three labels
+(eigmotion.retrieval.motion_cues): the speed over the floor measured on silhouettes of
+known motion, drawn and rendered; the rise of one foot over the other from landmarks;
+and the rules that reorder a ranking."""
 
 from __future__ import annotations
 
@@ -9,12 +10,15 @@ import math
 import numpy as np
 import pytest
 
-from eigmotion.retrieval.gait_speed import (
+from eigmotion.retrieval.motion_cues import (
     ASSUMED_FIELD_OF_VIEW_DEG,
+    KICK_MIN_RAISE,
     RUN_MIN_HEIGHTS_PER_S,
     TRAVEL_MIN_HEIGHTS_PER_S,
     WALK_MAX_HEIGHTS_PER_S,
+    answer_by_raised_foot,
     answer_by_travel,
+    foot_raise,
     travel_speed,
 )
 from eigmotion.retrieval.results import Match
@@ -133,3 +137,49 @@ def test_answer_by_travel(labels, speed, first):
     assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
     rest = [m.motion for m in ranking if m.motion != first]
     assert [m.motion for m in answered[1:]] == rest
+
+
+def _landmarks(ankle_rise_px: np.ndarray) -> np.ndarray:
+    """(F, 33, 4) landmarks of a person 100 px from nose to ankles, standing on row 200,
+    the left ankle raised by ``ankle_rise_px`` in each frame; NaN elsewhere."""
+    marks = np.full((len(ankle_rise_px), 33, 4), np.nan)
+    marks[:, 0, :2] = (100.0, 100.0)  # nose
+    marks[:, 27, :2] = np.stack([np.full(len(ankle_rise_px), 95.0), 200.0 - ankle_rise_px], 1)
+    marks[:, 28, :2] = (105.0, 200.0)
+    return marks
+
+
+def test_foot_raise_in_body_heights():
+    stature = 1.1 * 100.0
+    kick = np.concatenate([np.zeros(10), [20, 50, 60, 55, 30], np.zeros(10)])
+    assert foot_raise(_landmarks(kick)) == pytest.approx(55.0 / stature)
+    # one frame's slip of a landmark does not count
+    slip = np.zeros(20)
+    slip[7] = 80.0
+    assert foot_raise(_landmarks(slip)) == pytest.approx(0.0)
+    # frames without the person (NaN) are left out; too few frames say nothing
+    lost = _landmarks(kick)
+    lost[:12] = np.nan
+    assert foot_raise(lost) == pytest.approx(55.0 / stature)
+    assert foot_raise(_landmarks(np.zeros(2))) is None
+    assert foot_raise(None) is None
+
+
+@pytest.mark.parametrize(
+    ("labels", "rise", "speed", "first"),
+    [
+        (("punch", "kick", "walk"), KICK_MIN_RAISE + 0.1, None, "kick_1"),
+        (("punch", "kick", "walk"), KICK_MIN_RAISE + 0.1, 0.3, "kick_1"),
+        (("punch", "kick", "walk"), KICK_MIN_RAISE - 0.1, None, "punch_0"),
+        (("punch", "kick", "walk"), None, None, "punch_0"),
+        (("punch", "punch", "walk", "jump", "kick"), 0.8, None, "punch_0"),  # not in three
+        (("kick", "punch"), 0.8, None, "kick_0"),
+        # a runner's heel swung up high: running, not kicking
+        (("run", "punch", "kick"), 0.8, RUN_MIN_HEIGHTS_PER_S + 0.2, "run_0"),
+    ],
+)
+def test_answer_by_raised_foot(labels, rise, speed, first):
+    ranking = [_match(label, k) for k, label in enumerate(labels)]
+    answered = answer_by_raised_foot(ranking, rise, speed)
+    assert answered[0].motion == first
+    assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)

@@ -1,13 +1,15 @@
-"""Walking or running, told by how fast the person crosses the floor.
+"""Two facts of the body the motion image blurs, each allowed to choose among the
+first three labels a query ranked: how fast the person crosses the floor (walk or
+run), and a foot raised high (a kick).
 
-Seen from behind or in front, a walk and a run can cast nearly the same silhouettes:
-the legs swing along the line of sight.  How fast the person travels does not depend on
-the view.  A static camera sees it in the silhouettes themselves: across the frame as
-the figure's sideways shift, along the line of sight as the change of its height in
-pixels.  In body heights per second (so the person's size and the camera's distance
-drop out), with h the figure's height in pixels, x its centre's column from the frame's
-centre and f the focal length in pixels, a person of height H at depth Z shows
-h = f H / Z, so ::
+**Speed over the floor.** Seen from behind or in front, a walk and a run can cast
+nearly the same silhouettes: the legs swing along the line of sight.  How fast the
+person travels does not depend on the view.  A static camera sees it in the
+silhouettes themselves: across the frame as the figure's sideways shift, along the line
+of sight as the change of its height in pixels.  In body heights per second (so the
+person's size and the camera's distance drop out), with h the figure's height in pixels,
+x its centre's column from the frame's centre and f the focal length in pixels, a person
+of height H at depth Z shows h = f H / Z, so ::
 
     sideways  dX/dt / H = d(x / h)/dt
     away      dZ/dt / H = f · d(1 / h)/dt
@@ -24,6 +26,17 @@ walking speed answers the best-ranked ``walk`` instead, when that label is among
 first three (and the reverse), see :func:`answer_by_travel`.  A clip where the person
 hardly travels (a treadmill, a camera following the person) says nothing and is left
 as ranked.
+
+**A foot raised high.** A kick lifts one foot to the height of the other leg's hip or
+above; walking, running, jumping and punching keep the two feet within about a third of
+the body's height of each other (the library's motions: kicks 0.49–0.92 of the
+performer's height at the highest, every other motion 0.29 or less).  The pose
+network's ankle landmarks give that rise in the image, in body heights
+(:func:`foot_raise`); a clip whose feet come :data:`KICK_MIN_RAISE` apart answers the
+best-ranked ``kick`` when that label is among the first three and the person does not
+cross the floor at a run's pace, where the heel of the leg swung back rises high
+(:func:`answer_by_raised_foot`).  The landmarks of small people often miss the kicking
+foot, so a low rise says nothing: the cue only ever turns an answer into a kick.
 """
 
 from __future__ import annotations
@@ -58,6 +71,19 @@ MIN_MEASURED_FRAMES = 5
 #: The labels the rule chooses between.
 WALK, RUN = "walk", "run"
 GAITS = frozenset({WALK, RUN})
+
+#: The rise of one ankle over the other, in body heights, that only a kick reaches.
+KICK_MIN_RAISE = 0.45
+
+#: The label a raised foot chooses.
+KICK = "kick"
+
+#: MediaPipe's pose landmarks: nose, left and right ankle.
+NOSE, ANKLES = 0, (27, 28)
+
+#: The body's height is this many times the span from the nose to the lower ankle
+#: (the head's top lies above the nose, the soles below the ankles).
+STATURE_PER_NOSE_TO_ANKLE = 1.1
 
 
 def travel_speed(masks: np.ndarray, fps: float) -> float | None:
@@ -128,6 +154,78 @@ def answer_by_travel(ranking: list[Match], speed: float | None) -> list[Match]:
         wanted = RUN
     else:
         return ranking
+    return _first_of(ranking, wanted)
+
+
+def foot_raise(landmarks: np.ndarray | None) -> float | None:
+    """How far one foot rose above the other at most, in body heights.
+
+    Parameters
+    ----------
+    landmarks : (F, 33, 4) float or None
+        The pose network's landmarks per frame (x, y in pixels, visibility, presence;
+        NaN where the network found no one), as
+        :attr:`~eigmotion.segmentation.video.ClipMasks.landmarks`.
+
+    Returns
+    -------
+    float or None
+        The largest vertical distance between the two ankles, over the body's height
+        (:data:`STATURE_PER_NOSE_TO_ANKLE` × the 90th percentile over frames of the span
+        from the nose down to the lower ankle), after a running median of three frames
+        (one frame's slip of a landmark does not count); None without landmarks or with
+        fewer than three frames that have them.
+    """
+    if landmarks is None:
+        return None
+    landmarks = np.asarray(landmarks, dtype=np.float64)
+    ankles_y = landmarks[:, ANKLES, 1]  # (F, 2)
+    nose_y = landmarks[:, NOSE, 1]
+    seen = np.isfinite(ankles_y).all(axis=1) & np.isfinite(nose_y)
+    if seen.sum() < 3:
+        return None
+    ankles_y, nose_y = ankles_y[seen], nose_y[seen]
+    span = np.percentile(ankles_y.max(axis=1) - nose_y, 90)
+    if not span > 0:
+        return None
+    rise = np.abs(ankles_y[:, 0] - ankles_y[:, 1]) / (STATURE_PER_NOSE_TO_ANKLE * span)
+    steady = np.median(np.stack([rise[:-2], rise[1:-1], rise[2:]]), axis=0)
+    return float(steady.max())
+
+
+def answer_by_raised_foot(
+    ranking: list[Match], raise_heights: float | None, speed: float | None = None
+) -> list[Match]:
+    """The ranking with ``kick`` first where a foot rose as only a kick's does.
+
+    Parameters
+    ----------
+    ranking : list of Match
+        Distinct motions, the answer first.
+    raise_heights : float or None
+        :func:`foot_raise` of the clip.
+    speed : float or None
+        :func:`travel_speed` of the clip: a person crossing the floor at a run's pace
+        (:data:`RUN_MIN_HEIGHTS_PER_S` or faster) who lifts a heel high is running, and
+        the rise decides nothing.
+
+    Returns
+    -------
+    list of Match
+        ``ranking`` itself, or with its best-ranked kick moved to the front when the
+        rise is at least :data:`KICK_MIN_RAISE`, the person does not travel at a run's
+        pace and ``kick`` is among the first three labels.
+    """
+    if raise_heights is None or raise_heights < KICK_MIN_RAISE or not ranking:
+        return ranking
+    if speed is not None and speed >= RUN_MIN_HEIGHTS_PER_S:
+        return ranking
+    return _first_of(ranking, KICK)
+
+
+def _first_of(ranking: list[Match], wanted: str) -> list[Match]:
+    """``ranking`` with its first motion labelled ``wanted`` moved to the front, when
+    that label is among its first three; else ``ranking`` itself."""
     labels: list[str] = []
     for k, match in enumerate(ranking):
         if match.label not in labels:
