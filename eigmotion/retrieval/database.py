@@ -277,7 +277,7 @@ class MotionDatabase:
         false_rejection: float | None = None,
         hidden_below_px: int = 0,
         gait_speed: bool = True,
-        raised_foot: float | None = None,
+        raised_foot_heights: float | None = None,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -306,7 +306,7 @@ class MotionDatabase:
             motion_cues.travel_speed`) choose between walk and run among the first three
             labels (:func:`~eigmotion.retrieval.motion_cues.answer_by_travel`); the
             speed is reported either way.
-        raised_foot : float, optional
+        raised_foot_heights : float, optional
             How far one foot rose above the other, body heights
             (:func:`~eigmotion.retrieval.motion_cues.foot_raise` of the pose network's
             landmarks): high enough, it makes a kick among the first three labels the
@@ -352,7 +352,7 @@ class MotionDatabase:
         speed = travel_speed(masks, fps)
         if gait_speed:
             ranking = answer_by_travel(ranking, speed)
-        ranking = answer_by_raised_foot(ranking, raised_foot, speed)
+        ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)
         best = self._most_specific(ranking[0], windowed)
         segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
         ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
@@ -376,7 +376,7 @@ class MotionDatabase:
             timing,
             whole_vector,
             travel_speed=speed,
-            foot_raise=raised_foot,
+            foot_raise=raised_foot_heights,
         )
 
     def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
