@@ -44,7 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.motion_cues import GAITS, KICK
+from eigmotion.retrieval.motion_cues import KICK, RUN, WALK
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -163,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {RANKING_IN_WORDS}")
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
-        if result.travel_speed is not None and best.label in GAITS:
+        if result.travel_speed is not None and best.label in (WALK, RUN):
             print(f"  travels {result.travel_speed:.2f} body heights per second")
         if result.foot_raise is not None and best.label == KICK:
             print(f"  one foot rose {result.foot_raise:.2f} body heights above the other")

@@ -46,6 +46,7 @@ import math
 import numpy as np
 
 from eigmotion.retrieval.results import Match
+from eigmotion.segmentation.cut_bodies import ANKLES
 
 #: The field of view assumed across the frame's longer side, degrees: between a phone's
 #: main camera (about 65–70°) and a standard lens (about 45–55°).
@@ -70,7 +71,6 @@ MIN_MEASURED_FRAMES = 5
 
 #: The labels the rule chooses between.
 WALK, RUN = "walk", "run"
-GAITS = frozenset({WALK, RUN})
 
 #: The rise of one ankle over the other, in body heights, that only a kick reaches.
 KICK_MIN_RAISE = 0.45
@@ -78,8 +78,9 @@ KICK_MIN_RAISE = 0.45
 #: The label a raised foot chooses.
 KICK = "kick"
 
-#: MediaPipe's pose landmarks: nose, left and right ankle.
-NOSE, ANKLES = 0, (27, 28)
+#: MediaPipe's pose landmark of the nose (the ankles: :data:`~eigmotion.segmentation.
+#: cut_bodies.ANKLES`).
+NOSE = 0
 
 #: The body's height is this many times the span from the nose to the lower ankle
 #: (the head's top lies above the nose, the soles below the ankles).
