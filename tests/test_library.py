@@ -107,8 +107,8 @@ def test_every_label_has_a_motion(library, label):
     motions = [lm for lm in library if lm.label == label and lm.role == "basic"]
     assert motions
     authored = [lm for lm in motions if lm.performer == "authored" and lm.mirror_of is None]
-    if label in AUTHORED_LABELS:
-        assert 2 <= len(authored) <= 8
+    if label in AUTHORED_LABELS:  # a few ways each, none flooding the database
+        assert 2 <= len(authored) <= 10
 
 
 def test_the_patents_six_labels_are_there():
@@ -159,7 +159,7 @@ def test_find_motion_by_name(library, name):
 
 
 def test_find_motion_by_path():
-    bvh = MOTIONS_DIR / "authored" / "lift_floor_to_chest.bvh"
+    bvh = MOTIONS_DIR / "authored" / "pick_up_heavy_box_to_chest.bvh"
     assert find_motion(bvh).n_frames == read_bvh(bvh).n_frames
     amc = find_motion(str(MOTIONS_DIR / "cmu/amc/16_35.amc"), asf=MOTIONS_DIR / "cmu/asf/16.asf")
     assert amc.n_frames == 162
@@ -359,8 +359,9 @@ def _check_label(label: str, p, frame_time_s: float) -> None:
         # where they start (a run's flight is flat).
         assert _both_feet_height(p).max() >= 0.2 and hips_y.max() - hips_y[0] >= 0.15
     elif label == "pick_up":
-        # Squatting or bending with straight legs: the head goes down, a hand to the floor.
-        assert head_y[0] - head_y.min() >= 0.5 and hands[..., 1].min() <= 0.3
+        # Squatting or bending with straight legs: the head goes down, a hand to the floor
+        # or to the top of a box standing on it.
+        assert head_y[0] - head_y.min() >= 0.5 and hands[..., 1].min() <= 0.4
     elif label == "lift":
         # The hands end higher than their lowest point, loaded from below.
         assert hands[-1, :, 1].min() - hands[..., 1].min() >= 0.3 or (

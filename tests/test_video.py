@@ -107,8 +107,9 @@ def _on_the_spot(motion_name: str):
 
 @pytest.fixture(scope="module")
 def lift_scene():
-    """The avatar lifting from the floor to its chest (lift_floor_to_chest, 56 frames)."""
-    return _on_the_spot("lift_floor_to_chest")
+    """The avatar taking a heavy box up from the floor to its chest
+    (pick_up_heavy_box_to_chest, 56 frames)."""
+    return _on_the_spot("pick_up_heavy_box_to_chest")
 
 
 @pytest.fixture(scope="module")

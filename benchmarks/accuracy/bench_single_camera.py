@@ -99,7 +99,7 @@ MOTIONS = (
     "wave_14_25",
     "punch_02_05",
     "turn_16_19",
-    "lift_floor_to_chest",
+    "pick_up_heavy_box_to_chest",
     "cover_head_standing",
 )
 GOAL_MM = 80.0

@@ -54,7 +54,7 @@ from eigmotion.segmentation.video import extract_silhouettes  # noqa: E402
 IN_PLACE = (
     "wave_14_24",
     "wave_both_hands",
-    "lift_floor_to_chest",
+    "pick_up_heavy_box_to_chest",
     "cover_head_standing",
     "pick_up_02_06_a",
     "punch_02_05",

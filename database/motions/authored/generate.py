@@ -116,7 +116,7 @@ def _box(y_m: float, z_m: float, half_width_m: float = 0.2) -> dict[str, Target]
     }
 
 
-def lift_floor_to_chest() -> Motion:
+def pick_up_heavy_box_to_chest() -> Motion:
     """Squat with the knees out, grip a box on the floor, rise slowly with it to the chest."""
     return _animate(
         [
@@ -163,7 +163,7 @@ def lift_floor_to_chest() -> Motion:
             ),
             Key(3.7, {"LowerBack": (-5, 0, 0)}, (0.0, 0.0, 0.0)),
         ],
-        "lift_floor_to_chest",
+        "pick_up_heavy_box_to_chest",
     )
 
 
@@ -203,7 +203,7 @@ def lift_chest_to_overhead() -> Motion:
     )
 
 
-def lift_floor_to_waist_stoop() -> Motion:
+def pick_up_heavy_box_stooping() -> Motion:
     """Wide stance, stoop with a bent back, heave a box from the floor to the waist."""
     return _animate(
         [
@@ -246,11 +246,11 @@ def lift_floor_to_waist_stoop() -> Motion:
             ),
             Key(3.6, {"LowerBack": (-6, 0, 0)}, (0.0, -0.02, 0.0), _box(0.89, 0.24)),
         ],
-        "lift_floor_to_waist_stoop",
+        "pick_up_heavy_box_stooping",
     )
 
 
-def lift_suitcase_one_hand() -> Motion:
+def pick_up_suitcase_one_hand() -> Motion:
     """Squat beside a heavy suitcase, grip its handle with the right hand, stand up with it
     leaning away from the load, the free arm out for balance."""
     return _animate(
@@ -277,7 +277,7 @@ def lift_suitcase_one_hand() -> Motion:
             ),
             Key(2.7, {"LowerBack": (0, 0, -6)}, (0.03, -0.01, 0.0)),
         ],
-        "lift_suitcase_one_hand",
+        "pick_up_suitcase_one_hand",
     )
 
 
@@ -3465,10 +3465,7 @@ def kick_axe() -> Motion:
 
 
 MOTIONS: dict[str, Callable[[], Motion]] = {
-    "lift_floor_to_chest": lift_floor_to_chest,
     "lift_chest_to_overhead": lift_chest_to_overhead,
-    "lift_floor_to_waist_stoop": lift_floor_to_waist_stoop,
-    "lift_suitcase_one_hand": lift_suitcase_one_hand,
     "lift_table_to_shoulder": lift_table_to_shoulder,
     "lift_clean_and_press": lift_clean_and_press,
     "lift_table_to_shelf": lift_table_to_shelf,
@@ -3516,6 +3513,9 @@ MOTIONS: dict[str, Callable[[], Motion]] = {
     "pick_up_bending": pick_up_bending,
     "pick_up_one_hand": pick_up_one_hand,
     "pick_up_reaching_forwards": pick_up_reaching_forwards,
+    "pick_up_heavy_box_to_chest": pick_up_heavy_box_to_chest,
+    "pick_up_heavy_box_stooping": pick_up_heavy_box_stooping,
+    "pick_up_suitcase_one_hand": pick_up_suitcase_one_hand,
     "pick_up_walking_in": pick_up_walking_in,
     "pick_up_walking_in_crouching": pick_up_walking_in_crouching,
     "pick_up_jogging_in": pick_up_jogging_in,
