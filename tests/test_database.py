@@ -670,6 +670,9 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
         "examined",
         "db_entries",
         "timing_ms",
+        "travel_speed",
+        "heading_change_deg",
+        "foot_raise",
     ):
         assert key in answer
     assert answer["label"] == "kick" and len(answer["top"]) == 2

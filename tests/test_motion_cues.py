@@ -1,7 +1,7 @@
 """The body's facts that choose among a query's first three labels
-(eigmotion.retrieval.motion_cues): the speed over the floor measured on silhouettes of
-known motion, drawn and rendered; the rise of one foot over the other from landmarks;
-and the rules that reorder a ranking."""
+(eigmotion.retrieval.motion_cues): the speed over the floor and the bend of the way
+across it, measured on silhouettes of known motion, drawn and rendered; the rise of one
+foot over the other from landmarks; and the rules that reorder a ranking."""
 
 from __future__ import annotations
 
@@ -15,10 +15,14 @@ from eigmotion.retrieval.motion_cues import (
     KICK_MIN_RAISE,
     RUN_MIN_HEIGHTS_PER_S,
     TRAVEL_MIN_HEIGHTS_PER_S,
+    TURN_MIN_DEG,
+    TURN_MIN_HEIGHTS_PER_S,
     WALK_MAX_HEIGHTS_PER_S,
     answer_by_raised_foot,
     answer_by_travel,
+    answer_by_turning,
     foot_raise,
+    heading_change,
     travel_speed,
 )
 from eigmotion.retrieval.results import Match
@@ -86,21 +90,58 @@ def test_frames_cut_by_the_side_are_left_out():
     assert travel_speed(masks, FPS) == pytest.approx(45.0 / 80.0, rel=0.02)
 
 
-def test_rendered_walk_seen_from_the_side_travels_at_its_mocap_speed():
-    """The library's walk rendered on the avatar by the project's renderer from a fixed
-    camera at the person's side: the speed read from the silhouettes is the avatar's
-    own speed over the floor in its own heights per second."""
+def test_heading_change_between_the_halves():
+    """Sideways for 2 s, then straight away from the camera for 2 s: a right angle; the
+    same figure going on sideways: none; too slow to tell: not measured."""
+    focal = 0.5 * max(SIZE) / math.tan(math.radians(ASSUMED_FIELD_OF_VIEW_DEG / 2))
+    seconds = np.arange(60) / FPS
+    u = 0.5  # body heights per second
+    depth = 3.0 + u * np.clip(seconds - 2.0, 0.0, None)  # body heights
+    sideways = u * np.minimum(seconds, 2.0) - 0.5  # body heights, from the frame's centre
+    heights = focal / depth
+    bend = _figure(heights, 79.5 + sideways * heights)
+    assert heading_change(bend, FPS) == pytest.approx(90.0, abs=10.0)
+    straight = _figure(np.full(60, 50.0), 79.5 + (u * seconds - 1.0) * 50.0)
+    assert heading_change(straight, FPS) < 5.0
+    slow = u * TURN_MIN_HEIGHTS_PER_S
+    crawl = _figure(np.full(60, 50.0), 79.5 + (slow * seconds - 0.2) * 50.0)
+    assert heading_change(crawl, FPS) is None
+    assert heading_change(np.zeros((60, *SIZE), dtype=bool), FPS) is None
+
+
+def _rendered(name: str, azimuth_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The library motion ``name`` on the avatar, rendered by the project's renderer from
+    one fixed camera framing the whole motion: masks (F, 120, 160) and the body's
+    vertices (F, V, 3), metres."""
     from eigmotion.body.avatar import load_default_avatar
     from eigmotion.body.retarget import animate_avatar
     from eigmotion.imaging.cameras import virtual_rig
     from eigmotion.imaging.silhouettes import render_masks
     from eigmotion.mocap.library import load_library
 
-    walk = next(m for m in load_library() if m.name == "walk_02_01").motion.resample(FPS)
+    motion = next(m for m in load_library() if m.name == name).motion.resample(FPS)
     body = load_default_avatar().decimated(4000)
-    _, vertices = animate_avatar(body, walk)  # (F, V, 3) metres, Y up
-    cam = virtual_rig([90.0], [0.0], SIZE[1], SIZE[0]).fitted(vertices[:, ::7].reshape(-1, 3))[0]
-    masks = render_masks(vertices, body.faces, cam)
+    _, vertices = animate_avatar(body, motion)  # (F, V, 3) metres, Y up
+    rig = virtual_rig([azimuth_deg], [0.0], SIZE[1], SIZE[0])
+    cam = rig.fitted(vertices[:, ::7].reshape(-1, 3))[0]
+    return render_masks(vertices, body.faces, cam), vertices
+
+
+def test_rendered_walking_turn_bends_and_the_walk_does_not():
+    """The library's walking turn by 90° (two steps, the turn, two steps) rendered from a
+    fixed camera turns by more than :data:`TURN_MIN_DEG`; its walk from the same side
+    keeps its heading."""
+    turn, _ = _rendered("turn_walking_90", 45.0)
+    assert heading_change(turn, FPS) > TURN_MIN_DEG
+    walk, _ = _rendered("walk_02_01", 45.0)
+    assert heading_change(walk, FPS) < 15.0
+
+
+def test_rendered_walk_seen_from_the_side_travels_at_its_mocap_speed():
+    """The library's walk rendered on the avatar by the project's renderer from a fixed
+    camera at the person's side: the speed read from the silhouettes is the avatar's
+    own speed over the floor in its own heights per second."""
+    masks, vertices = _rendered("walk_02_01", 90.0)
     centroid = vertices.mean(axis=1)[:, [0, 2]]
     seconds = np.arange(len(vertices)) / FPS
     design = np.stack([seconds, np.ones_like(seconds)], axis=1)
@@ -137,6 +178,24 @@ def test_answer_by_travel(labels, speed, first):
     assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
     rest = [m.motion for m in ranking if m.motion != first]
     assert [m.motion for m in answered[1:]] == rest
+
+
+@pytest.mark.parametrize(
+    ("labels", "change", "first"),
+    [
+        (("walk", "run", "turn"), 80.0, "turn_2"),  # the way bends: the turn
+        (("walk", "turn"), TURN_MIN_DEG / 2, "walk_0"),  # straight on
+        (("walk", "turn"), None, "walk_0"),  # not measured (or hardly travels)
+        (("walk", "run", "kick", "turn"), 80.0, "walk_0"),  # turn not among the first three
+        (("run", "turn"), 80.0, "run_0"),  # only a walk is judged
+        (("pick_up", "turn"), 150.0, "pick_up_0"),  # bending down reads as a step away
+    ],
+)
+def test_answer_by_turning(labels, change, first):
+    ranking = [_match(label, k) for k, label in enumerate(labels)]
+    answered = answer_by_turning(ranking, change)
+    assert answered[0].motion == first
+    assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
 
 
 def _landmarks(ankle_rise_px: np.ndarray) -> np.ndarray:

@@ -44,7 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.motion_cues import KICK, RUN, WALK
+from eigmotion.retrieval.motion_cues import KICK, RUN, TURN, WALK
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -85,11 +85,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "0.05): a larger share turns away more unknown motions and more known ones",
     )
     parser.add_argument(
-        "--no-gait-speed",
-        dest="gait_speed",
+        "--no-floor-track",
+        dest="floor_track",
         action="store_false",
-        help="do not let the person's speed over the floor choose between walk and run "
-        "(it assumes a static camera)",
+        help="do not let the person's track over the floor choose among the likeliest "
+        "three actions: its speed between walk and run, a bend in it between walk and "
+        "turn (it assumes a static camera)",
     )
     parser.add_argument(
         "--no-raised-foot",
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
             progress=True,
             false_rejection=args.false_rejection,
             segmenter=args.segmenter,
-            gait_speed=args.gait_speed,
+            floor_track=args.floor_track,
             raised_foot=args.raised_foot,
         )
         if answer_3d:
@@ -163,8 +164,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {RANKING_IN_WORDS}")
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
-        if result.travel_speed is not None and best.label in (WALK, RUN):
+        if result.travel_speed is not None and best.label in (WALK, RUN, TURN):
             print(f"  travels {result.travel_speed:.2f} body heights per second")
+        if result.heading_change is not None and best.label in (WALK, TURN):
+            print(f"  the direction of travel turned {result.heading_change:.0f}°")
         if result.foot_raise is not None and best.label == KICK:
             print(f"  one foot rose {result.foot_raise:.2f} body heights above the other")
         for match in result.top[1:]:

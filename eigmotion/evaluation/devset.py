@@ -204,6 +204,8 @@ class ClipAnswer:
         Frames the IoU is the mean of.
     travel_speed : float or None
         The answer's ``travel_speed``, body heights per second.
+    heading_change : float or None
+        The answer's ``heading_change``, degrees.
     foot_raise : float or None
         The answer's ``foot_raise``, body heights.
     """
@@ -221,6 +223,7 @@ class ClipAnswer:
     iou: float | None = None
     iou_frames: int = 0
     travel_speed: float | None = None
+    heading_change: float | None = None
     foot_raise: float | None = None
 
     @property
@@ -251,6 +254,7 @@ class ClipAnswer:
             "iou": None if self.iou is None else round(self.iou, 6),
             "iou_frames": self.iou_frames,
             "travel_speed": self.travel_speed,
+            "heading_change_deg": self.heading_change,
             "foot_raise": self.foot_raise,
         }
 
@@ -373,6 +377,7 @@ def answer_clip(
         iou=score,
         iou_frames=n_frames,
         travel_speed=None if result.travel_speed is None else round(result.travel_speed, 3),
+        heading_change=None if result.heading_change is None else round(result.heading_change, 1),
         foot_raise=None if result.foot_raise is None else round(result.foot_raise, 3),
     )
 

@@ -61,7 +61,7 @@ QUERY_CONSTANTS = {
     ),
     "motion_cues": (
         "WALK_MAX_HEIGHTS_PER_S", "RUN_MIN_HEIGHTS_PER_S", "TRAVEL_MIN_HEIGHTS_PER_S",
-        "ASSUMED_FIELD_OF_VIEW_DEG",
+        "ASSUMED_FIELD_OF_VIEW_DEG", "TURN_MIN_DEG", "TURN_MIN_HEIGHTS_PER_S",
     ),
 }  # fmt: skip
 

@@ -36,7 +36,9 @@ from eigmotion.retrieval.library_views import BuildConfig, render_views, window_
 from eigmotion.retrieval.motion_cues import (
     answer_by_raised_foot,
     answer_by_travel,
+    answer_by_turning,
     foot_raise,
+    heading_change,
     travel_speed,
 )
 from eigmotion.retrieval.motion_image import ClipMotionImages
@@ -276,7 +278,7 @@ class MotionDatabase:
         top_k: int = 3,
         false_rejection: float | None = None,
         hidden_below_px: int = 0,
-        gait_speed: bool = True,
+        floor_track: bool = True,
         raised_foot_heights: float | None = None,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
@@ -301,11 +303,13 @@ class MotionDatabase:
             Rows of the body below the frames' bottom edge
             (:attr:`~eigmotion.segmentation.video.ClipMasks.hidden_below_px`): the motion
             images continue the silhouettes down by as many rows.
-        gait_speed : bool
-            Let the person's speed over the floor (:func:`~eigmotion.retrieval.
-            motion_cues.travel_speed`) choose between walk and run among the first three
-            labels (:func:`~eigmotion.retrieval.motion_cues.answer_by_travel`); the
-            speed is reported either way.
+        floor_track : bool
+            Let the person's track over the floor choose among the first three labels:
+            its speed between walk and run (:func:`~eigmotion.retrieval.motion_cues.
+            travel_speed`, :func:`~eigmotion.retrieval.motion_cues.answer_by_travel`),
+            then a bend in it between walk and turn (:func:`~eigmotion.retrieval.
+            motion_cues.heading_change`, :func:`~eigmotion.retrieval.motion_cues.
+            answer_by_turning`); both are reported either way.
         raised_foot_heights : float, optional
             How far one foot rose above the other, body heights
             (:func:`~eigmotion.retrieval.motion_cues.foot_raise` of the pose network's
@@ -349,9 +353,9 @@ class MotionDatabase:
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         ranking = ranked + [m for m in nearest if m.motion_id not in compared]
-        speed = travel_speed(masks, fps)
-        if gait_speed:
-            ranking = answer_by_travel(ranking, speed)
+        speed, turned = travel_speed(masks, fps), heading_change(masks, fps)
+        if floor_track:
+            ranking = answer_by_turning(answer_by_travel(ranking, speed), turned)
         ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)
         best = self._most_specific(ranking[0], windowed)
         segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
@@ -376,6 +380,7 @@ class MotionDatabase:
             timing,
             whole_vector,
             travel_speed=speed,
+            heading_change=turned,
             foot_raise=raised_foot_heights,
         )
 
@@ -491,7 +496,7 @@ class MotionDatabase:
         progress: bool = False,
         false_rejection: float | None = None,
         segmenter: str = "auto",
-        gait_speed: bool = True,
+        floor_track: bool = True,
         raised_foot: bool = True,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
@@ -519,7 +524,7 @@ class MotionDatabase:
             load_clip_masks`): ``auto`` fuses the learned masks with the subtraction of
             the background image when one is given and runs the learned segmenter
             alone when none is.
-        gait_speed : bool
+        floor_track : bool
             As for :meth:`query_masks`.
         raised_foot : bool
             Measure how far one foot rose above the other from the pose network's
@@ -554,7 +559,7 @@ class MotionDatabase:
             top_k,
             false_rejection,
             clip.hidden_below_px,
-            gait_speed,
+            floor_track,
             foot_raise(clip.landmarks) if raised_foot else None,
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)

@@ -1,6 +1,6 @@
-"""Two facts of the body the motion image blurs, each allowed to choose among the
-first three labels a query ranked: how fast the person crosses the floor (walk or
-run), and a foot raised high (a kick).
+"""Facts of the body the motion image blurs, each allowed to choose among the first
+three labels a query ranked: how fast the person crosses the floor (walk or run),
+whether their way across it bends (walk or turn), and a foot raised high (a kick).
 
 **Speed over the floor.** Seen from behind or in front, a walk and a run can cast
 nearly the same silhouettes: the legs swing along the line of sight.  How fast the
@@ -26,6 +26,17 @@ walking speed answers the best-ranked ``walk`` instead, when that label is among
 first three (and the reverse), see :func:`answer_by_travel`.  A clip where the person
 hardly travels (a treadmill, a camera following the person) says nothing and is left
 as ranked.
+
+**A change of heading.** The same track gives the direction of travel: the person's
+place on the floor in body heights is (x / h, f / h) sideways and away from the camera.
+A walking turn changes that direction (the library's walking turns by 90° and 180°), a
+walk keeps it.  A query answered ``walk`` whose direction in the clip's second half
+differs from the first half's by :data:`TURN_MIN_DEG` or more answers the best-ranked
+``turn`` instead, when that label is among the first three
+(:func:`heading_change`, :func:`answer_by_turning`).  Each half must travel at
+:data:`TURN_MIN_HEIGHTS_PER_S` or faster, or its direction is noise: a turn on the
+spot, or a person hardly moving, says nothing.  Bending down also changes the figure's
+height, which reads as a step away from the camera, so only a walk is judged.
 
 **A foot raised high.** A kick lifts one foot to the height of the other leg's hip or
 above; walking, running, jumping and punching keep the two feet within about a third of
@@ -69,8 +80,18 @@ TRAVEL_MIN_HEIGHTS_PER_S = 0.4
 MIN_MEASURED_SHARE = 0.5
 MIN_MEASURED_FRAMES = 5
 
-#: The labels the rule chooses between.
-WALK, RUN = "walk", "run"
+#: The labels the rules choose between.
+WALK, RUN, TURN = "walk", "run", "turn"
+
+#: A walk whose direction of travel changes by this much between the clip's halves is
+#: a walking turn, degrees: straight walks and runs read 15° or less (the library's,
+#: rendered; 16 real ones filmed from the side), the library's walking turns by 90° and
+#: 180°, rendered from four sides, 79–179°.
+TURN_MIN_DEG = 45.0
+
+#: Each half of the clip must travel at least this fast for its direction to count,
+#: body heights per second (a slow walk, about 0.45 m/s).
+TURN_MIN_HEIGHTS_PER_S = 0.25
 
 #: The rise of one ankle over the other, in body heights, that only a kick reaches.
 KICK_MIN_RAISE = 0.45
@@ -87,8 +108,8 @@ NOSE = 0
 STATURE_PER_NOSE_TO_ANKLE = 1.1
 
 
-def travel_speed(masks: np.ndarray, fps: float) -> float | None:
-    """How fast the person travels over the floor, body heights per second.
+def floor_track(masks: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where the person stands on the floor in each frame that shows the whole figure.
 
     Parameters
     ----------
@@ -99,10 +120,16 @@ def travel_speed(masks: np.ndarray, fps: float) -> float | None:
 
     Returns
     -------
-    float or None
-        The speed in body heights per second (>= 0); None where too few frames show
-        the whole figure, touching none of the frame's edges
-        (:data:`MIN_MEASURED_SHARE`, :data:`MIN_MEASURED_FRAMES`).
+    seconds : (F',) float
+        The times of the frames measured: those where the figure touches none of the
+        frame's edges (its height or centre in pixels is not the person's where it does).
+    place : (F', 2) float
+        Sideways (x / h) and away from the camera (f / h), body heights, with x the
+        figure's centre column from the frame's centre, h its height and f the focal
+        length (:data:`ASSUMED_FIELD_OF_VIEW_DEG`), pixels.
+    None
+        Where too few frames show the whole figure (:data:`MIN_MEASURED_SHARE`,
+        :data:`MIN_MEASURED_FRAMES`).
     """
     masks = np.asarray(masks, dtype=bool)
     n_frames, height, width = masks.shape
@@ -118,13 +145,83 @@ def travel_speed(masks: np.ndarray, fps: float) -> float | None:
     count = cols.sum(axis=1)
     centre = (cols * np.arange(width)).sum(axis=1) / count - 0.5 * (width - 1)
     figure_px = (bottom - top + 1)[whole].astype(np.float64)
-    seconds = np.flatnonzero(whole) / float(fps)
     focal_px = 0.5 * max(height, width) / math.tan(math.radians(ASSUMED_FIELD_OF_VIEW_DEG / 2))
+    seconds = np.flatnonzero(whole) / float(fps)
+    return seconds, np.stack([centre / figure_px, focal_px / figure_px], axis=1)
+
+
+def _velocity(seconds: np.ndarray, place: np.ndarray) -> np.ndarray:
+    """(2,) the least-squares slope of ``place`` (F', 2) over ``seconds`` (F',), body
+    heights per second."""
     design = np.stack([seconds, np.ones_like(seconds)], axis=1)
-    slopes = np.linalg.lstsq(
-        design, np.stack([centre / figure_px, 1.0 / figure_px], axis=1), rcond=None
-    )[0][0]
-    return float(math.hypot(slopes[0], focal_px * slopes[1]))
+    return np.linalg.lstsq(design, place, rcond=None)[0][0]
+
+
+def _median_velocity(seconds: np.ndarray, place: np.ndarray) -> np.ndarray:
+    """(2,) the median slope of ``place`` (F', 2) over ``seconds`` (F',) between every two
+    frames (Theil–Sen), body heights per second: over a second or so of frames, a frame
+    where the person was cut out short (a step away, read from its height) does not tilt
+    it."""
+    first, second = np.triu_indices(len(seconds), k=1)
+    slopes = (place[second] - place[first]) / (seconds[second] - seconds[first])[:, None]
+    return np.median(slopes, axis=0)
+
+
+def travel_speed(masks: np.ndarray, fps: float) -> float | None:
+    """How fast the person travels over the floor, body heights per second.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+        The person's silhouette per frame, from a static camera.
+    fps : float
+        Frames per second of ``masks``.
+
+    Returns
+    -------
+    float or None
+        The speed in body heights per second (>= 0), fitted over the whole clip
+        (:func:`floor_track`); None where too few frames show the whole figure.
+    """
+    track = floor_track(masks, fps)
+    if track is None:
+        return None
+    return float(math.hypot(*_velocity(*track)))
+
+
+def heading_change(masks: np.ndarray, fps: float) -> float | None:
+    """How far the direction of travel turned between the clip's two halves, degrees.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+        The person's silhouette per frame, from a static camera.
+    fps : float
+        Frames per second of ``masks``.
+
+    Returns
+    -------
+    float or None
+        The angle in [0, 180] between the velocities over the first and the second half
+        of the frames measured (:func:`floor_track`, each half's velocity the median
+        slope between its frames); None where the track
+        is not measured, a half has fewer than three frames, or either half travels
+        slower than :data:`TURN_MIN_HEIGHTS_PER_S`.
+    """
+    track = floor_track(masks, fps)
+    if track is None:
+        return None
+    seconds, place = track
+    half = len(seconds) // 2
+    if half < 3:
+        return None
+    first = _median_velocity(seconds[:half], place[:half])
+    second = _median_velocity(seconds[half:], place[half:])
+    speeds = math.hypot(*first), math.hypot(*second)
+    if min(speeds) < TURN_MIN_HEIGHTS_PER_S:
+        return None
+    cosine = float(np.dot(first, second)) / (speeds[0] * speeds[1])
+    return math.degrees(math.acos(min(1.0, max(-1.0, cosine))))
 
 
 def answer_by_travel(ranking: list[Match], speed: float | None) -> list[Match]:
@@ -156,6 +253,30 @@ def answer_by_travel(ranking: list[Match], speed: float | None) -> list[Match]:
     else:
         return ranking
     return _first_of(ranking, wanted)
+
+
+def answer_by_turning(ranking: list[Match], change_deg: float | None) -> list[Match]:
+    """The ranking with ``turn`` first where a walk's way across the floor bends.
+
+    Parameters
+    ----------
+    ranking : list of Match
+        Distinct motions, the answer first.
+    change_deg : float or None
+        :func:`heading_change` of the clip.
+
+    Returns
+    -------
+    list of Match
+        ``ranking`` itself, or with its best-ranked turn moved to the front when the
+        answer is ``walk``, the direction of travel changed by :data:`TURN_MIN_DEG` or
+        more and ``turn`` is among the first three labels.
+    """
+    if change_deg is None or change_deg < TURN_MIN_DEG or not ranking:
+        return ranking
+    if ranking[0].label != WALK:
+        return ranking
+    return _first_of(ranking, TURN)
 
 
 def foot_raise(landmarks: np.ndarray | None) -> float | None:

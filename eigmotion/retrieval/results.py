@@ -149,6 +149,10 @@ class QueryResult:
         How fast the person travels over the floor, body heights per second
         (:func:`~eigmotion.retrieval.motion_cues.travel_speed`); None where too few
         frames show the whole figure.
+    heading_change : float or None
+        How far the direction of travel turned between the clip's two halves, degrees
+        (:func:`~eigmotion.retrieval.motion_cues.heading_change`); None where the track
+        is not measured or the person hardly travels.
     foot_raise : float or None
         How far one foot rose above the other at most, body heights
         (:func:`~eigmotion.retrieval.motion_cues.foot_raise`); None where the query had
@@ -169,6 +173,7 @@ class QueryResult:
     motion_image: np.ndarray
     warnings: tuple[str, ...] = ()
     travel_speed: float | None = None
+    heading_change: float | None = None
     foot_raise: float | None = None
 
     def to_json(self) -> dict:
@@ -185,6 +190,8 @@ class QueryResult:
         out["timing_ms"] = {k: round(v, 3) for k, v in self.timing_ms.items()}
         out["warnings"] = list(self.warnings)
         out["travel_speed"] = None if self.travel_speed is None else round(self.travel_speed, 3)
+        turned = self.heading_change
+        out["heading_change_deg"] = None if turned is None else round(turned, 1)
         out["foot_raise"] = None if self.foot_raise is None else round(self.foot_raise, 3)
         return out
 
