@@ -164,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {RANKING_IN_WORDS}")
         ranked = ", ".join(m.label for m in result.labels[: args.top])
         print(f"  actions, likeliest first: {ranked}")
-        if result.travel_speed is not None and best.label in (WALK, RUN, TURN):
+        if result.travel_speed is not None and best.label in (WALK, RUN):
             print(f"  travels {result.travel_speed:.2f} body heights per second")
         if result.heading_change is not None and best.label in (WALK, TURN):
             print(f"  the direction of travel turned {result.heading_change:.0f}°")
