@@ -21,6 +21,7 @@ from eigmotion.retrieval.motion_cues import (
     answer_by_raised_foot,
     answer_by_travel,
     answer_by_turning,
+    floor_cues,
     foot_raise,
     heading_change,
     travel_speed,
@@ -101,6 +102,8 @@ def test_heading_change_between_the_halves():
     heights = focal / depth
     bend = _figure(heights, 79.5 + sideways * heights)
     assert heading_change(bend, FPS) == pytest.approx(90.0, abs=10.0)
+    # the query measures the track once for both
+    assert floor_cues(bend, FPS) == (travel_speed(bend, FPS), heading_change(bend, FPS))
     straight = _figure(np.full(60, 50.0), 79.5 + (u * seconds - 1.0) * 50.0)
     assert heading_change(straight, FPS) < 5.0
     slow = u * TURN_MIN_HEIGHTS_PER_S

@@ -37,9 +37,8 @@ from eigmotion.retrieval.motion_cues import (
     answer_by_raised_foot,
     answer_by_travel,
     answer_by_turning,
+    floor_cues,
     foot_raise,
-    heading_change,
-    travel_speed,
 )
 from eigmotion.retrieval.motion_image import ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
@@ -353,7 +352,7 @@ class MotionDatabase:
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         ranking = ranked + [m for m in nearest if m.motion_id not in compared]
-        speed, turned = travel_speed(masks, fps), heading_change(masks, fps)
+        speed, turned = floor_cues(masks, fps)
         if floor_track:
             ranking = answer_by_turning(answer_by_travel(ranking, speed), turned)
         ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)

@@ -183,10 +183,7 @@ def travel_speed(masks: np.ndarray, fps: float) -> float | None:
         The speed in body heights per second (>= 0), fitted over the whole clip
         (:func:`floor_track`); None where too few frames show the whole figure.
     """
-    track = floor_track(masks, fps)
-    if track is None:
-        return None
-    return float(math.hypot(*_velocity(*track)))
+    return _speed(floor_track(masks, fps))
 
 
 def heading_change(masks: np.ndarray, fps: float) -> float | None:
@@ -208,7 +205,25 @@ def heading_change(masks: np.ndarray, fps: float) -> float | None:
         is not measured, a half has fewer than three frames, or either half travels
         slower than :data:`TURN_MIN_HEIGHTS_PER_S`.
     """
+    return _turn(floor_track(masks, fps))
+
+
+def floor_cues(masks: np.ndarray, fps: float) -> tuple[float | None, float | None]:
+    """:func:`travel_speed` and :func:`heading_change` of one clip, its track measured
+    once (:func:`floor_track`)."""
     track = floor_track(masks, fps)
+    return _speed(track), _turn(track)
+
+
+def _speed(track: tuple[np.ndarray, np.ndarray] | None) -> float | None:
+    """:func:`travel_speed` of a :func:`floor_track`."""
+    if track is None:
+        return None
+    return float(math.hypot(*_velocity(*track)))
+
+
+def _turn(track: tuple[np.ndarray, np.ndarray] | None) -> float | None:
+    """:func:`heading_change` of a :func:`floor_track`."""
     if track is None:
         return None
     seconds, place = track
