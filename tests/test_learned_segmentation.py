@@ -345,16 +345,48 @@ def test_where_the_network_lost_part_of_the_person_the_subtraction_s_pieces_come
     assert fused[3, 40:44, 84:87].all() and not fused[3, :, 88:].any()  # two pixels only
 
 
+def test_what_the_network_takes_for_the_person_but_shows_the_empty_scene_is_taken_out():
+    """A person sitting on a stool the network took for part of them: the stool shows
+    the empty scene as it is (``plain_scene``) and the subtraction found nothing there,
+    so it is taken out.  Kept: a piece the colour of the scene but next to what the
+    subtraction found (within two pixels), a piece the subtraction's evidence does not
+    call plain (camouflaged clothes), and a piece too small to count."""
+    config = SilhouetteConfig()
+    learned_mask = np.zeros((1, 120, 160), bool)
+    learned_mask[0, 20:80, 60:85] = True  # the seated body
+    learned_mask[0, 80:110, 55:90] = True  # the stool below it
+    subtracted = np.zeros_like(learned_mask)
+    subtracted[0, 20:80, 61:84] = True
+    plain = np.zeros_like(learned_mask)
+    plain[0, 80:110, 55:90] = True  # the stool: the empty scene as it is
+    plain[0, 30:40, 84:85] = True  # a pixel column beside the body, within 2 px
+    fused = fuse_masks(learned_mask, subtracted, config, plain)
+    assert fused[0, 20:80, 60:85].all() and fused[0, 30:40, 84].all()
+    assert not fused[0, 84:110].any()
+    kept = fuse_masks(learned_mask, subtracted, config)  # without the evidence: as before
+    assert kept[0, 80:110, 55:90].all()
+    camouflaged = plain.copy()
+    camouflaged[0, 80:110, 55:90] = False
+    assert fuse_masks(learned_mask, subtracted, config, camouflaged)[0, 80:110, 55:90].all()
+    small = np.zeros_like(plain)
+    small[0, 100:104, 80:85] = True  # 20 px: under 2 % of the learned mask
+    assert fuse_masks(learned_mask, subtracted, config, small)[0, 100:104, 80:85].all()
+    with pytest.raises(InvalidParameterError, match="plain_scene"):
+        fuse_masks(learned_mask, subtracted, config, plain[:, :60])
+
+
 def test_fused_masks_follow_the_person_the_background_image_shows():
     """The kick sample with its background image: the fused masks keep what the learned
-    ones find and overlap the subtraction's at least as well."""
+    ones find but the few pieces of wall and floor the networks took for the pink dress
+    (under 5 % of the learned pixels), and overlap the subtraction's at least as well."""
     video = SAMPLES / "kick.mp4"
     background = SAMPLES / "kick_background.png"
     fused = load_clip_masks(video, background, QUERY_CONFIG, 15.0, segmenter="auto")
     assert fused.segmenter == "fused"
     cut, overlap = _cut_and_reference("kick")
     reference = load_clip_masks(video, background, QUERY_CONFIG, 15.0, segmenter="subtraction")
-    assert np.all(fused.masks | ~cut.masks)  # nothing learned is lost
+    lost = np.count_nonzero(cut.masks & ~fused.masks)
+    assert lost <= 0.05 * np.count_nonzero(cut.masks)
     both = np.array([_iou(a, b) for a, b in zip(fused.masks, reference.masks, strict=True)])
     assert np.median(both) >= np.median(overlap)
 

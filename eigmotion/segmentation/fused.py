@@ -22,8 +22,20 @@ that are large (:data:`LIMB_SHARE` of the learned mask) and thick (they outlast 
 opening by :data:`LIMB_MIN_WIDTH_PX`), not the seam of a wall the head passes or the
 gap between the legs.  A frame where the learned front end finds no one stays empty
 (the subtraction alone there is the shadow or the scene that moved).
-``docs/segmentation.md`` compares this with the other ways of combining them, measured
-on the development set.
+
+Before that, what the networks take for the person but the frame shows exactly as the
+empty scene is not the person: a stool or a chair the person sits on, a box beside
+them.  In a frame where the subtraction found the person (it covers at least
+:data:`SCENE_FOUND_SHARE` of the learned mask: not an image of the scene taken with the
+person in it, nor clothes the colour of the scene), where the learned mask lies more
+than :data:`SCENE_NEAR_PX` pixels from anything the subtraction found, on pixels whose
+colour difference to the empty scene is under the clip's low threshold
+(``plain_scene``, :func:`~eigmotion.segmentation.subtraction.subtract_scene`), the
+solid pieces of it (they outlast an opening by a 3 × 3 square) of at least
+:data:`SCENE_PIECE_SHARE` of the learned mask's area are taken out of it.  Clothes the
+colour of the scene are not: the smoothed difference keeps their small, consistent
+offset above the threshold.  ``docs/segmentation.md`` compares this with the other ways
+of combining them, measured on the development set.
 """
 
 from __future__ import annotations
@@ -58,8 +70,24 @@ LIMB_SHARE = 0.03
 #: morphological opening by a square of this side.
 LIMB_MIN_WIDTH_PX = 3
 
+#: The learned mask is looked at for pieces of the empty scene only in frames where the
+#: subtraction covers at least this share of it...
+SCENE_FOUND_SHARE = 0.5
 
-def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
+#: ... farther than this many pixels (working size) from anything the subtraction
+#: found...
+SCENE_NEAR_PX = 2
+
+#: ... in pieces of at least this share of the learned mask's area.
+SCENE_PIECE_SHARE = 0.02
+
+
+def fuse_masks(
+    learned: np.ndarray,
+    subtracted: np.ndarray,
+    config: SilhouetteConfig,
+    plain_scene: np.ndarray | None = None,
+) -> np.ndarray:
     """The learned masks with what the subtraction finds beside them (the module's
     description).
 
@@ -71,6 +99,11 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
         The subtraction's masks of the same frames, same size.
     config : SilhouetteConfig
         Its ``min_person_frac`` and ``keep_piece_frac`` apply.
+    plain_scene : (F, H, W) bool, optional
+        Where the frames show the empty scene as it is
+        (:class:`~eigmotion.segmentation.subtraction.Subtraction`); with it, the pieces
+        of the learned masks that are the scene are taken out first
+        (:func:`without_scene`).
 
     Returns
     -------
@@ -82,6 +115,8 @@ def fuse_masks(learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteCo
             f"masks to fuse must be two (F, H, W) stacks of one shape, got {learned.shape} "
             f"and {subtracted.shape}"
         )
+    if plain_scene is not None:
+        learned = without_scene(learned, subtracted, plain_scene)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * NEAR_PX + 1, 2 * NEAR_PX + 1))
     areas = learned.sum(axis=(1, 2))
     typical = float(np.median(areas[areas > 0])) if areas.any() else 0.0
@@ -119,3 +154,34 @@ def _limbs(beyond: np.ndarray, area: int) -> np.ndarray:
     keep &= stats[:, cv2.CC_STAT_AREA] >= LIMB_SHARE * area
     keep[0] = False  # the background
     return keep[parts]
+
+
+def without_scene(
+    learned: np.ndarray, subtracted: np.ndarray, plain_scene: np.ndarray
+) -> np.ndarray:
+    """``learned`` (F, H, W) bool less the pieces that show the empty scene, in frames
+    where ``subtracted`` (F, H, W) bool covers at least :data:`SCENE_FOUND_SHARE` of it:
+    farther than :data:`SCENE_NEAR_PX` from ``subtracted``, on ``plain_scene`` (F, H, W)
+    bool, solid (they outlast an opening by a 3 × 3 square) and at least
+    :data:`SCENE_PIECE_SHARE` of the frame's learned area."""
+    plain_scene = np.asarray(plain_scene, bool)
+    if plain_scene.shape != learned.shape:
+        raise InvalidParameterError(
+            f"plain_scene must have the masks' shape {learned.shape}, got {plain_scene.shape}"
+        )
+    near = cv2.getStructuringElement(
+        cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1, 2 * SCENE_NEAR_PX + 1)
+    )
+    square = np.ones((3, 3), np.uint8)
+    out = learned.copy()
+    for mine, theirs, plain, kept in zip(learned, subtracted, plain_scene, out, strict=True):
+        area = np.count_nonzero(mine)
+        if area == 0 or np.count_nonzero(mine & theirs) < SCENE_FOUND_SHARE * area:
+            continue
+        found = cv2.dilate(theirs.view(np.uint8), near).view(bool)
+        scene = cv2.morphologyEx((mine & plain & ~found).view(np.uint8), cv2.MORPH_OPEN, square)
+        n, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
+        big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * area
+        big[0] = False  # not the scene's pieces: the rest
+        kept &= ~big[pieces]
+    return out

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -116,6 +116,32 @@ def segment_chunks(
     the clip's noise level, taken over all of its frames — the masks
     (:func:`_chunk_masks`).
     """
+    return subtract_scene(chunks, background, config, plain_scene=False).masks
+
+
+@dataclass(frozen=True)
+class Subtraction:
+    """What subtracting the empty scene found in a clip's frames, at the working size.
+
+    ``masks`` (F, H, W) bool: the person (:func:`segment_chunks`); ``plain_scene``
+    (F, H, W) bool or None: the pixels whose smoothed colour difference to the empty
+    scene stays under the clip's low threshold — no evidence of anything but the scene
+    there, not even a weak one (shadows are not counted: the shadow test also takes
+    dark hair and clothes before a lighter scene).
+    """
+
+    masks: np.ndarray
+    plain_scene: np.ndarray | None
+
+
+def subtract_scene(
+    chunks: Iterable[np.ndarray],
+    background: np.ndarray,
+    config: SilhouetteConfig,
+    plain_scene: bool = True,
+) -> Subtraction:
+    """:func:`segment_chunks`, and with ``plain_scene`` where the frames show the
+    empty scene as it is (:class:`Subtraction`)."""
     workers = worker_threads()
     scene = prepare_scene(background, config)
     with opencv_in_calling_threads():
@@ -125,7 +151,13 @@ def segment_chunks(
         masks = list(
             workers.map(lambda chunk: _chunk_masks(chunk, scene, levels, config), evidence)
         )
-    return np.concatenate(masks)
+    plain = None
+    if plain_scene:
+        h = scene.shape[0]
+        plain = np.concatenate(
+            [frames_of(e.smoothed, scene, e.n)[:, :h] < levels.low for e in evidence]
+        )
+    return Subtraction(np.concatenate(masks), plain)
 
 
 def _chunk_masks(

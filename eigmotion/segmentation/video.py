@@ -41,7 +41,12 @@ from eigmotion.segmentation.learned import (
     stored_frame,
     working_size,
 )
-from eigmotion.segmentation.subtraction import CHUNK_FRAMES, frame_chunks, segment_chunks
+from eigmotion.segmentation.subtraction import (
+    CHUNK_FRAMES,
+    frame_chunks,
+    segment_chunks,
+    subtract_scene,
+)
 from eigmotion.segmentation.workers import opencv_in_calling_threads
 from eigmotion.validation import validate
 
@@ -345,8 +350,9 @@ def _learned_clip_masks(
         )
         # The subtraction may find no one (clothes the colour of the scene, a dim room):
         # the learned masks then stand as they are.
-        subtracted = segment_chunks(chunks, small, config)
-        masks, segmenter = fuse_masks(masks, subtracted, config), "fused"
+        subtracted = subtract_scene(chunks, small, config)
+        masks = fuse_masks(masks, subtracted.masks, config, subtracted.plain_scene)
+        segmenter = "fused"
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
         people_in_view(people), segmenter, hidden_below, _in_frame_pixels(landmarks, sizes[0],
