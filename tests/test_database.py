@@ -673,6 +673,7 @@ def test_query_cli_json_bvh_and_replay(db_path, library, other_body, tmp_path, c
         "travel_speed",
         "heading_change_deg",
         "foot_raise",
+        "hands_raised",
     ):
         assert key in answer
     assert answer["label"] == "kick" and len(answer["top"]) == 2

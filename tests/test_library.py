@@ -28,6 +28,7 @@ from eigmotion.mocap.library import (
 from eigmotion.mocap.mirror import mirror_motion
 from eigmotion.mocap.naming import canonical_joint_map
 from eigmotion.retrieval.library_views import BuildConfig
+from eigmotion.retrieval.motion_cues import HANDS_RAISED_LABELS
 
 REPO = Path(__file__).resolve().parents[1]
 MOTIONS_DIR = REPO / "database" / "motions"
@@ -339,6 +340,20 @@ def _hands(p):
     return np.stack([p["LeftHand"], p["RightHand"]], axis=1)
 
 
+def _lower_hand_over_head(p):
+    """(F,) height of the lower hand over the head joint, metres."""
+    return _hands(p)[..., 1].min(axis=1) - p["Head"][:, 1]
+
+
+def test_only_the_labels_the_raised_hands_rule_allows_raise_both_hands(library, poses):
+    """The query's rule (motion_cues.answer_by_raised_hands) turns an answer punch into
+    a label whose motions raise both hands over the head: each such label has motions
+    that do, and no motion of another label does."""
+    raises = {name: _lower_hand_over_head(poses[name]).max() > 0.0 for name in poses}
+    labels = {lm.label for lm in library if raises[lm.name]}
+    assert labels == set(HANDS_RAISED_LABELS)
+
+
 def _yaw_change_deg(p):
     d = p["LeftUpLeg"] - p["RightUpLeg"]
     yaw = np.degrees(np.unwrap(np.arctan2(-d[:, 2], d[:, 0])))
@@ -386,6 +401,8 @@ def _check_label(label: str, p, frame_time_s: float) -> None:
     elif label == "punch":
         speed = np.linalg.norm(np.diff(hands, axis=0), axis=-1) / frame_time_s
         assert speed.max() >= 2.5
+        # one hand at least stays below the head (the query's raised-hands rule)
+        assert _lower_hand_over_head(p).max() < -0.1
     elif label == "turn":
         assert _yaw_change_deg(p) >= 60
     elif label == "duck":

@@ -1,7 +1,8 @@
 """The body's facts that choose among a query's first three labels
 (eigmotion.retrieval.motion_cues): the speed over the floor and the bend of the way
 across it, measured on silhouettes of known motion, drawn and rendered; the rise of one
-foot over the other from landmarks; and the rules that reorder a ranking."""
+foot over the other and of both hands over the head from landmarks; and the rules that
+reorder a ranking."""
 
 from __future__ import annotations
 
@@ -12,17 +13,21 @@ import pytest
 
 from eigmotion.retrieval.motion_cues import (
     ASSUMED_FIELD_OF_VIEW_DEG,
+    HANDS_RAISED_LABELS,
     KICK_MIN_RAISE,
+    PUNCH_MAX_HANDS_RAISED,
     RUN_MIN_HEIGHTS_PER_S,
     TRAVEL_MIN_HEIGHTS_PER_S,
     TURN_MIN_DEG,
     TURN_MIN_HEIGHTS_PER_S,
     WALK_MAX_HEIGHTS_PER_S,
     answer_by_raised_foot,
+    answer_by_raised_hands,
     answer_by_travel,
     answer_by_turning,
     floor_cues,
     foot_raise,
+    hands_raised,
     heading_change,
     travel_speed,
 )
@@ -245,3 +250,62 @@ def test_answer_by_raised_foot(labels, rise, speed, first):
     answered = answer_by_raised_foot(ranking, rise, speed)
     assert answered[0].motion == first
     assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
+
+
+def _arm_landmarks(wrist_rise_px: np.ndarray, bent: np.ndarray | None = None) -> np.ndarray:
+    """(F, 33, 4) landmarks of a person 100 px from nose to ankles (nose on row 100,
+    ankles on 200, hips on 150), the lower wrist ``wrist_rise_px`` above the nose (the
+    other 10 px higher); ``bent`` frames have the nose down at the hips' height."""
+    n = len(wrist_rise_px)
+    marks = np.full((n, 33, 4), np.nan)
+    marks[:, 0, :2] = (100.0, 100.0)  # nose
+    marks[:, [23, 24], 1] = 150.0  # hips
+    marks[:, [23, 24], 0] = (95.0, 105.0)
+    marks[:, [27, 28], 1] = 200.0  # ankles
+    marks[:, [27, 28], 0] = (95.0, 105.0)
+    marks[:, 15, :2] = np.stack([np.full(n, 90.0), 100.0 - wrist_rise_px], 1)
+    marks[:, 16, :2] = np.stack([np.full(n, 110.0), 90.0 - wrist_rise_px], 1)
+    if bent is not None:
+        marks[bent, 0, 1] = 150.0
+    return marks
+
+
+def test_hands_raised_in_body_heights():
+    stature = 1.1 * 100.0
+    lift = np.concatenate([np.full(8, -60.0), [-20, 10, 25, 30, 30, 28], np.full(6, -40.0)])
+    assert hands_raised(_arm_landmarks(lift)) == pytest.approx(30.0 / stature)
+    # a punch: the hands stay below the nose
+    assert hands_raised(_arm_landmarks(np.full(20, -30.0))) == pytest.approx(-30.0 / stature)
+    # one frame's slip of a landmark does not count
+    slip = np.full(20, -50.0)
+    slip[9] = 60.0
+    assert hands_raised(_arm_landmarks(slip)) == pytest.approx(-50.0 / stature)
+    # frames of a body bent double do not count (their landmarks lie anywhere)
+    bent = np.zeros(20, bool)
+    bent[8:14] = True
+    assert hands_raised(_arm_landmarks(lift, bent)) == pytest.approx(-40.0 / stature)
+    assert hands_raised(_arm_landmarks(lift, np.ones(20, bool))) is None
+    assert hands_raised(_arm_landmarks(np.zeros(2))) is None
+    assert hands_raised(None) is None
+
+
+@pytest.mark.parametrize(
+    ("labels", "raised", "first"),
+    [
+        (("punch", "lift", "walk"), PUNCH_MAX_HANDS_RAISED + 0.05, "lift_1"),
+        (("punch", "kick", "wave"), PUNCH_MAX_HANDS_RAISED + 0.05, "wave_2"),
+        (("punch", "lift", "walk"), PUNCH_MAX_HANDS_RAISED - 0.05, "punch_0"),
+        (("punch", "lift", "walk"), None, "punch_0"),
+        # none of the labels that raise the hands among the first three
+        (("punch", "kick", "walk", "lift"), 0.3, "punch_0"),
+        # only a punch is judged
+        (("pick_up", "lift", "wave"), 0.3, "pick_up_0"),
+        (("punch", "punch", "kick", "cover_head"), 0.3, "cover_head_3"),
+    ],
+)
+def test_answer_by_raised_hands(labels, raised, first):
+    ranking = [_match(label, k) for k, label in enumerate(labels)]
+    answered = answer_by_raised_hands(ranking, raised)
+    assert answered[0].motion == first
+    assert sorted(m.motion for m in answered) == sorted(m.motion for m in ranking)
+    assert set(HANDS_RAISED_LABELS) == {"lift", "wave", "jump", "cover_head"}

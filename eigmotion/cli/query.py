@@ -44,7 +44,7 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.motion_cues import KICK, RUN, TURN, WALK
+from eigmotion.retrieval.motion_cues import KICK, PUNCH_MAX_HANDS_RAISED, RUN, TURN, WALK
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -99,6 +99,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="do not let a foot raised to hip height (the pose network's ankles) make a "
         "kick among the likeliest three actions the answer",
     )
+    parser.add_argument(
+        "--no-raised-hands",
+        dest="raised_hands",
+        action="store_false",
+        help="do not let both hands over the head (the pose network's wrists) turn an "
+        "answer punch into a lift, wave, jump or cover_head among the likeliest three",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--bvh-out", type=Path, help="write the matched 3D motion as BVH")
     parser.add_argument(
@@ -148,6 +155,7 @@ def run(args: argparse.Namespace) -> int:
             segmenter=args.segmenter,
             floor_track=args.floor_track,
             raised_foot=args.raised_foot,
+            raised_hands=args.raised_hands,
         )
         if answer_3d:
             _write_replay(db, result, clip, args)
@@ -170,6 +178,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"  the direction of travel turned {result.heading_change:.0f}°")
         if result.foot_raise is not None and best.label == KICK:
             print(f"  one foot rose {result.foot_raise:.2f} body heights above the other")
+        raised = result.hands_raised
+        if raised is not None and raised >= PUNCH_MAX_HANDS_RAISED:
+            print(f"  both hands rose {raised:.2f} body heights above the nose: not a punch")
         for match in result.top[1:]:
             print(f"  then {match.label}  ({_described(match)})")
         for seg in result.segments:

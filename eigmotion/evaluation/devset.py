@@ -208,6 +208,8 @@ class ClipAnswer:
         The answer's ``heading_change``, degrees.
     foot_raise : float or None
         The answer's ``foot_raise``, body heights.
+    hands_raised : float or None
+        The answer's ``hands_raised``, body heights.
     """
 
     clip_id: str
@@ -225,6 +227,7 @@ class ClipAnswer:
     travel_speed: float | None = None
     heading_change: float | None = None
     foot_raise: float | None = None
+    hands_raised: float | None = None
 
     @property
     def in_library(self) -> bool:
@@ -256,6 +259,7 @@ class ClipAnswer:
             "travel_speed": self.travel_speed,
             "heading_change_deg": self.heading_change,
             "foot_raise": self.foot_raise,
+            "hands_raised": self.hands_raised,
         }
 
 
@@ -379,6 +383,7 @@ def answer_clip(
         travel_speed=None if result.travel_speed is None else round(result.travel_speed, 3),
         heading_change=None if result.heading_change is None else round(result.heading_change, 1),
         foot_raise=None if result.foot_raise is None else round(result.foot_raise, 3),
+        hands_raised=None if result.hands_raised is None else round(result.hands_raised, 3),
     )
 
 

@@ -35,10 +35,12 @@ from eigmotion.retrieval.calibration import (
 from eigmotion.retrieval.library_views import BuildConfig, render_views, window_bounds
 from eigmotion.retrieval.motion_cues import (
     answer_by_raised_foot,
+    answer_by_raised_hands,
     answer_by_travel,
     answer_by_turning,
     floor_cues,
     foot_raise,
+    hands_raised,
 )
 from eigmotion.retrieval.motion_image import ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
@@ -279,6 +281,7 @@ class MotionDatabase:
         hidden_below_px: int = 0,
         floor_track: bool = True,
         raised_foot_heights: float | None = None,
+        raised_hands_heights: float | None = None,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -314,6 +317,12 @@ class MotionDatabase:
             (:func:`~eigmotion.retrieval.motion_cues.foot_raise` of the pose network's
             landmarks): high enough, it makes a kick among the first three labels the
             answer (:func:`~eigmotion.retrieval.motion_cues.answer_by_raised_foot`).
+        raised_hands_heights : float, optional
+            How far the lower wrist rose above the nose, body heights
+            (:func:`~eigmotion.retrieval.motion_cues.hands_raised`): high enough, an
+            answer ``punch`` gives way to a label whose motions raise both hands among
+            the first three (:func:`~eigmotion.retrieval.motion_cues.
+            answer_by_raised_hands`).
 
         Returns
         -------
@@ -356,6 +365,7 @@ class MotionDatabase:
         if floor_track:
             ranking = answer_by_turning(answer_by_travel(ranking, speed), turned)
         ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)
+        ranking = answer_by_raised_hands(ranking, raised_hands_heights)
         best = self._most_specific(ranking[0], windowed)
         segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
         ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
@@ -381,6 +391,7 @@ class MotionDatabase:
             travel_speed=speed,
             heading_change=turned,
             foot_raise=raised_foot_heights,
+            hands_raised=raised_hands_heights,
         )
 
     def _nearest_motions(self, entry_ids: np.ndarray, distances: np.ndarray) -> list[Match]:
@@ -497,6 +508,7 @@ class MotionDatabase:
         segmenter: str = "auto",
         floor_track: bool = True,
         raised_foot: bool = True,
+        raised_hands: bool = True,
     ) -> tuple[QueryResult, ClipMasks]:
         """Answer a clip on disk (video, folder of frames, or .npz of masks).
 
@@ -530,6 +542,10 @@ class MotionDatabase:
             landmarks (the learned and fused front ends keep them) and let a foot raised
             as only a kick raises it make a kick among the first three labels the
             answer (:meth:`query_masks`).
+        raised_hands : bool
+            Measure how far both hands rose over the head from the same landmarks and
+            let hands over the head turn an answer ``punch`` into a label whose motions
+            raise them, among the first three (:meth:`query_masks`).
 
         Returns
         -------
@@ -560,6 +576,7 @@ class MotionDatabase:
             clip.hidden_below_px,
             floor_track,
             foot_raise(clip.landmarks) if raised_foot else None,
+            hands_raised(clip.landmarks) if raised_hands else None,
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.

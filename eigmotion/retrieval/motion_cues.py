@@ -1,6 +1,7 @@
 """Facts of the body the motion image blurs, each allowed to choose among the first
 three labels a query ranked: how fast the person crosses the floor (walk or run),
-whether their way across it bends (walk or turn), and a foot raised high (a kick).
+whether their way across it bends (walk or turn), a foot raised high (a kick), and both
+hands over the head (not a punch).
 
 **Speed over the floor.** Seen from behind or in front, a walk and a run can cast
 nearly the same silhouettes: the legs swing along the line of sight.  How fast the
@@ -48,6 +49,16 @@ best-ranked ``kick`` when that label is among the first three and the person doe
 cross the floor at a run's pace, where the heel of the leg swung back rises high
 (:func:`answer_by_raised_foot`).  The landmarks of small people often miss the kicking
 foot, so a low rise says nothing: the cue only ever turns an answer into a kick.
+
+**Both hands over the head.** A punch keeps at least one hand below the head: in the
+library no punch raises its lower hand above the head joint (at the highest 0.13 m
+below it), while overhead lifts, two-armed waves, a reaching jump and the cover-heads
+do (up to 0.27 m above it).  The pose network's wrist landmarks give the lower wrist's
+height over the nose, in body heights, in the frames where the person stands upright
+(:func:`hands_raised`; a body bent double puts its landmarks anywhere).  An answer
+``punch`` whose hands rise :data:`PUNCH_MAX_HANDS_RAISED` or more answers the
+best-ranked of :data:`HANDS_RAISED_LABELS` among the first three labels instead
+(:func:`answer_by_raised_hands`).  Only a punch is judged, and a low rise says nothing.
 """
 
 from __future__ import annotations
@@ -57,7 +68,7 @@ import math
 import numpy as np
 
 from eigmotion.retrieval.results import Match
-from eigmotion.segmentation.cut_bodies import ANKLES
+from eigmotion.segmentation.cut_bodies import ANKLES, HIPS
 
 #: The field of view assumed across the frame's longer side, degrees: between a phone's
 #: main camera (about 65–70°) and a standard lens (about 45–55°).
@@ -106,6 +117,22 @@ NOSE = 0
 #: The body's height is this many times the span from the nose to the lower ankle
 #: (the head's top lies above the nose, the soles below the ankles).
 STATURE_PER_NOSE_TO_ANKLE = 1.1
+
+#: MediaPipe's pose landmarks of the wrists.
+WRISTS = (15, 16)
+
+#: The lower wrist this far above the nose, body heights, is not a punch: about the top
+#: of the head.  The development set's punches read −0.03 or less, its lifts 0.15–0.19.
+PUNCH_MAX_HANDS_RAISED = 0.10
+
+#: A frame counts toward the hands' rise when the nose stands at least this far above
+#: the middle of the hips, body heights (upright; about 0.4 standing straight).
+UPRIGHT_MIN_NOSE_OVER_HIPS = 0.25
+
+#: The label the raised hands rule out, and the labels of which some motions raise both
+#: hands above the head (the library's lifts, waves, jumps and cover-heads).
+PUNCH = "punch"
+HANDS_RAISED_LABELS = ("lift", "wave", "jump", "cover_head")
 
 
 def floor_track(masks: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -358,6 +385,89 @@ def answer_by_raised_foot(
     if speed is not None and speed >= RUN_MIN_HEIGHTS_PER_S:
         return ranking
     return _first_of(ranking, KICK)
+
+
+def hands_raised(landmarks: np.ndarray | None) -> float | None:
+    """How far the lower of the two wrists rose above the nose at most, in body heights.
+
+    Parameters
+    ----------
+    landmarks : (F, 33, 4) float or None
+        The pose network's landmarks per frame, as for :func:`foot_raise`.
+
+    Returns
+    -------
+    float or None
+        The largest height of the lower wrist over the nose (negative: below it), over
+        the body's height as in :func:`foot_raise`, over the frames where the person
+        stands upright (the nose :data:`UPRIGHT_MIN_NOSE_OVER_HIPS` or more above the
+        hips' middle), after a running median of three frames; None without landmarks,
+        with fewer than three frames that have them or without an upright frame.
+    """
+    if landmarks is None:
+        return None
+    landmarks = np.asarray(landmarks, dtype=np.float64)
+    wrists_y = landmarks[:, WRISTS, 1]  # (F, 2), image rows: down is larger
+    ankles_y = landmarks[:, ANKLES, 1]
+    nose_y = landmarks[:, NOSE, 1]
+    hips_y = landmarks[:, HIPS, 1].mean(axis=1)
+    seen = (
+        np.isfinite(wrists_y).all(axis=1)
+        & np.isfinite(ankles_y).all(axis=1)
+        & np.isfinite(nose_y)
+        & np.isfinite(hips_y)
+    )
+    if seen.sum() < 3:
+        return None
+    wrists_y, ankles_y, nose_y, hips_y = wrists_y[seen], ankles_y[seen], nose_y[seen], hips_y[seen]
+    stature = STATURE_PER_NOSE_TO_ANKLE * np.percentile(ankles_y.max(axis=1) - nose_y, 90)
+    if not stature > 0:
+        return None
+    rise = (nose_y - wrists_y.max(axis=1)) / stature
+    upright = (hips_y - nose_y) / stature >= UPRIGHT_MIN_NOSE_OVER_HIPS
+    rise = np.where(upright, rise, -np.inf)
+    steady = np.median(np.stack([rise[:-2], rise[1:-1], rise[2:]]), axis=0)
+    top = float(steady.max())
+    return top if math.isfinite(top) else None
+
+
+def answer_by_raised_hands(ranking: list[Match], raised: float | None) -> list[Match]:
+    """The ranking without ``punch`` first where both hands rose over the head.
+
+    Parameters
+    ----------
+    ranking : list of Match
+        Distinct motions, the answer first.
+    raised : float or None
+        :func:`hands_raised` of the clip.
+
+    Returns
+    -------
+    list of Match
+        ``ranking`` itself, or, when the answer is ``punch`` and the hands rose
+        :data:`PUNCH_MAX_HANDS_RAISED` or more, with the first motion of the
+        best-ranked of :data:`HANDS_RAISED_LABELS` among the first three labels moved
+        to the front (none there: ``ranking`` itself).
+    """
+    if raised is None or raised < PUNCH_MAX_HANDS_RAISED or not ranking:
+        return ranking
+    if ranking[0].label != PUNCH:
+        return ranking
+    for label in _first_labels(ranking):
+        if label in HANDS_RAISED_LABELS:
+            return _first_of(ranking, label)
+    return ranking
+
+
+def _first_labels(ranking: list[Match], count: int = 3) -> list[str]:
+    """The first ``count`` distinct labels of ``ranking``, in order."""
+    labels: list[str] = []
+    for match in ranking:
+        if match.label not in labels:
+            labels.append(match.label)
+            if len(labels) == count:
+                break
+    return labels
 
 
 def _first_of(ranking: list[Match], wanted: str) -> list[Match]:

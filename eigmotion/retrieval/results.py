@@ -157,6 +157,10 @@ class QueryResult:
         How far one foot rose above the other at most, body heights
         (:func:`~eigmotion.retrieval.motion_cues.foot_raise`); None where the query had
         no pose landmarks or did not measure it.
+    hands_raised : float or None
+        How far the lower wrist rose above the nose at most, body heights
+        (:func:`~eigmotion.retrieval.motion_cues.hands_raised`); None as for
+        ``foot_raise``, or where the person never stood upright.
     """
 
     best: Match
@@ -175,6 +179,7 @@ class QueryResult:
     travel_speed: float | None = None
     heading_change: float | None = None
     foot_raise: float | None = None
+    hands_raised: float | None = None
 
     def to_json(self) -> dict:
         out = self.best.to_json()
@@ -193,6 +198,8 @@ class QueryResult:
         turned = self.heading_change
         out["heading_change_deg"] = None if turned is None else round(turned, 1)
         out["foot_raise"] = None if self.foot_raise is None else round(self.foot_raise, 3)
+        raised = self.hands_raised
+        out["hands_raised"] = None if raised is None else round(raised, 3)
         return out
 
 
