@@ -349,10 +349,10 @@ def foot_raise(landmarks: np.ndarray | None) -> float | None:
     if seen.sum() < 3:
         return None
     ankles_y, nose_y = ankles_y[seen], nose_y[seen]
-    span = np.percentile(ankles_y.max(axis=1) - nose_y, 90)
-    if not span > 0:
+    stature = _stature_px(ankles_y, nose_y)
+    if not stature > 0:
         return None
-    rise = np.abs(ankles_y[:, 0] - ankles_y[:, 1]) / (STATURE_PER_NOSE_TO_ANKLE * span)
+    rise = np.abs(ankles_y[:, 0] - ankles_y[:, 1]) / stature
     steady = np.median(np.stack([rise[:-2], rise[1:-1], rise[2:]]), axis=0)
     return float(steady.max())
 
@@ -420,7 +420,7 @@ def hands_raised(landmarks: np.ndarray | None) -> float | None:
     if seen.sum() < 3:
         return None
     wrists_y, ankles_y, nose_y, hips_y = wrists_y[seen], ankles_y[seen], nose_y[seen], hips_y[seen]
-    stature = STATURE_PER_NOSE_TO_ANKLE * np.percentile(ankles_y.max(axis=1) - nose_y, 90)
+    stature = _stature_px(ankles_y, nose_y)
     if not stature > 0:
         return None
     rise = (nose_y - wrists_y.max(axis=1)) / stature
@@ -473,12 +473,14 @@ def _first_labels(ranking: list[Match], count: int = 3) -> list[str]:
 def _first_of(ranking: list[Match], wanted: str) -> list[Match]:
     """``ranking`` with its first motion labelled ``wanted`` moved to the front, when
     that label is among its first three; else ``ranking`` itself."""
-    labels: list[str] = []
-    for k, match in enumerate(ranking):
-        if match.label not in labels:
-            labels.append(match.label)
-            if len(labels) > 3:
-                break
-            if match.label == wanted:
-                return [match, *ranking[:k], *ranking[k + 1 :]]
-    return ranking
+    if wanted not in _first_labels(ranking):
+        return ranking
+    k = next(k for k, match in enumerate(ranking) if match.label == wanted)
+    return [ranking[k], *ranking[:k], *ranking[k + 1 :]]
+
+
+def _stature_px(ankles_y: np.ndarray, nose_y: np.ndarray) -> float:
+    """The body's height, pixels: :data:`STATURE_PER_NOSE_TO_ANKLE` × the 90th
+    percentile over frames of the span from the nose (F,) down to the lower of the
+    ankles (F, 2), image rows."""
+    return float(STATURE_PER_NOSE_TO_ANKLE * np.percentile(ankles_y.max(axis=1) - nose_y, 90))
