@@ -135,7 +135,8 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
     assert np.all(keypoints[:, head, 1] > keypoints[:, 0, 1])
     ours = limb_error_mm(names_k, keypoints, truth)
     before = limb_error_mm(names_s, silhouette, truth)
-    assert ours < 130.0 and ours < 1.5 * before, (ours, before)
+    # near the truth; the silhouette cue, aligning the very motion, nearer still
+    assert ours < 110.0 and before < ours, (ours, before)
     # heading and sides counted (no rotation fitted): not turned or mirrored off the
     # silhouette cue, which here aligns the very motion
     assert (
