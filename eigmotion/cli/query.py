@@ -44,7 +44,14 @@ from eigmotion.errors import InvalidParameterError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.motion_cues import KICK, PUNCH_MAX_HANDS_RAISED, RUN, TURN, WALK
+from eigmotion.retrieval.motion_cues import (
+    KICK,
+    PUNCH,
+    PUNCH_MAX_HANDS_RAISED,
+    RUN,
+    TURN,
+    WALK,
+)
 from eigmotion.retrieval.motion_image import motion_image_picture
 from eigmotion.retrieval.results import frame_range
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
@@ -179,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
         if result.foot_raise is not None and best.label == KICK:
             print(f"  one foot rose {result.foot_raise:.2f} body heights above the other")
         raised = result.hands_raised
-        if raised is not None and raised >= PUNCH_MAX_HANDS_RAISED:
+        if raised is not None and raised >= PUNCH_MAX_HANDS_RAISED and best.label != PUNCH:
             print(f"  both hands rose {raised:.2f} body heights above the nose: not a punch")
         for match in result.top[1:]:
             print(f"  then {match.label}  ({_described(match)})")

@@ -352,9 +352,7 @@ def foot_raise(landmarks: np.ndarray | None) -> float | None:
     stature = _stature_px(ankles_y, nose_y)
     if not stature > 0:
         return None
-    rise = np.abs(ankles_y[:, 0] - ankles_y[:, 1]) / stature
-    steady = np.median(np.stack([rise[:-2], rise[1:-1], rise[2:]]), axis=0)
-    return float(steady.max())
+    return _steady_peak(np.abs(ankles_y[:, 0] - ankles_y[:, 1]) / stature)
 
 
 def answer_by_raised_foot(
@@ -425,9 +423,7 @@ def hands_raised(landmarks: np.ndarray | None) -> float | None:
         return None
     rise = (nose_y - wrists_y.max(axis=1)) / stature
     upright = (hips_y - nose_y) / stature >= UPRIGHT_MIN_NOSE_OVER_HIPS
-    rise = np.where(upright, rise, -np.inf)
-    steady = np.median(np.stack([rise[:-2], rise[1:-1], rise[2:]]), axis=0)
-    top = float(steady.max())
+    top = _steady_peak(np.where(upright, rise, -np.inf))
     return top if math.isfinite(top) else None
 
 
@@ -484,3 +480,9 @@ def _stature_px(ankles_y: np.ndarray, nose_y: np.ndarray) -> float:
     percentile over frames of the span from the nose (F,) down to the lower of the
     ankles (F, 2), image rows."""
     return float(STATURE_PER_NOSE_TO_ANKLE * np.percentile(ankles_y.max(axis=1) - nose_y, 90))
+
+
+def _steady_peak(values: np.ndarray) -> float:
+    """The largest of ``values`` (F,) (F >= 3) after a running median of three frames:
+    one frame's slip of a landmark does not count."""
+    return float(np.median(np.stack([values[:-2], values[1:-1], values[2:]]), axis=0).max())
