@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eigmotion.imaging.cameras import load_rig, view_direction
+from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.cameras import (
+    fit_distance,
+    intrinsics,
+    load_rig,
+    look_at,
+    view_direction,
+)
 from eigmotion.imaging.silhouettes import render_rig_masks
 from eigmotion.mocap.canonical import canonical_skeleton
 from eigmotion.mocap.kinematics import forward_kinematics
@@ -162,3 +169,42 @@ def test_fitted_rig_keeps_a_travelling_body_in_frame(avatar, stem):
         rows, cols = np.nonzero(seen.any(axis=1))[0], np.nonzero(seen.any(axis=0))[0]
         gap = min(rows[0], cols[0], cam.height - 1 - rows[-1], cam.width - 1 - cols[-1])
         assert margin * cam.width - 1 <= gap <= margin * cam.width + 2, (cam.name, gap)
+
+
+@pytest.mark.parametrize("elevation_deg", [-90.0, -35.0, 0.0, 20.0, 90.0])
+@pytest.mark.parametrize(
+    "width, height, yfov_deg", [(128, 128, 40.0), (320, 240, 60.0), (64, 160, 25.0)]
+)
+def test_fit_distance_is_the_nearest_distance_that_keeps_every_point_in_frame(
+    elevation_deg, width, height, yfov_deg
+):
+    """At the fitted distance every point lies inside the image less its margin and one
+    touches that border; a hair nearer, one is outside."""
+    rng = np.random.default_rng(int(elevation_deg) + 100 + width)
+    margin = 0.05
+    K = intrinsics(width, height, yfov_deg)
+    points = rng.normal(size=(50, 3)) * [0.4, 0.8, 0.3] + [0.0, 0.9, 0.0]
+    target = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    azimuth_deg = float(rng.uniform(0, 360))
+    direction = view_direction(azimuth_deg, elevation_deg)
+    d = fit_distance(points, target, azimuth_deg, elevation_deg, K, width, height, margin)
+    low = margin * np.array([width, height])
+    high = (1 - margin) * np.array([width, height]) - 1
+
+    def slack(distance):
+        """Pixels from the points to the nearest border of the image less its margin."""
+        camera = look_at(target + distance * direction, target, K, width, height)
+        px, depth = camera.project(points)
+        assert np.all(depth > 0.05)
+        return min((px - low).min(), (high - px).min())
+
+    assert abs(slack(d)) < 1e-6
+    assert slack(d * 1.001) > 0
+    assert slack(d * 0.999) < 0
+
+
+def test_fit_distance_needs_the_principal_point_inside_the_image():
+    K = intrinsics(128, 128, 40.0)
+    K[0, 2] = 200.0
+    with pytest.raises(InvalidParameterError, match="principal point"):
+        fit_distance(np.zeros((1, 3)), np.zeros(3) + [0, 0, 0.1], 0.0, 0.0, K, 128, 128)

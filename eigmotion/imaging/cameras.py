@@ -242,21 +242,24 @@ def fit_distance(
     float, metres.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    target = np.asarray(target, dtype=np.float64)
     direction = view_direction(azimuth_deg, elevation_deg)
-    lo, hi = 0.1, 1000.0
-    for _ in range(60):  # bisection on "everything inside the shrunk image"
-        d = 0.5 * (lo + hi)
-        cam = look_at(target + d * direction, target, K, width, height)
-        px, depth = cam.project(points)
-        inside = (
-            np.all(depth > 0.05)
-            and px[:, 0].min() >= margin * width
-            and px[:, 0].max() <= (1 - margin) * width - 1
-            and px[:, 1].min() >= margin * height
-            and px[:, 1].max() <= (1 - margin) * height - 1
-        )
-        lo, hi = (lo, d) if inside else (d, hi)
-    return hi
+    # The camera's axes depend on the view only: moving it back along ``direction``
+    # by d adds d to every point's depth and leaves x and y as they are.
+    axes = look_at(target + direction, target, K, width, height).R
+    x, y, z = ((points - target) @ axes.T).T
+    lowest = [0.05 - z]  # depth > 0.05 m
+    for focal, centre, size, along in ((K[0, 0], K[0, 2], width, x), (K[1, 1], K[1, 2], height, y)):
+        first, last = margin * size - centre, (1 - margin) * size - 1 - centre
+        if not first < 0 < last:
+            raise InvalidParameterError(
+                f"fit_distance: the principal point ({K[0, 2]:g}, {K[1, 2]:g}) lies outside "
+                f"the image less its {margin:g} margin"
+            )
+        # focal·along / depth must lie in [first, last]: depth ≥ focal·along / first
+        # for points on the near side of the centre, ≥ focal·along / last beyond it.
+        lowest += [focal * along / first - z, focal * along / last - z]
+    return float(np.clip(np.max(lowest), 0.1, 1000.0))
 
 
 @dataclass(frozen=True, eq=False)
