@@ -193,17 +193,23 @@ def look_at(
 ) -> Camera:
     """A camera at ``eye`` looking at ``target`` with world ``up`` pointing up in the image."""
     eye = np.asarray(eye, dtype=np.float64)
-    forward = np.asarray(target, dtype=np.float64) - eye
-    if np.linalg.norm(forward) < 1e-9:
+    R = _look_axes(np.asarray(target, dtype=np.float64) - eye, up)
+    return Camera(K, R, -R @ eye, width, height, name, azimuth_deg, elevation_deg)
+
+
+def _look_axes(forward: np.ndarray, up: Sequence[float] = (0.0, 1.0, 0.0)) -> np.ndarray:
+    """(3, 3) rotation world → camera (rows: right, down, forward) of a camera looking
+    along ``forward`` (3,) with world ``up`` pointing up in the image."""
+    norm = np.linalg.norm(forward)
+    if norm < 1e-9:
         raise InvalidParameterError("look_at: eye and target coincide")
-    forward /= np.linalg.norm(forward)
+    forward = forward / norm
     right = np.cross(forward, np.asarray(up, dtype=np.float64))
     if np.linalg.norm(right) < 1e-9:  # looking straight up or down
         right = np.cross(forward, [0.0, 0.0, 1.0])
     right /= np.linalg.norm(right)
     down = np.cross(forward, right)
-    R = np.stack([right, down, forward])
-    return Camera(K, R, -R @ eye, width, height, name, azimuth_deg, elevation_deg)
+    return np.stack([right, down, forward])
 
 
 def view_direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
@@ -246,7 +252,7 @@ def fit_distance(
     direction = view_direction(azimuth_deg, elevation_deg)
     # The camera's axes depend on the view only: moving it back along ``direction``
     # by d adds d to every point's depth and leaves x and y as they are.
-    axes = look_at(target + direction, target, K, width, height).R
+    axes = _look_axes(target - (target + direction))  # as look_at computes it, to the bit
     x, y, z = ((points - target) @ axes.T).T
     lowest = [0.05 - z]  # depth > 0.05 m
     for focal, centre, size, along in ((K[0, 0], K[0, 2], width, x), (K[1, 1], K[1, 2], height, y)):

@@ -329,13 +329,23 @@ def pose_for_views(motion, body, rig: CameraRig, render_fps: float):
     fitted : CameraRig
         The rig re-aimed so that the whole motion stays in every camera's frame.
     """
-    # Lazy: retargeting loads scipy.spatial (~0.14 s), which a query never needs.
-    from eigmotion.body.retarget import animate_avatar
+    return _pose_resampled(_resampled(motion, render_fps), body, rig)
 
+
+def _resampled(motion, render_fps: float):
+    """``motion`` at ``render_fps``, its size checked against :mod:`eigmotion.limits` first."""
     end_s = (motion.n_frames - 1) * motion.frame_time_s
     name = f"motion {motion.name!r}" if motion.name else "the motion"
     check_rendered_frames(int(min(end_s * render_fps, 2**62)) + 1, f"{name} at {render_fps:g} fps")
-    _, vertices = animate_avatar(body, motion.resample(render_fps))
+    return motion.resample(render_fps)
+
+
+def _pose_resampled(motion, body, rig: CameraRig):
+    """:func:`pose_for_views` of a motion resampled already."""
+    # Lazy: retargeting loads scipy.spatial (~0.14 s), which a query never needs.
+    from eigmotion.body.retarget import animate_avatar
+
+    _, vertices = animate_avatar(body, motion)
     return vertices, rig.fitted(hull_points(vertices))
 
 
@@ -350,15 +360,19 @@ def build_body(
 @lru_cache(maxsize=2)
 def _posed(motion_index: int, shape_index: int):
     """:func:`pose_for_views` cached per worker process (the views of one motion share it)."""
-    library, rig, config = (
-        _WORKER_STATE["library"],
-        _WORKER_STATE["rig"],
-        _WORKER_STATE["config"],
-    )
+    rig, config = _WORKER_STATE["rig"], _WORKER_STATE["config"]
     shape, garments = config.bodies[shape_index]
     body = _body(shape, garments, config.low_poly_faces)
-    vertices, fitted = pose_for_views(library[motion_index].motion, body, rig, config.render_fps)
+    vertices, fitted = _pose_resampled(_worker_resampled(motion_index), body, rig)
     return vertices, body.faces, fitted
+
+
+@lru_cache(maxsize=2)
+def _worker_resampled(motion_index: int):
+    """A library motion at the build's rendering rate, cached per worker process (its
+    bodies share it)."""
+    library, config = _WORKER_STATE["library"], _WORKER_STATE["config"]
+    return _resampled(library[motion_index].motion, config.render_fps)
 
 
 def hull_points(vertices: np.ndarray) -> np.ndarray:
@@ -408,6 +422,7 @@ def _init_worker(library: Sequence[LibraryMotion], rig: CameraRig, config: Build
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     _WORKER_STATE.update(library=library, rig=rig, config=config)
     _posed.cache_clear()
+    _worker_resampled.cache_clear()
 
 
 def _render_task(task: tuple[int, int, int]) -> ViewImages:
@@ -629,5 +644,6 @@ def _render_group(shipped: tuple, motion_index: int, shape_index: int) -> list[V
         library, rig, config = shipped
         _WORKER_STATE.update(library=library, rig=rig, config=config, shipped=shipped)
         _posed.cache_clear()
+        _worker_resampled.cache_clear()
     n_views = len(_WORKER_STATE["rig"])
     return [_render_task((motion_index, shape_index, v)) for v in range(n_views)]
