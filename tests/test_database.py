@@ -49,7 +49,7 @@ from eigmotion.retrieval.query_windows import (
     window_label_path,
 )
 from eigmotion.retrieval.results import Match, Segment
-from eigmotion.retrieval.sequences import POSE_COMPONENTS
+from eigmotion.retrieval.sequences import POSE_COMPONENTS, pose_speeds
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -525,6 +525,30 @@ def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, librar
                 assert segments == [Segment(kept[0][0], kept[-1][1], "elsewhere", 0.5)]
             else:
                 assert "elsewhere" not in {s.label for s in segments}
+
+
+def test_pose_speeds_are_measured_once_per_database_and_the_same_to_the_bit(
+    db_path, library, other_body
+):
+    """A second query reuses the renderings' pose speeds the first one measured: the
+    same answer and sequence distances, and each kept speed is its rendering's own."""
+    by_name = {m.name: m for m in library}
+    masks = _masks(by_name["wave_14_24"].motion, other_body, 30.0, 8.0)
+    with MotionDatabase.open(db_path) as db:
+        first = db.query_masks(masks, 30.0)
+        kept = {mid: found[3].copy() for mid, found in db._sequences.items()}
+        assert sum(np.isfinite(speeds).sum() for speeds in kept.values()) > 0
+        second = db.query_masks(masks, 30.0)
+        assert [(m.motion_id, m.distance, m.sequence_distance) for m in first.top] == [
+            (m.motion_id, m.distance, m.sequence_distance) for m in second.top
+        ]
+        for mid, speeds in kept.items():
+            stored = db._sequences[mid][0]
+            firsts = np.cumsum(stored.lengths) - stored.lengths
+            for r in np.flatnonzero(np.isfinite(speeds)):
+                own = stored.frames[firsts[r] : firsts[r] + stored.lengths[r]]
+                alone = pose_speeds(own.astype(np.float32), stored.lengths[r : r + 1])
+                assert alone[0] == speeds[r]
 
 
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):

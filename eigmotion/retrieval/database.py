@@ -431,8 +431,9 @@ class MotionDatabase:
             :func:`~eigmotion.retrieval.sequences.fused_scores`.
         """
         taken, lengths, owners = [], [], []  # per candidate: (stored, its rows in order)
+        speed_slots = []  # per run: (the motion's pose speeds, the renderings taken)
         for candidate, match in enumerate(nearest):
-            stored, by_azimuth, firsts = self._stored_sequences(match.motion_id)
+            stored, by_azimuth, firsts, motion_speeds = self._stored_sequences(match.motion_id)
             azimuths = stored.azimuth_deg[by_azimuth]
             near = np.flatnonzero(view_reach(azimuths, match.azimuth_deg))
             # In order of azimuth, the renderings in reach are one run, or two where the
@@ -443,6 +444,7 @@ class MotionDatabase:
                     taken.append((stored, _rows_of(firsts[chosen], stored.lengths[chosen])))
                     lengths.append(stored.lengths[chosen])
                     owners.append(np.full(run.size, candidate))
+                    speed_slots.append((motion_speeds, chosen))
         compared = np.full(len(nearest), np.inf)
         if lengths:
             lengths = np.concatenate(lengths)
@@ -451,9 +453,7 @@ class MotionDatabase:
             for stored, rows in taken:  # float16 as stored: converted as gathered
                 frames[at : at + len(rows)] = stored.frames[rows]
                 at += len(rows)
-            # Each rendering's pose speed is its own frames' alone: taken for the
-            # renderings in reach only, all at once.
-            speeds = pose_speeds(frames, lengths)
+            speeds = _rendering_speeds(frames, lengths, speed_slots)
             compared = nearest_sequence_distances(
                 query,
                 frames,
@@ -477,14 +477,16 @@ class MotionDatabase:
 
     def _stored_sequences(self, motion_id: int):
         """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences`, its renderings
-        in order of azimuth (R,) and the (R,) first frame of each rendering: read from
-        the store once, then kept, its frames float16 as stored."""
+        in order of azimuth (R,), the (R,) first frame of each rendering and their (R,)
+        pose speeds (NaN until measured, see :func:`_rendering_speeds`): read from the
+        store once, then kept, its frames float16 as stored."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id, np.float16)
             by_azimuth = np.argsort(stored.azimuth_deg, kind="stable")
             firsts = np.cumsum(stored.lengths) - stored.lengths
-            found = self._sequences[motion_id] = (stored, by_azimuth, firsts)
+            speeds = np.full(len(stored.lengths), np.nan)
+            found = self._sequences[motion_id] = (stored, by_azimuth, firsts, speeds)
         return found
 
     def _most_specific(self, whole: Match, windowed) -> Match:
@@ -676,6 +678,37 @@ class MotionDatabase:
                 )
             )
         return out
+
+
+def _rendering_speeds(frames: np.ndarray, lengths: np.ndarray, slots: list) -> np.ndarray:
+    """The pose speeds (:func:`~eigmotion.retrieval.sequences.pose_speeds`) of the
+    renderings gathered in ``frames``, measured once per open database.
+
+    Parameters
+    ----------
+    frames : (M, d) float32
+        The gathered renderings' frames, one after the other.
+    lengths : (R,) int
+        Frames of each gathered rendering.
+    slots : list of ((S,) float64, (r,) int)
+        Per run of gathered renderings, in order: its motion's pose speeds (NaN where
+        not measured yet; filled here) and the renderings of that motion it holds.
+
+    Returns
+    -------
+    (R,) float64
+        Each rendering's speed is its own frames' alone, so those measured by an
+        earlier query are the same to the bit; the others are measured here, all at once.
+    """
+    speeds = np.concatenate([known[chosen] for known, chosen in slots])
+    missing = np.isnan(speeds)
+    if missing.any():
+        speeds[missing] = pose_speeds(frames[np.repeat(missing, lengths)], lengths[missing])
+        at = 0
+        for known, chosen in slots:
+            known[chosen] = speeds[at : at + len(chosen)]
+            at += len(chosen)
+    return speeds
 
 
 def brute_force_check(db: MotionDatabase, queries: np.ndarray, top_k: int = 1) -> bool:
