@@ -207,4 +207,4 @@ def test_fit_distance_needs_the_principal_point_inside_the_image():
     K = intrinsics(128, 128, 40.0)
     K[0, 2] = 200.0
     with pytest.raises(InvalidParameterError, match="principal point"):
-        fit_distance(np.zeros((1, 3)), np.zeros(3) + [0, 0, 0.1], 0.0, 0.0, K, 128, 128)
+        fit_distance(np.zeros((1, 3)), np.array([0.0, 0.0, 0.1]), 0.0, 0.0, K, 128, 128)

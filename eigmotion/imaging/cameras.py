@@ -245,7 +245,13 @@ def fit_distance(
 
     Returns
     -------
-    float, metres.
+    float, metres, within [0.1, 1000]: the nearest distance at which every point
+    lies more than 0.05 m in front of the camera and inside the image less its margin.
+
+    Raises
+    ------
+    InvalidParameterError
+        The principal point of ``K`` lies outside the image less its margin.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     target = np.asarray(target, dtype=np.float64)
