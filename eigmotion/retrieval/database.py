@@ -702,11 +702,10 @@ def _rendering_speeds(frames: np.ndarray, lengths: np.ndarray, slots: list) -> n
     """
     speeds = np.concatenate([known[chosen] for known, chosen in slots])
     missing = np.isnan(speeds)
-    if missing.all():  # a database's first query: no copy of the frames
-        speeds = pose_speeds(frames, lengths)
-    elif missing.any():
-        speeds[missing] = pose_speeds(frames[np.repeat(missing, lengths)], lengths[missing])
     if missing.any():
+        # A database's first query measures every rendering: no copy of the frames then.
+        unknown = frames if missing.all() else frames[np.repeat(missing, lengths)]
+        speeds[missing] = pose_speeds(unknown, lengths[missing])
         at = 0
         for known, chosen in slots:
             known[chosen] = speeds[at : at + len(chosen)]
