@@ -173,12 +173,15 @@ def test_threshold_is_the_quantile_of_each_whole_entry_nearest_other_performance
     assert leave_one_motion_out_threshold(points, one, whole) == pytest.approx(2 * radius)
     # the distances behind it, and the quantiles a build stores of them
     distances = leave_one_motion_out_distances(points, performance, whole, body)
-    np.testing.assert_array_equal(np.sort(distances), np.sort(found_elsewhere))
+    np.testing.assert_array_equal(distances, found_elsewhere)  # in the entries' order
     quantiles = calibration_quantiles(distances)
     assert len(quantiles) == len(CALIBRATION_LEVELS) == 201
     assert quantiles[190] == np.quantile(found_elsewhere, 0.95)
     assert quantiles[0] == min(found_elsewhere) and quantiles[-1] == max(found_elsewhere)
     assert leave_one_motion_out_distances(points, one, whole) is None
+    # bodies all alike: no entry has anyone else's to compare with
+    all_alike = np.ones((3, 3), dtype=bool)
+    assert leave_one_motion_out_distances(points, performance, whole, body, all_alike) is None
     assert calibration_quantiles(None) is None
 
 

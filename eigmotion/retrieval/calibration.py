@@ -13,6 +13,8 @@ rejection (:func:`threshold_for_false_rejection`) and for its ``p_known``
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from eigmotion.errors import DatabaseError
@@ -63,26 +65,54 @@ def leave_one_motion_out_distances(
     Returns
     -------
     (M,) float64 or None
-        One distance per whole-motion entry, eigenspace units (each measured in the
-        points' own dtype, as a query's search measures it); None for a database of
-        one performance, which has nothing to compare with but itself.
+        One distance per whole-motion entry, in the entries' order, eigenspace units
+        (each measured in the points' own dtype, as a query's search measures it); an
+        entry with no other performance on a body unlike its own has none.  None when
+        no entry has one (a database of one performance has nothing to compare with
+        but itself).
     """
     if len(np.unique(performance_of)) == 1:
         return None
     points = np.asarray(points)
+    performance_of = np.asarray(performance_of, dtype=np.int64)
     several_bodies = body_of is not None and len(np.unique(body_of)) > 1
     body_of = np.asarray(body_of) if several_bodies else np.zeros(len(points), np.int64)
     if alike is None:
         alike = np.eye(int(body_of.max()) + 1, dtype=bool)
-    found = []
-    for performance in np.unique(performance_of[whole]):
-        mine = performance_of == performance
-        for body in np.unique(body_of[whole & mine]):
-            queries = np.flatnonzero(whole & mine & (body_of == body))
-            others = points[~mine & ~alike[body][body_of] if several_bodies else ~mine]
-            for block in np.array_split(queries, -(-len(queries) // _QUERY_BLOCK)):
-                found.append(_nearest_distances(points[block], others))
-    return np.concatenate(found).astype(np.float64)
+    # Body by body: the entries it is compared with are gathered once, and each block
+    # of its whole-motion entries is compared with all of them by one float64 matrix
+    # product, the block's own performances left out as the nearest is picked.  The
+    # distance to the nearest is then the norm of the difference in the points' own
+    # dtype, as the databases built so far measured it to the bit (not
+    # brute_force's, which takes the float32 sum's root in float64).
+    p64 = points.astype(np.float64)
+    norms = np.einsum("ij,ij->i", p64, p64)
+    queries = np.flatnonzero(whole)
+    distances = np.full(len(queries), np.nan)
+    for body in np.unique(body_of[whole]):
+        if several_bodies:
+            others = np.flatnonzero(~alike[body][body_of])
+        else:
+            others = np.arange(len(points))
+        others64, others_norms, others_performance = (
+            p64[others],
+            norms[others],
+            performance_of[others],
+        )
+        mine = np.flatnonzero(body_of[queries] == body)
+        for block in np.array_split(mine, -(-len(mine) // _QUERY_BLOCK)):
+            rows = queries[block]
+            nearest = np.empty(len(rows), dtype=np.int64)
+            _nearest_kernel()(
+                p64[rows] @ others64.T, norms[rows], others_norms,
+                performance_of[rows], others_performance, nearest,
+            )  # fmt: skip
+            found = nearest >= 0
+            distances[block[found]] = np.linalg.norm(
+                points[others[nearest[found]]] - points[rows[found]], axis=1
+            )
+    distances = distances[~np.isnan(distances)]
+    return distances if len(distances) else None
 
 
 def leave_one_motion_out_threshold(
@@ -127,8 +157,9 @@ def calibration_quantiles(distances: np.ndarray | None) -> list[float] | None:
 
 
 #: Whole-motion entries whose distances to the rest are computed together: bounds
-#: the (block × entries) matrix of :func:`leave_one_motion_out_threshold`.
-_QUERY_BLOCK = 256
+#: the (block × entries) matrix of :func:`leave_one_motion_out_distances` (128 rows of
+#: a default database's 90,000 entries to compare with: 92 MB).
+_QUERY_BLOCK = 128
 
 
 def stored_quantiles(uri: str, stored: dict) -> np.ndarray | None:
@@ -153,24 +184,39 @@ def stored_quantiles(uri: str, stored: dict) -> np.ndarray | None:
     return quantiles
 
 
-def _nearest_distances(queries: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """(Q,) Euclidean distance from each of ``queries`` (Q, k) to its nearest among
-    ``points`` (N, k).  The nearest is found by one float64 matrix product for all
-    the pairs; its distance is then the norm of the difference in the points' own
-    dtype (float32 for a database's points).
+@lru_cache(maxsize=1)
+def _nearest_kernel():
+    """:func:`_nearest_of_other_performances` compiled (numba is imported here: a query,
+    which reads the calibration, never loads it)."""
+    from numba import njit
 
-    Not :func:`~eigmotion.retrieval.brute_force.brute_force`: that takes the square
-    root of the float32 sum in float64, and its float32 nearest may differ from this
-    float64 one at a near tie, so the distances (and the thresholds and quantiles
-    stored from them) would differ in their last bits from those of the databases
-    already built."""
-    q64, p64 = queries.astype(np.float64), points.astype(np.float64)
-    squared = (
-        np.einsum("ij,ij->i", q64, q64)[:, None]
-        + np.einsum("ij,ij->i", p64, p64)[None, :]
-        - 2.0 * q64 @ p64.T
-    )
-    return np.linalg.norm(points[np.argmin(squared, axis=1)] - queries, axis=1)
+    return njit(cache=True, nogil=True)(_nearest_of_other_performances)
+
+
+def _nearest_of_other_performances(
+    products, query_norms, others_norms, query_performance, others_performance, out
+):  # pragma: no cover - JIT
+    """The nearest entry of another performance for each query, from a matrix product.
+
+    ``products`` (Q, N) float64 holds ``q · p`` for every (query, entry) pair, the norms
+    (Q,) and (N,) ``q · q`` and ``p · p``; the squared distance of a pair is taken as
+    ``(q · q + p · p) - 2 q · p``, as numpy would evaluate it.  Fills ``out`` (Q,)
+    int64 with the index of the first entry of least squared distance among those
+    whose performance differs from the query's, or -1 when there is none.  Written for
+    numba: plain loops.
+    """
+    for i in range(products.shape[0]):
+        best = np.inf
+        nearest = -1
+        own = query_performance[i]
+        for j in range(products.shape[1]):
+            if others_performance[j] == own:
+                continue
+            squared = (query_norms[i] + others_norms[j]) - 2.0 * products[i, j]
+            if squared < best:
+                best = squared
+                nearest = j
+        out[i] = nearest
 
 
 def threshold_for_false_rejection(quantiles: np.ndarray, false_rejection: float) -> float:
