@@ -73,11 +73,15 @@ class CollectedViews:
         self.labels += view.labels
 
     def arrays(self):
-        """``(vectors (N, D) float32, motion (N,) int64, body (N,) int64, azimuth (N,)
-        float64, elevation (N,) float64, start (N,) int64, stop (N,) int64, labels list
-        of N str)``: every motion image gathered, one row each."""
+        """``(vectors (N, D) float32, *columns)``: every motion image gathered, one row
+        each, then :meth:`columns`."""
+        return (np.concatenate(self.vectors).astype(np.float32, copy=False), *self.columns())
+
+    def columns(self):
+        """``(motion (N,) int64, body (N,) int64, azimuth (N,) float64, elevation (N,)
+        float64, start (N,) int64, stop (N,) int64, labels list of N str)``: what is
+        known of each motion image gathered."""
         return (
-            np.concatenate(self.vectors).astype(np.float32),
             np.asarray(self.motion, dtype=np.int64),
             np.asarray(self.body, dtype=np.int64),
             np.asarray(self.azimuth, dtype=np.float64),
@@ -216,10 +220,13 @@ def store_library(
     keys : (N,) int64
         Their B-tree keys.
     """
-    _, motion_of, body_of, az, el, start, stop, labels = collected.arrays()
+    motion_of, body_of, az, el, start, stop, labels = collected.columns()
     pose_space = fitted[3]
     with store.transaction():
         store.initialise(*fitted)
+    sequences: dict[int, list] = {}  # each motion's, filed under motion index 0
+    for motion_index, *view in collected.sequences:
+        sequences.setdefault(motion_index, []).append((0, *view))
     ids, order, motion_ids = [], [], []
     for index, item in enumerate(library):
         rows = np.flatnonzero(motion_of == index)
@@ -232,8 +239,7 @@ def store_library(
                     body_of[rows], columns=False,
                 )
             )  # fmt: skip
-            own = [(0, *view[1:]) for view in collected.sequences if view[0] == index]
-            store_sequences(store, [motion_id], own, pose_space)
+            store_sequences(store, [motion_id], sequences.get(index, []), pose_space)
         order.append(rows)
         motion_ids.append(motion_id)
     rows = np.concatenate(order)

@@ -88,6 +88,14 @@ def parse_uri(uri: str | os.PathLike) -> tuple[str, str]:
     )
 
 
+#: Objects a connection keeps in memory between transactions.  A query reads few
+#: objects (its columns); a build or an index writes each motion's entries in a
+#: transaction of its own and would otherwise read the B-tree's buckets back from the
+#: file for every motion (ZODB's default keeps 400).
+READ_CACHE_OBJECTS = 400
+WRITE_CACHE_OBJECTS = 1_000_000
+
+
 def open_zodb(scheme: str, target: str, uri: str, read_only: bool) -> ZODB.DB:
     """The ``ZODB.DB`` of a :func:`parse_uri`'d database.
 
@@ -129,7 +137,12 @@ def open_zodb(scheme: str, target: str, uri: str, read_only: bool) -> ZODB.DB:
     except Exception as exc:  # lock held elsewhere, permissions
         raise DatabaseError(f"{uri}: cannot open database: {_short(exc)}") from exc
     try:
-        return ZODB.DB(storage, large_record_size=1 << 31, class_factory=allowed_class)
+        return ZODB.DB(
+            storage,
+            large_record_size=1 << 31,
+            class_factory=allowed_class,
+            cache_size=READ_CACHE_OBJECTS if read_only else WRITE_CACHE_OBJECTS,
+        )
     except Exception as exc:
         storage.close()
         raise DatabaseError(f"{uri}: cannot open database: {_short(exc)}") from exc
