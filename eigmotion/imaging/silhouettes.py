@@ -94,17 +94,15 @@ def _rasterise_frames(vertices, faces, projection, near_m, out):  # pragma: no c
                 continue
             if area < 0.0:  # make the winding positive so all edge tests are ">= 0"
                 ub, vb, uc, vc = uc, vc, ub, vb
+            # Most triangles cover a pixel or two: three tests without a branch between
+            # them beat returning early.
             for row in range(row0, row1 + 1):
                 for col in range(col0, col1 + 1):
-                    if mask[row, col]:
-                        continue
-                    if (ub - ua) * (row - va) - (vb - va) * (col - ua) < 0.0:
-                        continue
-                    if (uc - ub) * (row - vb) - (vc - vb) * (col - ub) < 0.0:
-                        continue
-                    if (ua - uc) * (row - vc) - (va - vc) * (col - uc) < 0.0:
-                        continue
-                    mask[row, col] = True
+                    mask[row, col] |= (
+                        ((ub - ua) * (row - va) - (vb - va) * (col - ua) >= 0.0)
+                        & ((uc - ub) * (row - vb) - (vc - vb) * (col - ub) >= 0.0)
+                        & ((ua - uc) * (row - vc) - (va - vc) * (col - uc) >= 0.0)
+                    )
 
 
 def _check_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
