@@ -289,12 +289,19 @@ class ClipMotionImages:
         if clip_fps is not None:
             validate("clip_fps", clip_fps, FRAME_RATE_FPS)
         self.config, self.clip_fps = config, clip_fps
-        values = stack.astype(np.float32)  # one conversion; every later step reads it
-        if stack.dtype == np.uint8 and stack.max() > 1:
-            values *= 1.0 / 255.0
-        self._values = values
-        self._rows = values.sum(axis=2)  # (F, H) silhouette mass per row
-        self._cols = values.sum(axis=1)  # (F, W) and per column
+        if stack.dtype == np.bool_:
+            # Masses of 0/1 pixels are whole numbers: counted, they are the float32 sums
+            # to the bit, and only the region a window resamples is converted (_roi).
+            self._values = stack
+            self._rows = np.count_nonzero(stack, axis=2).astype(np.float32)  # (F, H) per row
+            self._cols = np.count_nonzero(stack, axis=1).astype(np.float32)  # (F, W) per column
+        else:
+            values = stack.astype(np.float32)  # one conversion; every later step reads it
+            if stack.dtype == np.uint8 and stack.max() > 1:
+                values *= 1.0 / 255.0
+            self._values = values
+            self._rows = values.sum(axis=2)  # (F, H) silhouette mass per row
+            self._cols = values.sum(axis=1)  # (F, W) and per column
         self._occupied = self._rows.sum(axis=1) > 0.0
         # Body centre (row, col) and height per frame: the person frame and the rise.
         self._centres = np.stack(
@@ -409,7 +416,7 @@ class ClipMotionImages:
             y0, y1 = _support(rows.sum(axis=0))
             x0, x1 = _support(cols.sum(axis=0))
         # Only the region of interest is resampled: the rest is empty and costs time.
-        roi = self._values[frames, y0:y1, x0:x1]
+        roi = self._values[frames, y0:y1, x0:x1].astype(np.float32, copy=False)
         return _warp(roi, scale, centres - [y0, x0], size)
 
 
