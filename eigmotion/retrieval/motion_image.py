@@ -291,7 +291,7 @@ class ClipMotionImages:
         self.config, self.clip_fps = config, clip_fps
         if stack.dtype == np.bool_:
             # Masses of 0/1 pixels are whole numbers: counted, they are the float32 sums
-            # to the bit, and only the region a window resamples is converted (_roi).
+            # to the bit; only the region a window resamples becomes float (_aligned).
             self._values = stack
             self._rows = np.count_nonzero(stack, axis=2).astype(np.float32)  # (F, H) per row
             self._cols = np.count_nonzero(stack, axis=1).astype(np.float32)  # (F, W) per column
