@@ -90,15 +90,10 @@ def leave_one_motion_out_distances(
     queries = np.flatnonzero(whole)
     distances = np.full(len(queries), np.nan)
     for body in np.unique(body_of[whole]):
-        if several_bodies:
-            others = np.flatnonzero(~alike[body][body_of])
-        else:
-            others = np.arange(len(points))
-        others64, others_norms, others_performance = (
-            p64[others],
-            norms[others],
-            performance_of[others],
-        )
+        unlike = ~alike[body][body_of] if several_bodies else np.ones(len(points), bool)
+        others = np.flatnonzero(unlike)
+        others64, others_norms = p64[others], norms[others]
+        others_performance = performance_of[others]
         mine = np.flatnonzero(body_of[queries] == body)
         for block in np.array_split(mine, -(-len(mine) // _QUERY_BLOCK)):
             rows = queries[block]
