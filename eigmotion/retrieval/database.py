@@ -153,7 +153,9 @@ class MotionDatabase:
     def _load_index(self) -> None:
         arrays = self.store.arrays()
         self.index = TreeIndex.from_store(self.store)
-        self._motion_of = dict(zip(arrays.ids.tolist(), arrays.motions.tolist(), strict=True))
+        # entry id → motion id (-1: no such entry); an array, made at once
+        self._motion_of = np.full(int(arrays.ids.max(initial=-1)) + 1, -1, np.int64)
+        self._motion_of[arrays.ids] = arrays.motions
         self._entry_labels: dict[int, str] = {}
         self._motions: dict[int, dict] = {}  # motion id → record, read on first use
         self._sequences: dict = {}  # motion id → (MotionSequences, order, firsts), on first use
@@ -402,7 +404,7 @@ class MotionDatabase:
         for entry_id, dist in zip(entry_ids.tolist(), distances.tolist(), strict=True):
             if entry_id == NO_ENTRY:
                 break
-            motion_id = self._motion_of[entry_id]
+            motion_id = int(self._motion_of[entry_id])
             if motion_id in seen:
                 continue
             seen.add(motion_id)
