@@ -197,6 +197,21 @@ def test_small_databases_are_scanned_without_building_the_tree():
     assert np.all(tree.search(queries, 6).examined == len(points))
 
 
+@pytest.mark.parametrize("scan", [True, False])
+def test_prepare_readies_the_first_search_and_changes_no_answer(scan):
+    rng = np.random.default_rng(12)
+    points = renderings_like(12, 16, rng)
+    ids = np.arange(len(points))
+    queries = points[rng.choice(len(points), 40)] + 0.01
+    prepared, fresh = tree_of(points, ids, scan=scan), tree_of(points, ids, scan=scan)
+    prepared.prepare()
+    assert prepared._built is not scan  # a walked index's tree is built; a scanned one's not
+    prepared.prepare()  # a second call finds it ready
+    for batch in (queries[:1], queries):
+        assert_same(prepared.search(batch, 5), fresh.search(batch, 5))
+        assert_same(prepared.search(batch, 5), brute_force(points, ids, batch, 5))
+
+
 def test_numpy_distances_equal_the_compiled_ones_bit_for_bit(rng):
     points = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
     queries = (rng.standard_normal((3000, 40)) * np.logspace(0, -3, 40)).astype(np.float32)
@@ -218,6 +233,7 @@ rng = np.random.default_rng(3)
 points = rng.standard_normal((5000, 12)).astype(np.float32)
 quantizer = Quantizer(4, 8, "quantile").fit(points)
 tree = TreeIndex.from_arrays(quantizer.keys(points), points, np.arange(5000), quantizer)
+tree.prepare()  # as a query of a video does beside its silhouettes
 for n in (1, 5, 40):
     found = tree.search(points[:n] + 0.01, top_k=9, max_distance=2.0)
     assert (found.examined == 5000).all() and (found.ids[:, 0] >= 0).all()

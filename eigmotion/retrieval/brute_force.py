@@ -63,6 +63,12 @@ class BruteForceIndex:
         self._max_norm = 0.0
         self._point_axes = None  # (k, N) points by coordinate, for the exact scan
 
+    def prepare(self) -> None:
+        """Lay the points out by coordinate, (k, N), for the exact scan of a few queries
+        (:meth:`_measure_every_entry`), if not done yet."""
+        if self._point_axes is None:
+            self._point_axes = np.ascontiguousarray(self.points.T)
+
     @classmethod
     def from_arrays(cls, points, ids) -> BruteForceIndex:
         """An index over ``points`` (N, k) float and their unique ``ids`` (N,) int."""
@@ -119,8 +125,7 @@ class BruteForceIndex:
         Returns (m,) query rows, (m,) entry indices and (m,) float32 squared distances:
         each query's entries no farther than its ``top_k``-th nearest (ties included).
         """
-        if self._point_axes is None:
-            self._point_axes = np.ascontiguousarray(self.points.T)
+        self.prepare()
         found_q, found_i, found_sq = [], [], []
         for row, query in enumerate(queries):
             sq = sq_distances_in_order(self._point_axes, query[:, None])

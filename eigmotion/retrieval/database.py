@@ -16,6 +16,7 @@ import dataclasses
 import os
 import time
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -570,7 +571,10 @@ class MotionDatabase:
             self.threshold_at(false_rejection)  # a bad value is told before the video is read
         config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
         sample_fps = self.config.motion_image.sample_fps
-        clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
+        with ThreadPoolExecutor(1, thread_name_prefix="eigmotion-index") as beside:
+            ready = beside.submit(self.index.prepare)  # while the person is cut out
+            clip = load_clip_masks(path, background, config, sample_fps, progress, segmenter)
+            ready.result()
         t1 = time.perf_counter()
         result = self.query_masks(
             clip.masks,

@@ -585,13 +585,31 @@ class TreeIndex:
         q = check_queries(queries, self.n_dims)
         top_k = check_top_k(top_k, self.n_entries)
         max_sq = check_max_distance(max_distance)
-        small = self.n_entries <= self.scan_entries and self._entries is not None
-        if small and not (top_k <= self.walk_top_k and "numba" in sys.modules):
-            if self._scan is None:
-                _, points, ids = self._entries
-                self._scan = BruteForceIndex(points, ids)
-            return self._scan.search_checked(q, top_k, max_sq)
+        if self._scanned() and not (top_k <= self.walk_top_k and "numba" in sys.modules):
+            return self._scanner().search_checked(q, top_k, max_sq)
         return self._walk(q, top_k, max_sq)
+
+    def prepare(self) -> None:
+        """Make ready what this index's first search needs — the scanned entries laid
+        out by coordinate, or the tree — so that it is not waited for then.  A query of
+        a video calls it on a thread of its own while the person is cut out of the
+        frames (exact either way: the same arrays are made, only earlier).  Not to be
+        called while another thread searches."""
+        if self._scanned():
+            self._scanner().prepare()
+        else:
+            self._tree()
+
+    def _scanned(self) -> bool:
+        """Whether the index is small enough to be searched by scanning (``scan_entries``)."""
+        return self.n_entries <= self.scan_entries and self._entries is not None
+
+    def _scanner(self) -> BruteForceIndex:
+        """The brute-force index over the entries, made on first use."""
+        if self._scan is None:
+            _, points, ids = self._entries
+            self._scan = BruteForceIndex(points, ids)
+        return self._scan
 
     def walk(self, queries, top_k: int = 1, max_distance: float = np.inf) -> NearestEntries:
         """:meth:`search` through the tree for every batch, never by scanning (for
