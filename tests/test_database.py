@@ -530,28 +530,41 @@ def test_windows_of_one_action_throughout_carry_the_clips_answer(db_path, librar
                 assert "elsewhere" not in {s.label for s in segments}
 
 
-def test_pose_speeds_are_measured_once_per_database_and_the_same_to_the_bit(
-    db_path, library, other_body
-):
-    """A second query reuses the renderings' pose speeds the first one measured: the
-    same answer and sequence distances, and each kept speed is its rendering's own."""
+def test_pose_speeds_are_stored_as_a_query_measures_them(db_path, library, other_body, tmp_path):
+    """Each rendering's stored pose speed is its own frames' :func:`pose_speeds` to the
+    bit; a database whose records lack them (written before they were stored) has them
+    measured by its first query, which answers the same to the bit, and kept."""
+    import ZODB
+    from ZODB.FileStorage import FileStorage
+
     by_name = {m.name: m for m in library}
     masks = _masks(by_name["wave_14_24"].motion, other_body, 30.0, 8.0)
     with MotionDatabase.open(db_path) as db:
+        stored_answer = db.query_masks(masks, 30.0)
+        for mid in db.store.motion_ids():
+            stored = db.store.sequences(int(mid))
+            assert stored.speeds is not None and stored.speeds.shape == stored.lengths.shape
+            firsts = np.cumsum(stored.lengths) - stored.lengths
+            for r, (first, length) in enumerate(zip(firsts, stored.lengths, strict=True)):
+                own = stored.frames[first : first + length]
+                assert pose_speeds(own, stored.lengths[r : r + 1])[0] == stored.speeds[r]
+    old = tmp_path / "old.fs"
+    old.write_bytes(Path(db_path).read_bytes())
+    zodb = ZODB.DB(FileStorage(str(old)))
+    with zodb.transaction() as conn:
+        for record in conn.root()["sequences"].values():
+            del record["speeds"]
+    zodb.close()
+    with MotionDatabase.open(old) as db:
+        assert db.store.sequences(0).speeds is None
         first = db.query_masks(masks, 30.0)
         kept = {mid: found[3].copy() for mid, found in db._sequences.items()}
         assert sum(np.isfinite(speeds).sum() for speeds in kept.values()) > 0
         second = db.query_masks(masks, 30.0)
-        assert [(m.motion_id, m.distance, m.sequence_distance) for m in first.top] == [
-            (m.motion_id, m.distance, m.sequence_distance) for m in second.top
+    for answer in (first, second):
+        assert [(m.motion_id, m.distance, m.sequence_distance) for m in answer.top] == [
+            (m.motion_id, m.distance, m.sequence_distance) for m in stored_answer.top
         ]
-        for mid, speeds in kept.items():
-            stored = db._sequences[mid][0]
-            firsts = np.cumsum(stored.lengths) - stored.lengths
-            for r in np.flatnonzero(np.isfinite(speeds)):
-                own = stored.frames[firsts[r] : firsts[r] + stored.lengths[r]]
-                alone = pose_speeds(own.astype(np.float32), stored.lengths[r : r + 1])
-                assert alone[0] == speeds[r]
 
 
 def test_walking_into_an_action_is_that_action(db_path, library, other_body):

@@ -13,7 +13,7 @@ from eigmotion.retrieval.eigenspace import Eigenspace
 from eigmotion.retrieval.keys import Quantizer, prefix_range
 from eigmotion.retrieval.schema import SCHEMA_VERSION
 from eigmotion.retrieval.search import TreeIndex
-from eigmotion.retrieval.sequences import pose_coordinates
+from eigmotion.retrieval.sequences import pose_coordinates, pose_speeds
 from eigmotion.retrieval.storage import parse_uri
 from eigmotion.retrieval.store import Store
 
@@ -77,6 +77,8 @@ def assert_holds(store: Store, fitted, n_motions: int = 2):
     np.testing.assert_allclose(
         found.frames, np.concatenate(sequences_of(pose)), rtol=2e-3, atol=2e-3
     )
+    # each rendering's pose speed, measured on its frames as stored, to the bit
+    np.testing.assert_array_equal(found.speeds, pose_speeds(found.frames, found.lengths))
     assert store.sequences(1).lengths.size == 0  # stored without sequences
     assert store.config == {"fps": 30, "views": [0.0, 45.0], "name": "test"}
     assert store.n_motions == n_motions and store.n_entries == len(points)
@@ -405,6 +407,19 @@ def test_a_damaged_fitted_state_is_named(fitted, key, read, what):
                 del state[name]  # as a torn write would leave it
         with pytest.raises(DatabaseError, match=f"stored {what} is damaged"):
             read(store)
+
+
+@pytest.mark.parametrize(
+    "speeds", [b"", np.array([0.1, np.nan]).tobytes(), np.array([-1.0, 0.2]).tobytes()]
+)
+def test_damaged_pose_speeds_are_named(fitted, speeds):
+    with Store.create("memory://") as store, store.transaction():
+        fill(store, fitted)
+        store._root()["sequences"][0]["speeds"] = speeds  # two renderings stored
+        with pytest.raises(DatabaseError, match="sequences of motion 0 are damaged"):
+            store.sequences(0)
+        del store._root()["sequences"][0]["speeds"]  # as written before speeds were kept
+        assert store.sequences(0).speeds is None
 
 
 def test_an_entry_keeps_the_body_it_was_rendered_on(fitted):

@@ -481,14 +481,18 @@ class MotionDatabase:
     def _stored_sequences(self, motion_id: int):
         """A motion's :class:`~eigmotion.retrieval.schema.MotionSequences`, its renderings
         in order of azimuth (R,), the (R,) first frame of each rendering and their (R,)
-        pose speeds (NaN until measured, see :func:`_rendering_speeds`): read from the
-        store once, then kept, its frames float16 as stored."""
+        pose speeds (as stored; in a record written without them NaN until measured,
+        see :func:`_rendering_speeds`): read from the store once, then kept, its frames
+        float16 as stored."""
         found = self._sequences.get(motion_id)
         if found is None:
             stored = self.store.sequences(motion_id, np.float16)
             by_azimuth = np.argsort(stored.azimuth_deg, kind="stable")
             firsts = np.cumsum(stored.lengths) - stored.lengths
-            speeds = np.full(len(stored.lengths), np.nan)
+            if stored.speeds is None:
+                speeds = np.full(len(stored.lengths), np.nan)
+            else:
+                speeds = stored.speeds.copy()
             found = self._sequences[motion_id] = (stored, by_azimuth, firsts, speeds)
         return found
 

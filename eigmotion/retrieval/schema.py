@@ -28,10 +28,13 @@ they repeat the records' ids, keys and points in packed form so that opening a d
 of a million entries reads a few dozen objects instead of unpickling a million
 records.  A motion's sequences record is ``{"azimuth": bytes (R float64),
 "elevation": bytes (R float64), "lengths": bytes (R int64), "frames": bytes
-(sum of lengths × (p + 1) float16)}``: one row per rendering (body × view) of the
-whole motion, each frame its p coordinates in the pose eigenspace and its weighted rise
-(:func:`eigmotion.retrieval.sequences.pose_coordinates`); it is read only when a
-query compares the motion.  :meth:`~eigmotion.retrieval.store.Store.check` verifies
+(sum of lengths × (p + 1) float16), "speeds": bytes (R float64)}``: one row per
+rendering (body × view) of the whole motion, each frame its p coordinates in the pose
+eigenspace and its weighted rise (:func:`eigmotion.retrieval.sequences.pose_coordinates`),
+and each rendering's pose speed (:func:`eigmotion.retrieval.sequences.pose_speeds` of its
+frames as stored), which a query would otherwise measure; records written before
+2026-11-30 lack the speeds (a query measures them).  It is read only when a query
+compares the motion.  :meth:`~eigmotion.retrieval.store.Store.check` verifies
 that the B-tree, the records and the columns agree.
 
 :class:`~eigmotion.retrieval.store.Store` reads and writes this layout; the functions
@@ -73,12 +76,16 @@ class MotionSequences:
     frames : (sum of lengths, p + 1) float32 (float16 where asked for)
         The sequences' frames, one after the other: the p pose-eigenspace coordinates
         and the weighted rise (:func:`eigmotion.retrieval.sequences.pose_coordinates`).
+    speeds : (R,) float64 or None
+        Each sequence's pose speed (:func:`eigmotion.retrieval.sequences.pose_speeds`
+        of its stored frames); ``None`` where the record was written without them.
     """
 
     azimuth_deg: np.ndarray
     elevation_deg: np.ndarray
     lengths: np.ndarray
     frames: np.ndarray
+    speeds: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -310,11 +317,18 @@ def unpack_sequences(
     compares); DatabaseError when its frames do not fill its lengths."""
     lengths = np.frombuffer(record["lengths"], dtype="<i8").astype(np.int64)
     frames = np.frombuffer(record["frames"], dtype="<f2").astype(dtype)
-    if frames.size != int(lengths.sum()) * p:
+    speeds = record.get("speeds")
+    if speeds is not None:
+        speeds = np.frombuffer(speeds, dtype="<f8").astype(np.float64)
+    speeds_fit = speeds is None or (
+        speeds.size == lengths.size and bool(np.all(np.isfinite(speeds) & (speeds >= 0.0)))
+    )
+    if frames.size != int(lengths.sum()) * p or not speeds_fit:
         raise DatabaseError(f"{uri}: the sequences of motion {motion_id} are damaged")
     return MotionSequences(
         np.frombuffer(record["azimuth"], dtype="<f8").astype(np.float64),
         np.frombuffer(record["elevation"], dtype="<f8").astype(np.float64),
         lengths,
         frames.reshape(-1, p),
+        speeds,
     )

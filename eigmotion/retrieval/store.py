@@ -41,6 +41,7 @@ from eigmotion.retrieval.schema import (
     unpack_columns,
     unpack_sequences,
 )
+from eigmotion.retrieval.sequences import pose_speeds
 from eigmotion.retrieval.storage import (
     close_writable_file_storage,
     open_zodb,
@@ -556,13 +557,19 @@ class Store:
         record = root["sequences"].get(int(motion_id))
         if record is None:
             record = root["sequences"][int(motion_id)] = PersistentMapping(
-                {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+                {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b"", "speeds": b""}
             )
+        lengths = np.array([len(s) for s in sequences], dtype="<i8")
         record["azimuth"] += azimuth.astype("<f8").tobytes()
         record["elevation"] += elevation.astype("<f8").tobytes()
-        record["lengths"] += np.array([len(s) for s in sequences], dtype="<i8").tobytes()
+        record["lengths"] += lengths.tobytes()
         if sequences:
-            record["frames"] += np.concatenate(sequences).astype("<f2").tobytes()
+            frames = np.concatenate(sequences).astype("<f2")
+            record["frames"] += frames.tobytes()
+            if "speeds" in record:  # a record written without them is left without
+                # measured on the frames as stored, as a query would measure them
+                speeds = pose_speeds(frames.astype(np.float32), lengths)
+                record["speeds"] += speeds.astype("<f8").tobytes()
 
     # -- reading ---------------------------------------------------------------------
     @property
@@ -605,7 +612,8 @@ class Store:
             if record is None:
                 if int(motion_id) not in root["motions"]:
                     raise InvalidParameterError(f"{self.uri}: no motion with id {motion_id}")
-                record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b""}
+                record = {"azimuth": b"", "elevation": b"", "lengths": b"", "frames": b"",
+                          "speeds": b""}  # fmt: skip
             return unpack_sequences(record, p, self.uri, motion_id, dtype)
 
     @property
