@@ -262,9 +262,12 @@ def _rewrite_root(path: Path, change) -> None:
     [
         lambda root: root.__delitem__("columns"),
         lambda root: root["columns"][0].__setitem__("ids", root["columns"][0]["ids"][:-3]),
+        lambda root: root["columns"][0].__setitem__(
+            "ids", (-1).to_bytes(8, "little", signed=True) + root["columns"][0]["ids"][8:]
+        ),
         lambda root: root.__delitem__("eigenspace"),
     ],
-    ids=["missing table", "odd packed column", "missing eigenspace"],
+    ids=["missing table", "odd packed column", "negative entry id", "missing eigenspace"],
 )
 def test_a_database_missing_tables_or_with_odd_columns_is_one_line(
     db_path, tmp_path, capsys, change

@@ -545,7 +545,8 @@ class Store:
             Each rendering's frames: coordinates in the stored pose eigenspace (``p``
             its axes) and the weighted rise
             (:func:`eigmotion.retrieval.sequences.pose_coordinates`), ``F_r >= 1``; kept as
-            float16.
+            float16, and beside them each rendering's pose speed
+            (:func:`eigmotion.retrieval.sequences.pose_speeds`) measured on them as kept.
         """
         self._require_writing("add_sequences()")
         root = self._require_initialised()
