@@ -32,6 +32,7 @@ from eigmotion.retrieval.sequences import (
     sequence_distances,
     sequence_frames,
     view_reach,
+    widen_frames,
 )
 
 
@@ -368,3 +369,14 @@ def test_the_nearest_per_owner_is_the_plain_minimum_to_the_bit(seed, monkeypatch
         )
     np.testing.assert_array_equal(threaded, plain)
     assert np.all(np.isinf(nearest_sequence_distances(query, frames[:0], [], [], [], 3)))
+
+
+def test_widened_frames_equal_numpy_s_conversion_to_the_bit():
+    """Every finite float16, written into float32 rows at any offset of a larger array."""
+    halves = np.arange(65536, dtype=np.uint16).view(np.float16)
+    finite = halves[np.isfinite(halves)][:63_000].reshape(-1, 63)  # (1000, 63)
+    out = np.full((1003, 63), np.nan, np.float32)
+    for at in (0, 1, 3):
+        widen_frames(finite, out[at : at + len(finite)])
+        assert out[at : at + len(finite)].tobytes() == finite.astype(np.float32).tobytes()
+    widen_frames(finite[:0], out[:0])  # nothing to convert

@@ -67,6 +67,7 @@ from eigmotion.retrieval.sequences import (
     pose_speeds,
     sequence_frames,
     view_reach,
+    widen_frames,
 )
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.retrieval.store import Store, damage_named
@@ -456,7 +457,7 @@ class MotionDatabase:
             frames = np.empty((int(lengths.sum()), taken[0][0].frames.shape[1]), np.float32)
             at = 0
             for stored, rows in taken:  # float16 as stored: converted as gathered
-                frames[at : at + len(rows)] = stored.frames[rows]
+                widen_frames(np.take(stored.frames, rows, axis=0), frames[at : at + len(rows)])
                 at += len(rows)
             speeds = _rendering_speeds(frames, lengths, speed_slots)
             compared = nearest_sequence_distances(

@@ -66,6 +66,7 @@ import sys
 from concurrent.futures import Executor
 from functools import lru_cache
 
+import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
@@ -103,6 +104,19 @@ CANDIDATE_MOTIONS = 20
 #: Half-width of the band around the diagonal that the time warping's path keeps to,
 #: as a share of the longer sequence's frames (Sakoe–Chiba); 1 or more: no band.
 WARP_BAND = 0.3
+
+
+def widen_frames(stored: np.ndarray, out: np.ndarray) -> None:
+    """``out[...] = stored``: (n, d) float16 frames as stored, written into the (n, d)
+    C-contiguous float32 ``out``.
+
+    OpenCV converts with the CPU's half-precision instructions, about three times
+    NumPy's ``astype`` (which converts value by value); every finite float16 is a
+    float32, so the values are the same to the bit (stored frames are finite:
+    :func:`~eigmotion.retrieval.schema.checked_sequences`).
+    """
+    if len(stored):
+        cv2.multiply(stored, 1.0, dst=out, dtype=cv2.CV_32F)
 
 
 def sequence_frames(images: ClipMotionImages) -> np.ndarray:
@@ -249,7 +263,6 @@ def _banded_costs(cost: np.ndarray, starts: np.ndarray, band: float) -> np.ndarr
     column = np.arange(int(lengths.max()))[:, None]  # j − 1
     frame = np.minimum(starts[None, :-1] + column, cost.shape[1] - 1)
     out = np.take(cost, frame, axis=1)
-    beyond = column >= lengths[None, :]  # (m_max, R)
     if band < 1.0:
         row = np.arange(n)[:, None]
         m = lengths[None, :]
@@ -258,8 +271,10 @@ def _banded_costs(cost: np.ndarray, starts: np.ndarray, band: float) -> np.ndarr
         first = np.maximum(1, np.ceil(centre - reach)).astype(np.int64)
         last = np.minimum(m, np.floor(centre + reach)).astype(np.int64)
         j = column[None] + 1
-        outside = (j < first[:, None, :]) | (j > last[:, None, :]) | beyond[None]
+        # last <= m: a frame beyond the sequence's end is beyond its band's end too
+        outside = (j < first[:, None, :]) | (j > last[:, None, :])
     else:
+        beyond = column >= lengths[None, :]  # (m_max, R)
         outside = np.broadcast_to(beyond[None], out.shape)
     np.copyto(out, np.float32(np.inf), where=outside)
     return out
