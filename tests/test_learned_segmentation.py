@@ -302,7 +302,7 @@ def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
     trousers the colour of the scene): the subtraction's arm is added where it lies
     within two pixels of the mask, not beyond; its shadow away from the person is not
     added, and a frame where the network found no one stays empty whatever the
-    subtraction found."""
+    subtraction found (with nothing after it that shows the person)."""
     config = SilhouetteConfig()
     learned_mask = np.zeros((2, 120, 160), bool)
     learned_mask[0, 30:100, 60:85] = True  # the body
@@ -318,6 +318,28 @@ def test_fused_masks_add_what_the_subtraction_finds_at_the_persons_edge():
     assert not fused[1].any()
     with pytest.raises(InvalidParameterError, match="one shape"):
         fuse_masks(learned_mask, subtracted[:1], config)
+
+
+def test_a_person_the_networks_lose_between_two_frames_comes_from_the_subtraction():
+    """Seven frames; the networks find the person in 0-1 and 5-6 only. Between them the
+    subtraction's person is taken where it stands in the box around theirs at about
+    their size (frame 2, a step aside), not a shadow off to the side (3) nor a speck
+    (4). After the person's last frame nothing is filled: nothing after it shows the
+    person stayed."""
+    config = SilhouetteConfig()
+    learned_mask = np.zeros((7, 120, 160), bool)
+    subtracted = np.zeros_like(learned_mask)
+    for i in (0, 1, 5, 6):
+        learned_mask[i, 30:100, 60:85] = subtracted[i, 30:100, 60:85] = True
+    subtracted[2, 31:100, 63:88] = True  # the person, a step aside
+    subtracted[3, 100:110, 120:159] = True  # a shadow beyond the box
+    subtracted[4, 60:66, 70:76] = True  # a speck: not the person's size
+    fused = fuse_masks(learned_mask, subtracted, config)
+    assert np.array_equal(fused[2], subtracted[2])
+    assert not fused[3].any() and not fused[4].any()
+    assert np.array_equal(fused[[0, 1, 5, 6]], learned_mask[[0, 1, 5, 6]])
+    ends = fuse_masks(learned_mask[:3], subtracted[:3], config)  # frame 2 the last
+    assert not ends[2].any()
 
 
 def test_where_the_network_lost_part_of_the_person_the_subtraction_s_pieces_come_whole():

@@ -20,8 +20,16 @@ is the person's — a kicking leg, an arm held out, which the networks round off
 lose).  In the second kind only limbs come whole: the pieces beyond the two pixels
 that are large (:data:`LIMB_SHARE` of the learned mask) and thick (they outlast an
 opening by :data:`LIMB_MIN_WIDTH_PX`), not the seam of a wall the head passes or the
-gap between the legs.  A frame where the learned front end finds no one stays empty
-(the subtraction alone there is the shadow or the scene that moved).
+gap between the legs.
+
+A frame where the learned front end finds no one takes the subtraction's person only
+where the networks lost a person who is there: between two frames at most
+:data:`GAP_FRAMES` apart whose fused masks hold the person, the subtraction's person
+(:func:`~eigmotion.segmentation.learned.person_in_frame`) lying in the box around both
+of theirs (grown by :data:`GAP_REACH` of its height) and of an area between
+:data:`GAP_AREA_RATIO` times less and more than theirs (a person far away, a few dozen
+pixels tall, whom the networks miss for a few frames).  Elsewhere such a frame stays
+empty: the subtraction alone there is the shadow or the scene that moved.
 
 Before that, what the networks take for the person but the frame shows exactly as the
 empty scene is not the person: a stool or a chair the person sits on, a box beside
@@ -81,6 +89,18 @@ SCENE_NEAR_PX = 2
 #: ... in pieces of at least this share of the learned mask's area.
 SCENE_PIECE_SHARE = 0.02
 
+#: A run of frames where the learned front end finds no one is filled from the
+#: subtraction only when the fused masks hold the person on both sides of it, at most
+#: this many frames apart...
+GAP_FRAMES = 8
+
+#: ... with the subtraction's person inside the box around both of theirs, grown on every
+#: side by this share of its height...
+GAP_REACH = 0.25
+
+#: ... and its area within this factor of the mean of theirs, either way.
+GAP_AREA_RATIO = 2.0
+
 
 def fuse_masks(
     learned: np.ndarray,
@@ -139,7 +159,35 @@ def fuse_masks(
             whole = touching[labels]
             near = whole if lost else near | _limbs(whole & ~near, areas[i])
         fused[i] = person_in_frame(mine | (theirs & near), config)[0]
+    _fill_lost_frames(fused, learned, subtracted, config)
     return fused
+
+
+def _fill_lost_frames(
+    fused: np.ndarray, learned: np.ndarray, subtracted: np.ndarray, config: SilhouetteConfig
+) -> None:
+    """Fill, in place, the frames of ``fused`` (F, H, W) bool where ``learned`` found no
+    one with the person of ``subtracted`` where the person stands on both sides (the
+    module's description: :data:`GAP_FRAMES`, :data:`GAP_REACH`, :data:`GAP_AREA_RATIO`)."""
+    held = np.flatnonzero(fused.any(axis=(1, 2)))
+    for before, after in zip(held[:-1], held[1:], strict=True):
+        if after - before < 2 or after - before > GAP_FRAMES:
+            continue
+        rows = np.flatnonzero(fused[before].any(axis=1) | fused[after].any(axis=1))
+        cols = np.flatnonzero(fused[before].any(axis=0) | fused[after].any(axis=0))
+        reach = int(np.ceil(GAP_REACH * (rows[-1] - rows[0] + 1)))
+        box = np.zeros(fused.shape[1:], bool)
+        box[max(rows[0] - reach, 0) : rows[-1] + reach + 1,
+            max(cols[0] - reach, 0) : cols[-1] + reach + 1] = True  # fmt: skip
+        typical = (np.count_nonzero(fused[before]) + np.count_nonzero(fused[after])) / 2.0
+        for i in range(before + 1, after):
+            if learned[i].any():
+                continue  # the networks saw someone there and the fusion kept no one
+            person = person_in_frame(subtracted[i], config)[0]
+            area = np.count_nonzero(person)
+            inside = area > 0 and not np.any(person & ~box)
+            if inside and typical / GAP_AREA_RATIO <= area <= typical * GAP_AREA_RATIO:
+                fused[i] = person
 
 
 def _limbs(beyond: np.ndarray, area: int) -> np.ndarray:
