@@ -277,7 +277,9 @@ def test_eval_tracking_segmenters_and_their_iou(dev_set, tmp_path, capsys, segme
     (subtracted,), (scored,) = base["sets"], other["sets"]
     assert scored["error"] is None and scored["frames"] == 24
     assert 0.8 < subtracted["silhouette_iou"] <= 1.0
-    assert 0.5 < scored["silhouette_iou"] < subtracted["silhouette_iou"]
+    assert 0.5 < scored["silhouette_iou"] <= 1.0
+    if segmenter == "learned":  # the networks alone round off the rendered avatar's limbs
+        assert scored["silhouette_iou"] < subtracted["silhouette_iou"]
     assert other["summary"]["silhouette_iou"] == pytest.approx(scored["silhouette_iou"], abs=1e-4)
     # the keypoints stage runs on the networks' landmarks, not on subtraction's masks
     assert subtracted["keypoints_trusted"] is None

@@ -118,8 +118,8 @@ def query_pose(db_path, video, tmp_path, cue):
 def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, tmp_path):
     """Both cues write the same joint set, axes and frame count; the BVH is the npz's
     motion; the keypoints cue stays near the truth.  (On a clip of a library motion the
-    silhouette cue is closer: the reference is the very motion, and the network's
-    keypoints of the rendered body are rougher than its outline.)"""
+    silhouette cue is as close or closer: the reference is the very motion, and the
+    network's keypoints of the rendered body are rougher than its outline.)"""
     _, _, truth = video
     names_s, silhouette, _ = query_pose(db_path, video, tmp_path, "silhouette")
     names_k, keypoints, bvh = query_pose(db_path, video, tmp_path, "keypoints")
@@ -135,8 +135,10 @@ def test_keypoints_cue_keeps_the_output_and_follows_the_person(db_path, video, t
     assert np.all(keypoints[:, head, 1] > keypoints[:, 0, 1])
     ours = limb_error_mm(names_k, keypoints, truth)
     before = limb_error_mm(names_s, silhouette, truth)
-    # near the truth; the silhouette cue, aligning the very motion, nearer still
-    assert ours < 110.0 and before < ours, (ours, before)
+    # near the truth; the silhouette cue, aligning the very motion, as near or nearer
+    # (the same posture where the landmarks agree with it within ``agreement_m``: the
+    # keypoints then tell nothing new and the fit keeps it)
+    assert ours < 110.0 and before <= ours, (ours, before)
     # heading and sides counted (no rotation fitted): not turned or mirrored off the
     # silhouette cue, which here aligns the very motion
     assert (
