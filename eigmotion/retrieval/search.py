@@ -591,14 +591,17 @@ class TreeIndex:
 
     def prepare(self) -> None:
         """Make ready what this index's first search needs — the scanned entries laid
-        out by coordinate, or the tree — so that it is not waited for then.  A query of
-        a video calls it on a thread of its own while the person is cut out of the
-        frames (exact either way: the same arrays are made, only earlier).  Not to be
-        called while another thread searches."""
+        out by coordinate, or the tree, its cells' tables and the compiled search — so
+        that it is not waited for then.  A query of a video calls it on a thread of its
+        own while the person is cut out of the frames (exact either way: the same arrays
+        are made and the same loops loaded, only earlier).  Not to be called while
+        another thread searches."""
         if self._scanned():
             self._scanner().prepare()
-        else:
-            self._tree()
+            return
+        self._tree()
+        if self.n_entries:  # one search of an entry: the compiled loops load on first call
+            self._walk(np.ascontiguousarray(self._points[:1], np.float32), 1, np.inf)
 
     def _scanned(self) -> bool:
         """Whether the index is small enough to be searched by scanning (``scan_entries``)."""
