@@ -154,8 +154,6 @@ class MotionDatabase:
 
     def _load_index(self) -> None:
         arrays = self.store.arrays()
-        if arrays.ids.size and arrays.ids.min() < 0:
-            raise DatabaseError(f"{self.store.uri}: the packed column 'ids' is damaged")
         self.index = TreeIndex.from_store(self.store)
         # entry id → motion id (-1: no such entry); an array, made at once
         self._motion_of = np.full(int(arrays.ids.max(initial=-1)) + 1, -1, np.int64)

@@ -102,7 +102,7 @@ from numbers import Integral
 
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError
+from eigmotion.errors import DatabaseError, InvalidParameterError
 from eigmotion.retrieval.brute_force import BruteForceIndex
 from eigmotion.retrieval.cells import cell_kernels, cell_tables
 from eigmotion.retrieval.keys import Quantizer, key_prefix
@@ -178,13 +178,22 @@ class TreeIndex:
         Parameters
         ----------
         store : eigmotion.retrieval.store.Store
-            An open store (anything with ``arrays()`` and ``quantizer()``).
+            An open store (anything with ``uri``, ``arrays()`` and ``quantizer()``).
         leaf_size : int
+
+        Raises
+        ------
+        DatabaseError
+            Naming the store, where its arrays are not entries a tree can hold (damage).
         """
         arrays = store.arrays()
-        return cls.from_arrays(
-            arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size, check_keys=False
-        )
+        try:
+            return cls.from_arrays(
+                arrays.keys, arrays.points, arrays.ids, store.quantizer(), leaf_size,
+                check_keys=False,
+            )  # fmt: skip
+        except InvalidParameterError as exc:
+            raise DatabaseError(f"{store.uri}: the stored entries are damaged: {exc}") from None
 
     @classmethod
     def from_arrays(
