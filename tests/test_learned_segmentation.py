@@ -167,6 +167,84 @@ def test_the_look_at_squares_puts_the_person_back_in_place_and_skips_small_frame
     assert _iou(person, there) >= 0.65, _iou(person, there)
 
 
+def test_frames_smaller_than_the_minimum_are_enlarged_by_a_whole_factor():
+    """``work_min_side_px``: the smallest whole factor that brings the longer side to
+    it; the working size is the enlarged frame's, shrunk as ever where the factor
+    overshoots the maximum; 0, or a frame that large already, keeps the frame."""
+    config = SilhouetteConfig(work_max_side_px=160, work_min_side_px=128)
+    assert learned.enlargement(64, 64, config) == 2
+    assert learned.enlargement(48, 64, config) == 2
+    assert learned.enlargement(30, 40, config) == 4
+    assert learned.enlargement(120, 160, config) == 1
+    assert learned.enlargement(240, 100, config) == 1
+    assert learned.working_size(64, 64, config) == (128, 128)
+    assert learned.working_size(75, 100, config) == (75, 100)  # 200 px, halved again
+    assert learned.working_size(240, 320, config) == (120, 160)
+    assert learned.enlargement(64, 64, QUERY_CONFIG) == 1
+    assert learned.working_size(64, 64, QUERY_CONFIG) == (64, 64)
+    frame = np.arange(2 * 3 * 3, dtype=np.uint8).reshape(2, 3, 3)
+    assert learned.enlarged(frame, 1) is frame
+    assert learned.enlarged(frame, 3).shape == (6, 9, 3)
+    larger = SilhouetteConfig(work_max_side_px=160, work_min_side_px=320)
+    assert learned.enlargement(120, 160, larger) == 2
+    assert learned.working_size(120, 160, larger) == (120, 160)  # enlarged, then halved
+    with pytest.raises(InvalidParameterError, match="work_min_side_px"):
+        SilhouetteConfig(work_min_side_px=-1)
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("ai_edge_litert") is None,
+    reason="the pose network runs through LiteRT (pip install ai-edge-litert)",
+)
+@pytest.mark.parametrize("segmenter", ["learned", "fused"])
+def test_a_small_clip_is_cut_out_enlarged_and_its_landmarks_stay_in_its_pixels(tmp_path, segmenter):
+    """The kick sample shrunk to 80 × 60 (its empty-scene image with it): with a
+    minimum of 128 px its frames are enlarged twice before the networks see them, the
+    masks come back at 160 × 120 and hold the person in nearly every frame, and the
+    landmarks are in the small clip's own pixels, on the person the sample's
+    subtraction masks show."""
+    frames, fps = read_frames(SAMPLES / "kick.mp4")
+    small = np.stack([cv2.resize(f, (80, 60), interpolation=cv2.INTER_AREA) for f in frames])
+    video = tmp_path / "kick_80x60.mp4"
+    write_video(small, video, fps)
+    scene = None
+    if segmenter == "fused":
+        scene = tmp_path / "scene.png"
+        image = read_image_rgb(SAMPLES / "kick_background.png")[..., ::-1]
+        cv2.imwrite(str(scene), cv2.resize(image, (80, 60), interpolation=cv2.INTER_AREA))
+    config = SilhouetteConfig(work_max_side_px=160, work_min_side_px=128)
+    cut = load_clip_masks(video, scene, config, 15.0, segmenter=segmenter)
+    assert cut.segmenter == segmenter and cut.frame_size == (60, 80)
+    assert cut.masks.shape[1:] == (120, 160)
+    found = cut.masks.any(axis=(1, 2))
+    assert np.count_nonzero(~found) <= 6, f"no person in {np.count_nonzero(~found)} frames"
+    reference = load_clip_masks(
+        SAMPLES / "kick.mp4",
+        SAMPLES / "kick_background.png",
+        QUERY_CONFIG,
+        15.0,
+        segmenter="subtraction",
+    ).masks  # (F, 120, 160): the sample's frames halved, the small clip's doubled
+    np.testing.assert_array_equal(cut.frame_indices, np.arange(len(found)) * 2)
+    pairs = zip(cut.masks[found], reference[found], strict=True)
+    overlap = np.array([_iou(a, b) for a, b in pairs])
+    assert np.median(overlap) >= 0.65, f"median IoU {np.median(overlap):.3f}"
+    if segmenter == "learned":  # not enlarged: the person a part of the networks' square
+        plain = load_clip_masks(video, None, QUERY_CONFIG, 15.0, segmenter=segmenter).masks
+        assert plain.shape[1:] == (60, 80)
+        doubled = plain.repeat(2, axis=1).repeat(2, axis=2)
+        before = np.median([_iou(a, b) for a, b in zip(doubled, reference, strict=True)])
+        assert before < np.median(overlap) - 0.1, (before, np.median(overlap))
+    seen = ~np.isnan(cut.landmarks[:, 0, 0])
+    assert seen.sum() >= 0.8 * len(found)
+    points = cut.landmarks[seen][:, [11, 12, 23, 24], :2]  # shoulders, hips
+    assert np.all((points >= 0) & (points <= [80, 60]))
+    grown = np.stack([cv2.dilate(m.view(np.uint8), np.ones((5, 5), np.uint8)) for m in reference])
+    cells = np.minimum((points * 2).astype(int), [159, 119])
+    inside = grown[np.flatnonzero(seen)[:, None], cells[..., 1], cells[..., 0]]
+    assert inside.mean() >= 0.8, f"{inside.mean():.2f} of the landmarks on the person"
+
+
 @pytest.mark.skipif(
     importlib.util.find_spec("ai_edge_litert") is None,
     reason="the pose network runs through LiteRT (pip install ai-edge-litert)",

@@ -79,6 +79,12 @@ from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_thr
 #: motion image is 32–64 pixels, so segmenting at full video resolution only costs
 #: time (measured in docs/retrieval.md).
 QUERY_SILHOUETTE_SIDE_PX = 160
+#: Frames smaller than this on their longer side are enlarged (bicubic, by a whole
+#: factor) before the person networks look at them
+#: (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_min_side_px`): the
+#: networks' square around the person is at least this large (measured in
+#: docs/segmentation.md).
+QUERY_SILHOUETTE_MIN_SIDE_PX = 128
 #: Nearest entries the whole clip's search returns: enough to hold the
 #: :data:`~eigmotion.retrieval.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
 #: ranked again by their silhouette sequences (a motion's renderings from neighbouring
@@ -574,7 +580,10 @@ class MotionDatabase:
         t0 = time.perf_counter()
         if false_rejection is not None:
             self.threshold_at(false_rejection)  # a bad value is told before the video is read
-        config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+        config = SilhouetteConfig(
+            work_max_side_px=QUERY_SILHOUETTE_SIDE_PX,
+            work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX,
+        )
         sample_fps = self.config.motion_image.sample_fps
         with ThreadPoolExecutor(1, thread_name_prefix="eigmotion-index") as beside:
             ready = beside.submit(self.index.prepare)  # while the person is cut out

@@ -67,6 +67,13 @@ class SilhouetteConfig:
         before segmentation, and the masks come back at that size, in [64, 4096].
         The motion image is cropped and rescaled to 32–64 pixels anyway, so
         segmenting full-resolution video only costs time.
+    work_min_side_px : int
+        Frames smaller than this on their longer side are enlarged by the smallest
+        whole factor that brings them to it (bicubic) as they are decoded, before the
+        person networks see them; the masks come back at the enlarged frame's working
+        size (shrunk as ``work_max_side_px`` says).  The learned and fused front ends
+        only (background subtraction alone segments the frames as they are), in
+        [0, 4096]; 0 never enlarges.
     """
 
     background: str = "grabcut"
@@ -83,6 +90,7 @@ class SilhouetteConfig:
     small_hole_frac: float = 0.01
     upper_body_frac: float = 0.6
     work_max_side_px: int = 4096
+    work_min_side_px: int = 0
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: high factor's lower bound and the shadow ratio's order are checked after.
@@ -99,6 +107,7 @@ class SilhouetteConfig:
         "small_hole_frac": Interval(Real, 0.0, 1.0),
         "upper_body_frac": Interval(Real, 0.0, 1.0),
         "work_max_side_px": Interval(Integral, 64, 4096),
+        "work_min_side_px": Interval(Integral, 0, 4096),
     }
 
     def __post_init__(self):

@@ -240,10 +240,38 @@ def crop_probabilities_back(
 
 
 def working_size(height: int, width: int, config: SilhouetteConfig) -> tuple[int, int]:
-    """(H', W') of a frame of ``height`` × ``width`` pixels at the working size, as
+    """(H', W') of a frame of ``height`` × ``width`` pixels at the working size: as
+    :func:`enlarged` enlarges it (``config.work_min_side_px``), then as
     :func:`~eigmotion.segmentation.evidence.shrink` shrinks it."""
+    factor = enlargement(height, width, config)
+    height, width = height * factor, width * factor
     factor = max(1, math.ceil(max(height, width) / config.work_max_side_px))
     return height // factor, width // factor
+
+
+def enlargement(height: int, width: int, config: SilhouetteConfig) -> int:
+    """The whole factor a frame of ``height`` × ``width`` pixels is enlarged by before
+    the person networks see it: the smallest that brings its longer side to at least
+    ``config.work_min_side_px``; 1 for a frame that large already (or a minimum of 0).
+
+    The networks look at a square of at least :data:`CROP_MIN_SIDE_PX` pixels of the
+    frame around the person; in a smaller frame (the 64 × 64 real clips) the person
+    fills a part of that square only, and the rest is black.  Enlarged first, by a
+    bicubic filter, the frame gives the person the square's whole height.
+    """
+    longer = max(height, width)
+    if config.work_min_side_px <= longer:
+        return 1
+    return math.ceil(config.work_min_side_px / longer)
+
+
+def enlarged(frame: np.ndarray, factor: int) -> np.ndarray:
+    """(H·factor, W·factor, C) uint8: ``frame`` (H, W, C) enlarged by a bicubic filter;
+    ``frame`` itself for a factor of 1."""
+    if factor == 1:
+        return frame
+    h, w = frame.shape[:2]
+    return cv2.resize(frame, (w * factor, h * factor), interpolation=cv2.INTER_CUBIC)
 
 
 def person_probabilities(inputs: np.ndarray) -> np.ndarray:

@@ -35,6 +35,8 @@ from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_t
 from eigmotion.segmentation.fused import fuse_masks
 from eigmotion.segmentation.learned import (
     count_people,
+    enlarged,
+    enlargement,
     learned_masks_and_landmarks,
     people_in_view,
     resolve_segmenter,
@@ -313,8 +315,13 @@ def _learned_clip_masks(
     second pass and its outlier rule look at the neighbouring frames).  With
     ``background_path`` (the fused front end) each decoded frame is also shrunk to the
     working size and cut out against the image of the empty scene, and the two are
-    fused (:func:`~eigmotion.segmentation.fused.fuse_masks`): the clip is decoded once."""
+    fused (:func:`~eigmotion.segmentation.fused.fuse_masks`): the clip is decoded once.
+    Frames smaller than ``config.work_min_side_px`` are enlarged first
+    (:func:`~eigmotion.segmentation.learned.enlargement`), the background image with
+    them, and the masks are at the enlarged size; the landmarks are in the clip's
+    frames' pixels."""
     sizes = []
+    factors = []
     working: list[np.ndarray] = []
     background = None
     if background_path is not None:
@@ -324,8 +331,11 @@ def _learned_clip_masks(
     def keep_frame(frame: np.ndarray) -> np.ndarray:
         if not sizes:
             sizes.append(frame.shape[:2])
+            factors.append(enlargement(*frame.shape[:2], config))
         if background is not None:
             _check_size(frame.shape[:2], background)
+        frame = enlarged(frame, factors[0])
+        if background is not None:
             working.append(shrink(frame[None], config)[0])
         return stored_frame(frame)
 
@@ -344,7 +354,7 @@ def _learned_clip_masks(
         )
     segmenter = "learned"
     if background is not None:
-        small = shrink(background[None], config)[0]
+        small = shrink(enlarged(background, factors[0])[None], config)[0]
         chunks = (
             np.stack(working[i : i + CHUNK_FRAMES]) for i in range(0, len(working), CHUNK_FRAMES)
         )
