@@ -20,7 +20,11 @@ from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import read_frame_sample, read_frames, write_video
 from eigmotion.imaging.still_images import read_image_rgb
-from eigmotion.retrieval.database import MotionDatabase
+from eigmotion.retrieval.database import (
+    QUERY_SILHOUETTE_MIN_SIDE_PX,
+    QUERY_SILHOUETTE_SIDE_PX,
+    MotionDatabase,
+)
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
@@ -198,11 +202,12 @@ def test_frames_smaller_than_the_minimum_are_enlarged_by_a_whole_factor():
 )
 @pytest.mark.parametrize("segmenter", ["learned", "fused"])
 def test_a_small_clip_is_cut_out_enlarged_and_its_landmarks_stay_in_its_pixels(tmp_path, segmenter):
-    """The kick sample shrunk to 80 × 60 (its empty-scene image with it): with a
-    minimum of 128 px its frames are enlarged twice before the networks see them, the
-    masks come back at 160 × 120 and hold the person in nearly every frame, and the
-    landmarks are in the small clip's own pixels, on the person the sample's
-    subtraction masks show."""
+    """The kick sample shrunk to 80 × 60 (its empty-scene image with it): at the
+    query's minimum (256 px) its frames are enlarged four times before the networks
+    see them, the masks come back at 160 × 120 (320 × 240 halved, the query's working
+    size) and hold the person in nearly every frame, closer to the sample's own
+    subtraction masks than without the enlargement, and the landmarks are in the
+    small clip's own pixels, on the person those masks show."""
     frames, fps = read_frames(SAMPLES / "kick.mp4")
     small = np.stack([cv2.resize(f, (80, 60), interpolation=cv2.INTER_AREA) for f in frames])
     video = tmp_path / "kick_80x60.mp4"
@@ -212,7 +217,9 @@ def test_a_small_clip_is_cut_out_enlarged_and_its_landmarks_stay_in_its_pixels(t
         scene = tmp_path / "scene.png"
         image = read_image_rgb(SAMPLES / "kick_background.png")[..., ::-1]
         cv2.imwrite(str(scene), cv2.resize(image, (80, 60), interpolation=cv2.INTER_AREA))
-    config = SilhouetteConfig(work_max_side_px=160, work_min_side_px=128)
+    config = SilhouetteConfig(
+        work_max_side_px=QUERY_SILHOUETTE_SIDE_PX, work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX
+    )
     cut = load_clip_masks(video, scene, config, 15.0, segmenter=segmenter)
     assert cut.segmenter == segmenter and cut.frame_size == (60, 80)
     assert cut.masks.shape[1:] == (120, 160)

@@ -82,9 +82,9 @@ QUERY_SILHOUETTE_SIDE_PX = 160
 #: Frames smaller than this on their longer side are enlarged (bicubic, by a whole
 #: factor) before the person networks look at them
 #: (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_min_side_px`): the
-#: networks' square around the person is at least this large (measured in
-#: docs/segmentation.md).
-QUERY_SILHOUETTE_MIN_SIDE_PX = 128
+#: networks' input, which they would otherwise reach by enlarging the frame themselves
+#: (bilinear), the person a part of it (measured in docs/segmentation.md).
+QUERY_SILHOUETTE_MIN_SIDE_PX = 256
 #: Nearest entries the whole clip's search returns: enough to hold the
 #: :data:`~eigmotion.retrieval.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
 #: ranked again by their silhouette sequences (a motion's renderings from neighbouring

@@ -9,7 +9,9 @@ RGB in, the probability of "person" per pixel out) and the pose landmark network
 256×256 square centred on one person in; its segmentation, 33 body landmarks and a
 flag that a person is there out).
 
-Each frame is looked at twice.  First the selfie network sees it whole, resized to its
+Each frame is looked at twice (a frame smaller than
+:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_min_side_px` enlarged
+first: :func:`enlargement`).  First the selfie network sees it whole, resized to its
 input (no cropping); its probabilities, resized back to the working size of the
 classical path
 (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
