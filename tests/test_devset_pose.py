@@ -40,10 +40,9 @@ from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
 from eigmotion.mocap.rotations import similarity_align
 from eigmotion.pose.keypoints import keypoints_available
-from eigmotion.retrieval.database import QUERY_SILHOUETTE_SIDE_PX
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.segmentation import learned
-from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.synth.clips import clip_camera
 from eigmotion.synth.scene import compose_scene
@@ -306,7 +305,7 @@ def test_a_floor_the_first_look_takes_for_a_person_is_left_out(dev_set, monkeypa
     the frames the second look found, so those floors are left out: the masks are
     those of a first look never kept."""
     clip = dev_set / "retrieval" / "walk_t_v0" / "video.mp4"
-    config = SilhouetteConfig(work_max_side_px=QUERY_SILHOUETTE_SIDE_PX)
+    config = QUERY_SILHOUETTE_CONFIG
     cut = load_clip_masks(clip, config=config, sample_fps=15.0, segmenter="learned")
     monkeypatch.setattr(learned, "SURE_PROBABILITY", np.inf)  # the first look never stands
     never = load_clip_masks(clip, config=config, sample_fps=15.0, segmenter="learned")

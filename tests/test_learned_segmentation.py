@@ -20,11 +20,7 @@ from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import read_frame_sample, read_frames, write_video
 from eigmotion.imaging.still_images import read_image_rgb
-from eigmotion.retrieval.database import (
-    QUERY_SILHOUETTE_MIN_SIDE_PX,
-    QUERY_SILHOUETTE_SIDE_PX,
-    MotionDatabase,
-)
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
@@ -217,10 +213,7 @@ def test_a_small_clip_is_cut_out_enlarged_and_its_landmarks_stay_in_its_pixels(t
         scene = tmp_path / "scene.png"
         image = read_image_rgb(SAMPLES / "kick_background.png")[..., ::-1]
         cv2.imwrite(str(scene), cv2.resize(image, (80, 60), interpolation=cv2.INTER_AREA))
-    config = SilhouetteConfig(
-        work_max_side_px=QUERY_SILHOUETTE_SIDE_PX, work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX
-    )
-    cut = load_clip_masks(video, scene, config, 15.0, segmenter=segmenter)
+    cut = load_clip_masks(video, scene, QUERY_SILHOUETTE_CONFIG, 15.0, segmenter=segmenter)
     assert cut.segmenter == segmenter and cut.frame_size == (60, 80)
     assert cut.masks.shape[1:] == (120, 160)
     found = cut.masks.any(axis=(1, 2))

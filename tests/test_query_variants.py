@@ -19,7 +19,11 @@ import eigmotion.retrieval.sequences as sequences_module
 from eigmotion.errors import InvalidParameterError
 from eigmotion.evaluation.scoring import QueryOutcome
 from eigmotion.evaluation.segments import SegmentAgreement
-from eigmotion.retrieval.database import QUERY_SILHOUETTE_MIN_SIDE_PX, QUERY_SILHOUETTE_SIDE_PX
+from eigmotion.retrieval.database import (
+    QUERY_SILHOUETTE_CONFIG,
+    QUERY_SILHOUETTE_MIN_SIDE_PX,
+    QUERY_SILHOUETTE_SIDE_PX,
+)
 from eigmotion.segmentation.config import SilhouetteConfig
 
 REPO = Path(__file__).resolve().parents[1]
@@ -60,7 +64,8 @@ def test_silhouette_settings_change_the_query_cut_and_are_checked():
     with pytest.raises(InvalidParameterError, match="NAME=VALUE"):
         variants.parse_silhouette_setting("low_factor")
     # the query's own cut unless a setting changes it; the working size too
-    assert variants.cut_config([]) == SilhouetteConfig(
+    assert variants.cut_config([]) == QUERY_SILHOUETTE_CONFIG
+    assert QUERY_SILHOUETTE_CONFIG == SilhouetteConfig(
         work_max_side_px=QUERY_SILHOUETTE_SIDE_PX, work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX
     )
     changed = variants.cut_config([("low_factor", 2.5), ("shadow_ratio", [0.35, 0.85])])

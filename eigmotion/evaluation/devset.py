@@ -40,12 +40,7 @@ from tqdm import tqdm
 from eigmotion.errors import EigmotionError, InvalidParameterError
 from eigmotion.evaluation.measures import iou
 from eigmotion.evaluation.query_clips import TOP_K
-from eigmotion.retrieval.database import (
-    QUERY_SILHOUETTE_MIN_SIDE_PX,
-    QUERY_SILHOUETTE_SIDE_PX,
-    MotionDatabase,
-)
-from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.segmentation.learned import working_size
 
 #: The ways a clip is asked, in the order they are run and printed.
@@ -354,11 +349,7 @@ def answer_clip(
         path = Path(scratch) / f"{clip.clip_id}.npz"
         masks = clip.true_masks()
         if mode == "masks_small":
-            query_config = SilhouetteConfig(
-                work_max_side_px=QUERY_SILHOUETTE_SIDE_PX,
-                work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX,
-            )
-            small = working_size(*masks.shape[1:], query_config)
+            small = working_size(*masks.shape[1:], QUERY_SILHOUETTE_CONFIG)
             masks = true_masks_at(masks, np.arange(len(masks)), small)
         np.savez_compressed(path, masks=masks, fps=np.float64(clip.fps))
     t0 = time.perf_counter()

@@ -44,11 +44,7 @@ from eigmotion.retrieval.calibration import (
     calibration_quantiles,
     leave_one_motion_out_distances,
 )
-from eigmotion.retrieval.database import (
-    QUERY_SILHOUETTE_MIN_SIDE_PX,
-    QUERY_SILHOUETTE_SIDE_PX,
-    MotionDatabase,
-)
+from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.segmentation.config import SilhouetteConfig
 
 #: The constants a variant may set: those read while a query is answered, never
@@ -135,12 +131,7 @@ def parse_silhouette_setting(text: str) -> tuple[str, object]:
 def cut_config(settings: list[tuple[str, object]]) -> SilhouetteConfig:
     """The query's silhouette configuration with ``settings`` (from ``--silhouettes``)
     in place of its fields (InvalidParameterError naming a field or value that is wrong)."""
-    fields = {
-        "work_max_side_px": QUERY_SILHOUETTE_SIDE_PX,
-        "work_min_side_px": QUERY_SILHOUETTE_MIN_SIDE_PX,
-        **dict(settings),
-    }
-    return SilhouetteConfig.from_dict(fields)
+    return SilhouetteConfig.from_dict({**QUERY_SILHOUETTE_CONFIG.to_dict(), **dict(settings)})
 
 
 class Variant:

@@ -85,6 +85,10 @@ QUERY_SILHOUETTE_SIDE_PX = 160
 #: networks' input, which they would otherwise reach by enlarging the frame themselves
 #: (bilinear), the person a part of it (measured in docs/segmentation.md).
 QUERY_SILHOUETTE_MIN_SIDE_PX = 256
+#: How a query cuts the person out of its clip.
+QUERY_SILHOUETTE_CONFIG = SilhouetteConfig(
+    work_max_side_px=QUERY_SILHOUETTE_SIDE_PX, work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX
+)
 #: Nearest entries the whole clip's search returns: enough to hold the
 #: :data:`~eigmotion.retrieval.sequences.CANDIDATE_MOTIONS` nearest distinct motions that are
 #: ranked again by their silhouette sequences (a motion's renderings from neighbouring
@@ -580,10 +584,7 @@ class MotionDatabase:
         t0 = time.perf_counter()
         if false_rejection is not None:
             self.threshold_at(false_rejection)  # a bad value is told before the video is read
-        config = SilhouetteConfig(
-            work_max_side_px=QUERY_SILHOUETTE_SIDE_PX,
-            work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX,
-        )
+        config = QUERY_SILHOUETTE_CONFIG
         sample_fps = self.config.motion_image.sample_fps
         with ThreadPoolExecutor(1, thread_name_prefix="eigmotion-index") as beside:
             ready = beside.submit(self.index.prepare)  # while the person is cut out

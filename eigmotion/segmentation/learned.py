@@ -256,10 +256,12 @@ def enlargement(height: int, width: int, config: SilhouetteConfig) -> int:
     the person networks see it: the smallest that brings its longer side to at least
     ``config.work_min_side_px``; 1 for a frame that large already (or a minimum of 0).
 
-    The networks look at a square of at least :data:`CROP_MIN_SIDE_PX` pixels of the
-    frame around the person; in a smaller frame (the 64 × 64 real clips) the person
-    fills a part of that square only, and the rest is black.  Enlarged first, by a
-    bicubic filter, the frame gives the person the square's whole height.
+    The networks take a :data:`~eigmotion.segmentation.networks.MODEL_SIDE_PX`-pixel
+    input: the whole frame, and a square of at least :data:`CROP_MIN_SIDE_PX` pixels of
+    it around the person.  A smaller frame they enlarge themselves (bilinear), and in
+    a frame smaller than the square (the 64 × 64 real clips) the person fills a part of
+    it only, the rest black.  Enlarged first, by a bicubic filter, the frame gives the
+    person the square's whole height.
     """
     longer = max(height, width)
     if config.work_min_side_px <= longer:
