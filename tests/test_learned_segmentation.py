@@ -180,6 +180,7 @@ def test_frames_smaller_than_the_minimum_are_enlarged_by_a_whole_factor():
     assert learned.working_size(64, 64, config) == (128, 128)
     assert learned.working_size(75, 100, config) == (75, 100)  # 200 px, halved again
     assert learned.working_size(240, 320, config) == (120, 160)
+    assert learned.enlargement(64, 64, QUERY_SILHOUETTE_CONFIG) == 2
     assert learned.enlargement(64, 64, QUERY_CONFIG) == 1
     assert learned.working_size(64, 64, QUERY_CONFIG) == (64, 64)
     frame = np.arange(2 * 3 * 3, dtype=np.uint8).reshape(2, 3, 3)
@@ -199,11 +200,11 @@ def test_frames_smaller_than_the_minimum_are_enlarged_by_a_whole_factor():
 @pytest.mark.parametrize("segmenter", ["learned", "fused"])
 def test_a_small_clip_is_cut_out_enlarged_and_its_landmarks_stay_in_its_pixels(tmp_path, segmenter):
     """The kick sample shrunk to 80 × 60 (its empty-scene image with it): at the
-    query's minimum (256 px) its frames are enlarged four times before the networks
-    see them, the masks come back at 160 × 120 (320 × 240 halved, the query's working
-    size) and hold the person in nearly every frame, closer to the sample's own
-    subtraction masks than without the enlargement, and the landmarks are in the
-    small clip's own pixels, on the person those masks show."""
+    query's minimum (128 px) its frames are enlarged twice before the networks see
+    them, the masks come back at 160 × 120 and hold the person in nearly every frame,
+    closer to the sample's own subtraction masks than without the enlargement, and
+    the landmarks are in the small clip's own pixels, on the person those masks
+    show."""
     frames, fps = read_frames(SAMPLES / "kick.mp4")
     small = np.stack([cv2.resize(f, (80, 60), interpolation=cv2.INTER_AREA) for f in frames])
     video = tmp_path / "kick_80x60.mp4"

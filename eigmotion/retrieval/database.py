@@ -82,9 +82,10 @@ QUERY_SILHOUETTE_SIDE_PX = 160
 #: Frames smaller than this on their longer side are enlarged (bicubic, by a whole
 #: factor) before the person networks look at them
 #: (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_min_side_px`): the
-#: networks' input, which they would otherwise reach by enlarging the frame themselves
-#: (bilinear), the person a part of it (measured in docs/segmentation.md).
-QUERY_SILHOUETTE_MIN_SIDE_PX = 256
+#: least square the networks look at around the person
+#: (:data:`~eigmotion.segmentation.learned.CROP_MIN_SIDE_PX`), which a smaller frame
+#: would fill only in part (measured in docs/segmentation.md).
+QUERY_SILHOUETTE_MIN_SIDE_PX = 128
 #: How a query cuts the person out of its clip.
 QUERY_SILHOUETTE_CONFIG = SilhouetteConfig(
     work_max_side_px=QUERY_SILHOUETTE_SIDE_PX, work_min_side_px=QUERY_SILHOUETTE_MIN_SIDE_PX
