@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -24,8 +25,9 @@ from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
+from eigmotion.segmentation.background import seen_scene
 from eigmotion.segmentation.config import SilhouetteConfig
-from eigmotion.segmentation.fused import fuse_masks
+from eigmotion.segmentation.fused import fuse_masks, without_seen_scene
 from eigmotion.segmentation.learned import (
     MODEL_PATH,
     crop_input,
@@ -503,9 +505,65 @@ def test_where_the_subtraction_finds_no_one_the_fused_masks_are_the_learned_ones
     with pytest.raises(VideoError, match="no person found"):
         load_clip_masks(clip, scene, QUERY_CONFIG, 15.0, segmenter="subtraction")
     fused = load_clip_masks(clip, scene, QUERY_CONFIG, 15.0, segmenter="fused")
-    learned_only = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
+    networks = replace(QUERY_CONFIG, drop_seen_scene=False)
+    learned_only = load_clip_masks(clip, None, networks, 15.0, segmenter="learned")
     assert fused.segmenter == "fused" and fused.masks.any(axis=(1, 2)).all()
     np.testing.assert_array_equal(fused.masks, learned_only.masks)
+
+
+def test_without_the_image_what_the_clip_shows_as_scene_is_taken_out():
+    """Without an image of the empty scene, the scene is what the clip shows where the
+    person is not.  A person walks up to a stool and sits on it for most of the clip;
+    the networks take the stool for part of them in the last four frames.  The stool
+    shows in the other frames, so it is taken out of those masks; the seated person,
+    whose place the clip hardly ever shows empty, keeps every pixel, and so does someone
+    who never moves at all."""
+    config = SilhouetteConfig()
+    rng = np.random.default_rng(0)
+    scene = rng.integers(60, 200, size=(120, 160, 3), dtype=np.uint8)
+    scene[80:110, 95:125] = (200, 200, 210)  # the stool
+    n = 16
+    frames = np.repeat(scene[None], n, axis=0)
+    person = np.zeros((n, 120, 160), bool)
+    for i in range(n):  # walks in from the left for three frames, then sits
+        x = (10, 40, 70)[i] if i < 3 else 82
+        person[i, 30 : 80 if i >= 3 else 110, x : x + 22] = True
+    frames[person] = (180, 40, 40)
+    frames = np.clip(frames + rng.normal(0, 2, frames.shape), 0, 255).astype(np.uint8)
+    learned_mask = person.copy()
+    learned_mask[12:, 80:110, 95:125] = True  # the stool taken for the person
+    out = without_seen_scene(learned_mask, frames, config)
+    assert not out[12:, 84:110, 100:125].any()
+    assert (out & person).sum() == person.sum()  # every pixel of the person kept
+    seen = seen_scene(frames, learned_mask, config)
+    assert seen.seen[84:110, 100:125].all() and not seen.seen[30:80, 84:102].any()
+    assert np.abs(seen.image[90:100, 105:115].astype(int) - (200, 200, 210)).max() <= 6
+    still = np.repeat(frames[-1:], n, axis=0)
+    np.testing.assert_array_equal(
+        without_seen_scene(learned_mask[-1:].repeat(n, 0), still, config),
+        learned_mask[-1:].repeat(n, 0),
+    )
+    with pytest.raises(InvalidParameterError, match="person must have shape"):
+        seen_scene(frames, learned_mask[:, :60], config)
+
+
+def test_without_the_image_the_learned_masks_lose_only_scene():
+    """The walk sample without its background image: what the rule takes out of the
+    learned masks is, by the empty-scene image the sample comes with, nearly all scene
+    (the subtraction against that image finds at most a tenth of it), and the masks
+    overlap the subtraction's masks at least as well as before."""
+    video = SAMPLES / "walk_3s.mp4"
+    background = SAMPLES / "walk_3s_background.png"
+    networks = replace(QUERY_CONFIG, drop_seen_scene=False)
+    before = load_clip_masks(video, None, networks, 15.0, segmenter="learned").masks
+    after = load_clip_masks(video, None, QUERY_CONFIG, 15.0, segmenter="learned").masks
+    reference = load_clip_masks(video, background, QUERY_CONFIG, 15.0, segmenter="subtraction")
+    taken = before & ~after
+    assert not (after & ~before).any()
+    assert np.count_nonzero(taken & reference.masks) <= 0.1 * max(np.count_nonzero(taken), 1)
+    iou = [np.median([_iou(a, b) for a, b in zip(m, reference.masks, strict=True)])
+           for m in (before, after)]  # fmt: skip
+    assert iou[1] >= iou[0]
 
 
 @pytest.mark.parametrize("kind", ["25fps", "24fps", "folder", "gif"])

@@ -182,6 +182,68 @@ def estimate_background(
     return _to_uint8(np.where(np.isnan(refined), plain, refined))
 
 
+#: A pixel counts as seen by :func:`seen_scene` where at least this share of the
+#: sampled frames shows it without the person...
+SEEN_SHARE = 0.25
+
+#: ... and at least this many of them.
+MIN_SEEN_FRAMES = 3
+
+
+@dataclass(frozen=True)
+class SeenScene:
+    """The empty scene as a clip shows it, where the person is not
+    (:func:`seen_scene`).
+
+    ``image`` (H, W, 3) uint8 RGB: each pixel's median over the sampled frames in which
+    the person is not there (a cast shadow's darker samples left out), the plain median
+    where no frame shows it; ``seen`` (H, W) bool: where at least
+    :data:`SEEN_SHARE` of the sampled frames, and :data:`MIN_SEEN_FRAMES`, show it.
+    """
+
+    image: np.ndarray
+    seen: np.ndarray
+
+
+def seen_scene(
+    frames: np.ndarray,
+    person: np.ndarray,
+    config: SilhouetteConfig = SilhouetteConfig(),  # noqa: B008 - frozen, immutable
+) -> SeenScene:
+    """The scene a clip shows around a person already cut out of its frames.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8
+        RGB frames.
+    person : (F, H, W) bool
+        The person in each frame (grown by 3 pixels here, their blurred rim).
+    config : SilhouetteConfig
+        ``max_background_frames`` frames, spread evenly over the clip, are sampled.
+
+    Returns
+    -------
+    SeenScene
+    """
+    frames = check_frames(frames)
+    person = np.asarray(person, dtype=bool)
+    if person.shape != frames.shape[:3]:
+        raise InvalidParameterError(
+            f"person must have shape {frames.shape[:3]} like the frames, got {person.shape}"
+        )
+    n = frames.shape[0]
+    pick = np.unique(np.linspace(0, n - 1, min(n, config.max_background_frames)).round())
+    pick = pick.astype(np.int64)
+    sample, excluded = frames[pick], _grown(person[pick])
+    scene = _median_of_scene(sample, excluded, config)
+    never = np.isnan(scene[..., 0])
+    if never.any():
+        scene[never] = np.median(sample[:, never], axis=0)
+    image = _to_uint8(scene)
+    shown = (~excluded).sum(axis=0)
+    return SeenScene(image, shown >= max(MIN_SEEN_FRAMES, SEEN_SHARE * len(pick)))
+
+
 def _without_still_body(
     sample: np.ndarray,
     commonest: np.ndarray,

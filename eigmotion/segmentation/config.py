@@ -74,6 +74,11 @@ class SilhouetteConfig:
         size (shrunk as ``work_max_side_px`` says).  The learned and fused front ends
         only (background subtraction alone segments the frames as they are), in
         [0, 4096]; 0 never enlarges.
+    drop_seen_scene : bool
+        The learned front end without an image of the empty scene takes out of its
+        masks the pieces that show the scene as the clip itself shows it where the
+        person is not (a stool the person sits on;
+        :func:`~eigmotion.segmentation.fused.without_seen_scene`).
     """
 
     background: str = "grabcut"
@@ -91,6 +96,7 @@ class SilhouetteConfig:
     upper_body_frac: float = 0.6
     work_max_side_px: int = 4096
     work_min_side_px: int = 0
+    drop_seen_scene: bool = True
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: high factor's lower bound and the shadow ratio's order are checked after.
@@ -108,6 +114,7 @@ class SilhouetteConfig:
         "upper_body_frac": Interval(Real, 0.0, 1.0),
         "work_max_side_px": Interval(Integral, 64, 4096),
         "work_min_side_px": Interval(Integral, 0, 4096),
+        "drop_seen_scene": Options(bool, [True, False]),
     }
 
     def __post_init__(self):

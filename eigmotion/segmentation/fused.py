@@ -1,5 +1,6 @@
-"""Learned masks and the classical subtraction together, for clips with an image of the
-empty scene.
+"""Learned masks and the classical subtraction together: for clips with an image of the
+empty scene (:func:`fuse_masks`), and, without one, against the scene the clip itself
+shows (:func:`without_seen_scene`).
 
 The learned front end (:mod:`eigmotion.segmentation.learned`) finds the whole body but
 rounds off thin limbs; subtracting the image of the empty scene finds what differs
@@ -44,16 +45,26 @@ solid pieces of it (they outlast an opening by a 3 × 3 square) of at least
 colour of the scene are not: the smoothed difference keeps their small, consistent
 offset above the threshold.  ``docs/segmentation.md`` compares this with the other ways
 of combining them, measured on the development set.
+
+Without an image of the empty scene the learned front end takes the same pieces out
+against the scene the clip shows where the learned masks leave it
+(:func:`~eigmotion.segmentation.background.seen_scene`), on the pixels it shows in
+enough of the frames: where the person never leaves a pixel nothing is known of the
+scene there, and nothing is taken out (:func:`without_seen_scene`).
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.segmentation.background import seen_scene
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.learned import person_in_frame
+from eigmotion.segmentation.subtraction import frame_chunks, subtract_scene
 
 #: What the subtraction finds is kept within this many pixels (working size) of the
 #: learned mask.
@@ -217,19 +228,69 @@ def without_scene(
         raise InvalidParameterError(
             f"plain_scene must have the masks' shape {learned.shape}, got {plain_scene.shape}"
         )
-    near = cv2.getStructuringElement(
-        cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1, 2 * SCENE_NEAR_PX + 1)
-    )
-    square = np.ones((3, 3), np.uint8)
     out = learned.copy()
     for mine, theirs, plain, kept in zip(learned, subtracted, plain_scene, out, strict=True):
         area = np.count_nonzero(mine)
-        if area == 0 or np.count_nonzero(mine & theirs) < SCENE_FOUND_SHARE * area:
-            continue
-        found = cv2.dilate(theirs.view(np.uint8), near).view(bool)
-        scene = cv2.morphologyEx((mine & plain & ~found).view(np.uint8), cv2.MORPH_OPEN, square)
-        n, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
-        big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * area
-        big[0] = False  # not the scene's pieces: the rest
-        kept &= ~big[pieces]
+        if area and np.count_nonzero(mine & theirs) >= SCENE_FOUND_SHARE * area:
+            kept &= ~_scene_pieces(mine, theirs, plain)
     return out
+
+
+def without_seen_scene(
+    learned: np.ndarray, frames: np.ndarray, config: SilhouetteConfig
+) -> np.ndarray:
+    """``learned`` (F, H, W) bool less the pieces that show the scene, for a clip
+    without an image of the empty scene: the scene is the one the clip itself shows
+    where the learned masks leave it (:func:`~eigmotion.segmentation.background.
+    seen_scene`), and only pixels it shows often enough (``seen``) can be taken out.
+
+    In a frame, the pieces of the learned mask farther than :data:`SCENE_NEAR_PX` from
+    what subtracting that scene finds, on seen pixels whose colour difference to it is
+    under the clip's low threshold, solid and of at least :data:`SCENE_PIECE_SHARE` of
+    the learned area, are taken out (as :func:`without_scene` does with the image).
+    Where the person never leaves a pixel nothing is known of the scene there, so a
+    person standing still keeps every pixel; that is the guard here, in place of
+    :data:`SCENE_FOUND_SHARE`.
+
+    Parameters
+    ----------
+    learned : (F, H, W) bool
+        The learned front end's masks.
+    frames : (F, H, W, 3) uint8
+        The same frames, RGB, at the masks' size.
+    config : SilhouetteConfig
+        As for the subtraction without an image (its ``upper_body_frac`` unused).
+
+    Returns
+    -------
+    (F, H, W) bool
+    """
+    learned = np.asarray(learned, bool)
+    scene = seen_scene(frames, learned, config)
+    chunks = frame_chunks(frames)
+    # against an estimated scene the shadow test stands everywhere (extract_silhouettes)
+    subtracted = subtract_scene(chunks, scene.image, replace(config, upper_body_frac=0.0))
+    out = learned.copy()
+    for mine, theirs, plain, kept in zip(
+        learned, subtracted.masks, subtracted.plain_scene, out, strict=True
+    ):
+        if mine.any():
+            kept &= ~_scene_pieces(mine, theirs, plain & scene.seen)
+    return out
+
+
+def _scene_pieces(mine: np.ndarray, theirs: np.ndarray, plain: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pieces of the learned mask ``mine`` farther than
+    :data:`SCENE_NEAR_PX` from the subtraction's ``theirs``, on ``plain`` scene, that
+    outlast an opening by a 3 × 3 square and cover at least :data:`SCENE_PIECE_SHARE`
+    of ``mine``."""
+    near = cv2.getStructuringElement(
+        cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1, 2 * SCENE_NEAR_PX + 1)
+    )
+    found = cv2.dilate(theirs.view(np.uint8), near).view(bool)
+    scene = (mine & plain & ~found).view(np.uint8)
+    scene = cv2.morphologyEx(scene, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    _, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
+    big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * np.count_nonzero(mine)
+    big[0] = False  # not the scene's pieces: the rest
+    return big[pieces]

@@ -32,7 +32,7 @@ from eigmotion.segmentation.background import estimate_background
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.cut_bodies import hidden_rows_below, restored_legs
 from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_tables
-from eigmotion.segmentation.fused import fuse_masks
+from eigmotion.segmentation.fused import fuse_masks, without_seen_scene
 from eigmotion.segmentation.learned import (
     count_people,
     enlarged,
@@ -316,7 +316,10 @@ def _learned_clip_masks(
     ``background_path`` (the fused front end) each decoded frame is also shrunk to the
     working size and cut out against the image of the empty scene, and the two are
     fused (:func:`~eigmotion.segmentation.fused.fuse_masks`): the clip is decoded once.
-    Frames smaller than ``config.work_min_side_px`` are enlarged first
+    Without it, and with ``config.drop_seen_scene``, the shrunk frames are kept to take
+    out of the learned masks what shows the scene the clip itself shows
+    (:func:`~eigmotion.segmentation.fused.without_seen_scene`).  Frames smaller than
+    ``config.work_min_side_px`` are enlarged first
     (:func:`~eigmotion.segmentation.learned.enlargement`), the background image with
     them, and the masks are at the enlarged size; the landmarks are in the clip's
     frames' pixels."""
@@ -324,8 +327,9 @@ def _learned_clip_masks(
     factors = []
     working: list[np.ndarray] = []
     background = None
-    if background_path is not None:
+    if background_path is not None or config.drop_seen_scene:
         start_colour_tables()  # while the video opens
+    if background_path is not None:
         background = read_background(background_path)
 
     def keep_frame(frame: np.ndarray) -> np.ndarray:
@@ -335,7 +339,7 @@ def _learned_clip_masks(
         if background is not None:
             _check_size(frame.shape[:2], background)
         frame = enlarged(frame, factors[0])
-        if background is not None:
+        if background is not None or config.drop_seen_scene:
             working.append(shrink(frame[None], config)[0])
         return stored_frame(frame)
 
@@ -353,6 +357,8 @@ def _learned_clip_masks(
             f"covering {config.min_person_frac:.2%} of the image"
         )
     segmenter = "learned"
+    if background is None and config.drop_seen_scene:
+        masks = without_seen_scene(masks, np.stack(working), config)
     if background is not None:
         small = shrink(enlarged(background, factors[0])[None], config)[0]
         chunks = (
