@@ -21,7 +21,12 @@ from eigmotion.segmentation.learned import STORE_MAX_SIDE_PX
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.tracking.body import avatar_bodies
 from eigmotion.tracking.dictionary import build_dictionary
-from eigmotion.tracking.keypoint_fit import KeypointFitter, rotation_between, smooth_targets
+from eigmotion.tracking.keypoint_fit import (
+    KeypointFitter,
+    gaussian_over_time,
+    rotation_between,
+    smooth_targets,
+)
 from eigmotion.tracking.overlay import SKELETON_RGB, draw_skeleton
 from eigmotion.tracking.pipeline import track_clip
 from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation
@@ -205,6 +210,53 @@ def test_rotation_between_and_smoothing():
     smooth = smooth_targets(track)
     assert np.isnan(smooth[2]).all()
     np.testing.assert_allclose(smooth[[0, 1, 3, 4], 0, 0], [1 / 3, 2 / 3, 10 / 3, 11 / 3])
+
+
+def test_gaussian_smoothing_over_time():
+    """A path through time: a joint moving at a steady speed keeps its path, to the
+    ends; a single jolt is spread over its neighbours; a frame with a joint not finite
+    is left as it is and bridged for the others."""
+    line = np.zeros((9, 2, 3))
+    line[:, :, 0] = np.arange(9.0)[:, None]
+    np.testing.assert_allclose(gaussian_over_time(line, 1.0), line, atol=1e-9)
+    np.testing.assert_allclose(gaussian_over_time(line, 20.0), line, atol=1e-9)
+    jolt = np.zeros((9, 1, 3))
+    jolt[4, 0, 1] = 1.0
+    spread = gaussian_over_time(jolt, 1.0)
+    assert 0.3 < spread[4, 0, 1] < 0.5 and spread[3, 0, 1] > 0.2 and spread[0, 0, 1] < 0.01
+    np.testing.assert_allclose(spread[..., 1].sum(), 1.0, atol=0.02)
+    holed = jolt.copy()
+    holed[4, 0, 0] = np.nan
+    kept = gaussian_over_time(holed, 1.0)
+    assert np.isnan(kept[4, 0, 0]) and np.abs(kept[[3, 5], 0, 1]).max() < 1e-12
+    np.testing.assert_array_equal(gaussian_over_time(line, 0.0), line)
+
+
+def test_the_fit_follows_the_smoothed_paths_and_keeps_the_bones(walk):
+    """Targets that jitter from estimate to estimate: fitted once more to their own
+    paths smoothed over time, the joints move less from estimate to estimate, and every
+    bone keeps its length."""
+    dictionary, *_ = walk
+    fitter = KeypointFitter(dictionary)
+    names = list(dictionary.joint_names)
+    entries = np.arange(8) * (len(dictionary) // 16)
+    own = dictionary.joints_at(entries, np.zeros(3))
+    rng = np.random.default_rng(4)
+    targets = keypoints_of(names, own) + rng.normal(0.0, 0.04, (8, len(KEYPOINT_JOINTS), 3))
+    plain = fitter.fit(entries, own, targets, weight=1.0)
+    smooth = fitter.fit(entries, own, targets, weight=1.0, smooth_estimates=1.5)
+
+    def jitter(joints):
+        return np.linalg.norm(np.diff(joints, 2, axis=0), axis=-1).mean()
+
+    assert jitter(smooth.joints_m) < 0.8 * jitter(plain.joints_m)
+    parents = dictionary.parents
+    for fitted in (plain, smooth):
+        bones = np.linalg.norm(fitted.joints_m[:, 1:] - fitted.joints_m[:, parents[1:]], axis=-1)
+        np.testing.assert_allclose(bones, np.linalg.norm(own[:, 1:] - own[:, parents[1:]], axis=-1),
+                                   atol=1e-9)  # fmt: skip
+    with pytest.raises(InvalidParameterError, match="keypoint_smooth_s"):
+        TrackerConfig(keypoint_smooth_s=-1.0)
 
 
 def test_the_stage_fits_the_tracker_and_switches_off(walk):

@@ -95,6 +95,32 @@ def smooth_targets(positions: np.ndarray) -> np.ndarray:
     return out
 
 
+def gaussian_over_time(positions: np.ndarray, sigma: float) -> np.ndarray:
+    """(F, K, 3) joints smoothed over time by a Gaussian of ``sigma`` frames (cut at
+    3 sigma).  Beyond the first and last frames the path is continued by its point
+    reflection through them, so that a joint moving at a steady speed keeps its path to
+    the ends; frames where some joint is not finite are bridged linearly for the others
+    and stay as they are."""
+    positions = np.asarray(positions, dtype=np.float64)
+    seen = np.isfinite(positions).all(axis=(1, 2))
+    if sigma <= 0 or seen.sum() < 2:
+        return positions.copy()
+    n = len(positions)
+    frames = np.flatnonzero(seen)
+    flat = positions[seen].reshape(len(frames), -1)
+    path = np.stack([np.interp(np.arange(n), frames, c) for c in flat.T], axis=1)
+    reach = min(int(np.ceil(3.0 * sigma)), n - 1)
+    before = 2.0 * path[0] - path[reach:0:-1]
+    after = 2.0 * path[-1] - path[-2 : -reach - 2 : -1]
+    padded = np.concatenate([before, path, after])
+    kernel = np.exp(-0.5 * (np.arange(-reach, reach + 1) / sigma) ** 2)
+    kernel /= kernel.sum()
+    smooth = sum(k * padded[j : j + n] for j, k in enumerate(kernel))
+    out = positions.copy()
+    out[seen] = smooth.reshape(positions.shape)[seen]
+    return out
+
+
 def rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(3, 3) the smallest rotation taking direction ``a`` (3,) to direction ``b`` (3,)."""
     a = a / np.linalg.norm(a)
@@ -205,6 +231,7 @@ class KeypointFitter:
         joints_m: np.ndarray,
         targets: np.ndarray,
         weight: float = 1.0,
+        smooth_estimates: float = 0.0,
     ) -> FittedPoses:
         """Fit every estimate of a clip.
 
@@ -221,6 +248,10 @@ class KeypointFitter:
         weight : float
             In [0, 1]: each trusted joint's target is this far from the tracker's joint
             toward the triangulated one (1: the triangulated joint itself).
+        smooth_estimates : float
+            Then the fitted joints' paths are smoothed over time by a Gaussian of this
+            sigma, in estimates (:func:`gaussian_over_time`), and every estimate is fitted
+            once more to them (bone lengths kept); 0: not.
         """
         entries = np.asarray(entries, dtype=np.int64)
         positions = np.array(joints_m, dtype=np.float64)
@@ -231,6 +262,12 @@ class KeypointFitter:
         for e in range(len(entries)):
             if np.isfinite(positions[e]).all():
                 self.fit_frame(positions[e], rotations[e], smoothed[e])
+        if smooth_estimates > 0:
+            keypoints = [names.index(n) for n in KEYPOINT_JOINTS]
+            paths = gaussian_over_time(positions[:, keypoints], smooth_estimates)
+            for e in range(len(entries)):
+                if np.isfinite(positions[e]).all():
+                    self.fit_frame(positions[e], rotations[e], paths[e])
         parents = self.dictionary.parents
         local = rotations.copy()
         local[:, 1:] = np.einsum("ejba,ejbc->ejac", rotations[:, parents[1:]], rotations[:, 1:])

@@ -137,6 +137,7 @@ def keypoint_stage(
     return fitter.fit(
         result.entries, result.joint_positions_m, joints.positions_m,
         tracker.config.keypoint_weight,
+        tracker.config.keypoint_smooth_s / result.frame_time_s,
     )  # fmt: skip
 
 
