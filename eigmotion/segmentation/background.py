@@ -163,8 +163,7 @@ def estimate_background(
             for frame in frames:
                 subtractor.apply(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
         return cv2.cvtColor(subtractor.getBackgroundImage(), cv2.COLOR_BGR2RGB)
-    pick = np.unique(np.linspace(0, n - 1, min(n, config.max_background_frames)).round())
-    pick = pick.astype(np.int64)
+    pick = sampled_frames(n, config)
     sample = frames[pick]
     if exclude is not None:
         exclude = np.asarray(exclude, dtype=bool)
@@ -180,6 +179,13 @@ def estimate_background(
         return _to_uint8(plain)
     refined = _median_of_scene(sample, _grown(exclude), config)
     return _to_uint8(np.where(np.isnan(refined), plain, refined))
+
+
+def sampled_frames(n: int, config: SilhouetteConfig) -> np.ndarray:
+    """(S,) int64: the frames of ``n`` a scene is estimated from, at most
+    ``config.max_background_frames`` spread evenly over the clip."""
+    pick = np.unique(np.linspace(0, n - 1, min(n, config.max_background_frames)).round())
+    return pick.astype(np.int64)
 
 
 #: A pixel counts as seen by :func:`seen_scene` where at least this share of the
@@ -231,9 +237,7 @@ def seen_scene(
         raise InvalidParameterError(
             f"person must have shape {frames.shape[:3]} like the frames, got {person.shape}"
         )
-    n = frames.shape[0]
-    pick = np.unique(np.linspace(0, n - 1, min(n, config.max_background_frames)).round())
-    pick = pick.astype(np.int64)
+    pick = sampled_frames(frames.shape[0], config)
     sample, excluded = frames[pick], _grown(person[pick])
     scene = _median_of_scene(sample, excluded, config)
     never = np.isnan(scene[..., 0])

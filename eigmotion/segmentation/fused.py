@@ -100,6 +100,12 @@ SCENE_NEAR_PX = 2
 #: ... in pieces of at least this share of the learned mask's area.
 SCENE_PIECE_SHARE = 0.02
 
+#: The disc of :data:`SCENE_NEAR_PX`, and the square a solid piece outlasts.
+_SCENE_NEAR = cv2.getStructuringElement(
+    cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1, 2 * SCENE_NEAR_PX + 1)
+)
+_SOLID = np.ones((3, 3), np.uint8)
+
 #: A run of frames where the learned front end finds no one is filled from the
 #: subtraction only when the fused masks hold the person on both sides of it, at most
 #: this many frames apart...
@@ -284,12 +290,9 @@ def _scene_pieces(mine: np.ndarray, theirs: np.ndarray, plain: np.ndarray) -> np
     :data:`SCENE_NEAR_PX` from the subtraction's ``theirs``, on ``plain`` scene, that
     outlast an opening by a 3 × 3 square and cover at least :data:`SCENE_PIECE_SHARE`
     of ``mine``."""
-    near = cv2.getStructuringElement(
-        cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1, 2 * SCENE_NEAR_PX + 1)
-    )
-    found = cv2.dilate(theirs.view(np.uint8), near).view(bool)
+    found = cv2.dilate(theirs.view(np.uint8), _SCENE_NEAR).view(bool)
     scene = (mine & plain & ~found).view(np.uint8)
-    scene = cv2.morphologyEx(scene, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    scene = cv2.morphologyEx(scene, cv2.MORPH_OPEN, _SOLID)
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
     big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * np.count_nonzero(mine)
     big[0] = False  # not the scene's pieces: the rest

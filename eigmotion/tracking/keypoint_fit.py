@@ -257,13 +257,13 @@ class KeypointFitter:
         positions = np.array(joints_m, dtype=np.float64)
         rotations = self.dictionary.world_rotations(entries).copy()
         names = list(self.dictionary.joint_names)
-        own = positions[:, [names.index(n) for n in KEYPOINT_JOINTS]]
+        keypoints = [names.index(n) for n in KEYPOINT_JOINTS]
+        own = positions[:, keypoints]
         smoothed = smooth_targets(own + float(weight) * (np.asarray(targets) - own))
         for e in range(len(entries)):
             if np.isfinite(positions[e]).all():
                 self.fit_frame(positions[e], rotations[e], smoothed[e])
         if smooth_estimates > 0:
-            keypoints = [names.index(n) for n in KEYPOINT_JOINTS]
             paths = gaussian_over_time(positions[:, keypoints], smooth_estimates)
             for e in range(len(entries)):
                 if np.isfinite(positions[e]).all():
