@@ -20,6 +20,7 @@ from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.amc import read_amc
 from eigmotion.mocap.bvh import read_bvh
+from eigmotion.mocap.kinematics import forward_kinematics
 from eigmotion.tracking.calibration import save_calibration
 from eigmotion.tracking.postures import mean_heading_deg, yaw_rotation
 
@@ -178,23 +179,41 @@ def test_track_end_to_end(scene, tracked, capsys, tmp_path):
     assert 1000 * np.linalg.norm(replay - truth, axis=-1).mean() < 200
 
 
-def test_no_keypoints_is_the_tracker_alone(scene, tracked, capsys, tmp_path):
+def test_no_keypoints_and_no_smoothing(scene, tracked, capsys, tmp_path):
     """Stored masks come without landmarks: the keypoints stage does not run, and
-    ``--no-keypoints`` gives the same joints and motion."""
-    root, paths, *_ = scene
+    ``--no-keypoints`` gives the same joints and motion.  The joints' paths are
+    smoothed (the BVH's joints are ``--joints-out``'s); ``--joint-smooth-s 0`` gives
+    the tracker's postures as they are, which move more from estimate to estimate."""
+    root, paths, truth, *_ = scene
     work, *_ = tracked
+    common = ["--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz"]
     code, _, err = run_cli(
         [
-            "--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz",
-            "--no-keypoints", "--joints-out", tmp_path / "alone.npz",
+            *common, "--no-keypoints", "--joints-out", tmp_path / "alone.npz",
             "--bvh-out", tmp_path / "alone.bvh",
         ],
         capsys,
     )  # fmt: skip
     assert code == 0, err
-    alone = np.load(tmp_path / "alone.npz")["positions"]
-    np.testing.assert_array_equal(alone, np.load(work / "out.npz")["positions"])
+    smoothed = np.load(tmp_path / "alone.npz")["positions"]
+    np.testing.assert_array_equal(smoothed, np.load(work / "out.npz")["positions"])
     assert (tmp_path / "alone.bvh").read_text() == (work / "out.bvh").read_text()
+    replayed = forward_kinematics(read_bvh(work / "out.bvh"), ground=False).positions
+    code, _, err = run_cli(
+        [*common, "--joint-smooth-s", "0", "--joints-out", tmp_path / "raw.npz"], capsys
+    )
+    assert code == 0, err
+    raw = np.load(tmp_path / "raw.npz")["positions"]
+
+    def jitter(joints):
+        return np.linalg.norm(np.diff(joints[1:], 2, axis=0), axis=-1).mean()
+
+    assert jitter(smoothed) < 0.8 * jitter(raw), (jitter(smoothed), jitter(raw))
+    # the BVH holds the smoothed postures: its joints lie as near the smoothed ones as
+    # the tracker's own BVH lies near its joints (a few millimetres)
+    assert np.abs(replayed - smoothed).max() < 0.01 < np.abs(raw - smoothed).max()
+    code, _, err = run_cli([*common, "--joint-smooth-s", "-1"], capsys)
+    assert code == 2 and len(err) == 1 and "joint_smooth_s" in err[0], err
 
 
 def test_track_from_video_with_background(scene, capsys, tmp_path):

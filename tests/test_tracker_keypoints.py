@@ -1,5 +1,6 @@
 """The two-camera keypoints stage: triangulation of the pose landmarks, left/right
-exchanges, the skeleton's fit, and the switch that leaves the tracker alone."""
+exchanges, the skeleton's fit, the joints' paths smoothed, and the switches that leave
+the tracker alone."""
 
 from __future__ import annotations
 
@@ -255,8 +256,8 @@ def test_the_fit_follows_the_smoothed_paths_and_keeps_the_bones(walk):
         bones = np.linalg.norm(fitted.joints_m[:, 1:] - fitted.joints_m[:, parents[1:]], axis=-1)
         np.testing.assert_allclose(bones, np.linalg.norm(own[:, 1:] - own[:, parents[1:]], axis=-1),
                                    atol=1e-9)  # fmt: skip
-    with pytest.raises(InvalidParameterError, match="keypoint_smooth_s"):
-        TrackerConfig(keypoint_smooth_s=-1.0)
+    with pytest.raises(InvalidParameterError, match="joint_smooth_s"):
+        TrackerConfig(joint_smooth_s=-1.0)
 
 
 def test_the_stage_fits_the_tracker_and_switches_off(walk):
@@ -271,23 +272,33 @@ def test_the_stage_fits_the_tracker_and_switches_off(walk):
         tracker = SilhouetteTracker(dictionary, cams, bodies, config)
         return track_clip(tracker, masks, 25.0, 25.0, landmarks)
 
-    alone = run(TrackerConfig(keypoints=False), views)
-    fitted = run(TrackerConfig(), views)
+    alone = run(TrackerConfig(keypoints=False, joint_smooth_s=0.0), views)
+    assert alone.fitted is None
+    np.testing.assert_array_equal(alone.joints_m, alone.result.joint_positions_m)
+    # without landmarks, or switched off, the keypoints stage does not run: the paths
+    # are smoothed alone, the same for all three
+    smoothed = run(TrackerConfig(keypoints=False), views)
     without = run(TrackerConfig(), None)
     subtraction = run(TrackerConfig(), [views[0], None])  # a camera without landmarks
-    assert alone.fitted is None and without.fitted is None and subtraction.fitted is None
-    for same in (without, subtraction):
-        np.testing.assert_array_equal(same.joints_m, alone.joints_m)
+    for same in (smoothed, without, subtraction):
+        assert same.fitted is not None and same.fitted.trusted is None
+        np.testing.assert_array_equal(same.joints_m, smoothed.joints_m)
         np.testing.assert_array_equal(same.entries, alone.entries)
-    np.testing.assert_array_equal(alone.joints_m, alone.result.joint_positions_m)
-    assert fitted.fitted is not None and fitted.fitted.trusted.mean() > 0.9
+    fitted = run(TrackerConfig(), views)
+    assert fitted.fitted.trusted is not None and fitted.fitted.trusted.mean() > 0.9
     np.testing.assert_array_equal(fitted.entries, alone.entries)
 
     def error_mm(tracked):
         own = keypoints_of(dictionary.joint_names, tracked.joints_m)
         return 1000 * np.linalg.norm(own - points, axis=-1).mean()
 
+    def jitter_mm(tracked):
+        own = keypoints_of(dictionary.joint_names, tracked.joints_m)
+        return 1000 * np.linalg.norm(np.diff(own, 2, axis=0), axis=-1).mean()
+
     assert error_mm(fitted) < error_mm(alone) - 10, (error_mm(fitted), error_mm(alone))
+    assert jitter_mm(smoothed) < 0.8 * jitter_mm(alone), (jitter_mm(smoothed), jitter_mm(alone))
+    assert error_mm(smoothed) < error_mm(alone) - 3, (error_mm(smoothed), error_mm(alone))
     with pytest.raises(InvalidParameterError, match="keypoint_weight"):
         TrackerConfig(keypoint_weight=1.5)
     with pytest.raises(InvalidParameterError, match="min_confidence"):

@@ -13,15 +13,16 @@ CMU walks and turns in every direction), or loaded from a saved dictionary ``.np
 
 With the learned and fused front ends, each estimate is then fitted to the joints
 triangulated from every camera's pose landmarks (the keypoints stage,
-:mod:`eigmotion.tracking.keypoint_fit`; ``--no-keypoints``: the tracker alone).
+:mod:`eigmotion.tracking.keypoint_fit`; ``--no-keypoints``: not).  Last, with any
+front end, the joints' paths are smoothed over time and each estimate fitted to them
+(``--joint-smooth-s``; 0: not).
 
 Outputs: ``--bvh-out`` (the estimated motion; with ``--reference``, variable-speed
 playback of that reference motion), ``--joints-out`` (``.npz``: ``names``,
 ``positions`` (n_frames, n_joints, 3) metres in the calibration's world frame,
 ``frame_time_s``, ``frames``), ``--overlay-out`` (the input views side by side with
-the estimated silhouette's outline drawn in yellow, and the keypoints stage's fitted
-skeleton in cyan), ``--dictionary-out`` (the
-dictionary as ``.npz``, for reuse).
+the estimated silhouette's outline drawn in yellow, and the fitted skeleton in cyan),
+``--dictionary-out`` (the dictionary as ``.npz``, for reuse).
 """
 
 from __future__ import annotations
@@ -151,7 +152,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-keypoints",
         action="store_true",
         help="do not fit the estimates to the joints triangulated from the pose "
-        "network's landmarks (the silhouette tracker alone)",
+        "network's landmarks",
+    )
+    parser.add_argument(
+        "--joint-smooth-s",
+        type=float,
+        default=TrackerConfig.joint_smooth_s,
+        help="the joints' paths smoothed over time by a Gaussian of this sigma, seconds, "
+        "and each estimate fitted to them (default: %(default)s; 0: the silhouette "
+        "tracker's postures as they are, with --no-keypoints)",
     )
     parser.add_argument(
         "--reference",
@@ -198,7 +207,8 @@ def _load_masks(args: argparse.Namespace, cameras) -> tuple[list[np.ndarray], fl
 
 
 def _root_shift(tracked) -> np.ndarray:
-    """(E, 3) how far the keypoints stage moved each estimate's root, metres."""
+    """(E, 3) how far the fit (keypoints stage, smoothing) moved each estimate's root,
+    metres."""
     return tracked.joints_m[:, 0] - _held(tracked.result.joint_positions_m[:, 0], tracked)
 
 
@@ -212,7 +222,8 @@ def _held(values: np.ndarray, tracked) -> np.ndarray:
 
 def _overlay_frames(args, tracker, tracked, masks) -> np.ndarray:
     """(E, H, W_total, 3) uint8: input views with the estimate's outline in yellow and,
-    where the keypoints stage ran, its fitted skeleton in cyan."""
+    where the postures were fitted (:func:`~eigmotion.tracking.pipeline.fitted_poses`),
+    the fitted skeleton in cyan."""
     result = tracked.result
     views = []
     for c, video in enumerate(args.videos):
@@ -265,6 +276,7 @@ def run(args: argparse.Namespace) -> int:
         travel_tolerance_deg=None if args.no_travel_prior else TrackerConfig.travel_tolerance_deg,
         scale_from_top=args.scale_from_top,
         keypoints=not args.no_keypoints,
+        joint_smooth_s=args.joint_smooth_s,
     )
     masks, fps, landmarks = _load_masks(args, calibration.cameras)
     dictionary = load_dictionary(args)

@@ -203,7 +203,8 @@ def track_set(
     except EigmotionError as exc:
         return TrackedSet(folder.name, None, 0, 0.0, 0.0, " ".join(str(exc).split()))
     iou = float(np.mean(ious)) if len(ious) == len(masks) else None
-    trusted = None if tracked.fitted is None else float(tracked.fitted.trusted.mean())
+    fitted = tracked.fitted
+    trusted = None if fitted is None or fitted.trusted is None else float(fitted.trusted.mean())
     return TrackedSet(
         folder.name, errors, tracked.result.n_estimates, tracked.cpu_s, tracked.wall_s,
         silhouette_iou=iou, keypoints_trusted=trusted,

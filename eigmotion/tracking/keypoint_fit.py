@@ -18,6 +18,10 @@ of a joint's whole subtree (so every bone keeps its length):
 A bone turns only where its child's triangulated joint is trusted; elsewhere the
 tracker's posture stands.  The triangulated joints are smoothed first by a centred
 (1, 2, 1) filter over the frames where they are trusted (no lag).
+
+The same fit smooths a track with or without triangulated joints: the joints' paths
+over the clip are smoothed by a Gaussian (:func:`gaussian_over_time`) and every
+estimate is fitted to them once more, all joints trusted.
 """
 
 from __future__ import annotations
@@ -63,14 +67,15 @@ class FittedPoses:
     local_rotations : (E, J, 3, 3) float64
         Each joint's rotation relative to its parent and to the rest pose (the root's
         relative to the world), as :attr:`PostureDictionary.local_rotations`.
-    trusted : (E, K) bool
+    trusted : (E, K) bool or None
         Which of :data:`~eigmotion.tracking.triangulation.KEYPOINT_JOINTS` were
-        trusted per estimate.
+        trusted per estimate; None where no triangulated joints were given (the paths
+        smoothed alone).
     """
 
     joints_m: np.ndarray
     local_rotations: np.ndarray
-    trusted: np.ndarray
+    trusted: np.ndarray | None
 
     @property
     def root_positions_m(self) -> np.ndarray:
@@ -229,7 +234,7 @@ class KeypointFitter:
         self,
         entries: np.ndarray,
         joints_m: np.ndarray,
-        targets: np.ndarray,
+        targets: np.ndarray | None,
         weight: float = 1.0,
         smooth_estimates: float = 0.0,
     ) -> FittedPoses:
@@ -242,9 +247,10 @@ class KeypointFitter:
         joints_m : (E, J, 3) float
             The tracker's joint positions per estimate (its body scale and position),
             world metres.
-        targets : (E, K, 3) float
+        targets : (E, K, 3) float or None
             Triangulated :data:`~eigmotion.tracking.triangulation.KEYPOINT_JOINTS`,
-            NaN where not trusted; smoothed here (:func:`smooth_targets`).
+            NaN where not trusted; smoothed here (:func:`smooth_targets`).  None: no
+            first fit, the paths are only smoothed.
         weight : float
             In [0, 1]: each trusted joint's target is this far from the tracker's joint
             toward the triangulated one (1: the triangulated joint itself).
@@ -258,11 +264,14 @@ class KeypointFitter:
         rotations = self.dictionary.world_rotations(entries).copy()
         names = list(self.dictionary.joint_names)
         keypoints = [names.index(n) for n in KEYPOINT_JOINTS]
-        own = positions[:, keypoints]
-        smoothed = smooth_targets(own + float(weight) * (np.asarray(targets) - own))
-        for e in range(len(entries)):
-            if np.isfinite(positions[e]).all():
-                self.fit_frame(positions[e], rotations[e], smoothed[e])
+        trusted = None
+        if targets is not None:
+            own = positions[:, keypoints]
+            smoothed = smooth_targets(own + float(weight) * (np.asarray(targets) - own))
+            trusted = np.isfinite(smoothed).all(axis=-1)
+            for e in range(len(entries)):
+                if np.isfinite(positions[e]).all():
+                    self.fit_frame(positions[e], rotations[e], smoothed[e])
         if smooth_estimates > 0:
             paths = gaussian_over_time(positions[:, keypoints], smooth_estimates)
             for e in range(len(entries)):
@@ -271,4 +280,4 @@ class KeypointFitter:
         parents = self.dictionary.parents
         local = rotations.copy()
         local[:, 1:] = np.einsum("ejba,ejbc->ejac", rotations[:, parents[1:]], rotations[:, 1:])
-        return FittedPoses(positions, local, np.isfinite(smoothed).all(axis=-1))
+        return FittedPoses(positions, local, trusted)

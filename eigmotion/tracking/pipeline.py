@@ -94,13 +94,13 @@ class TrackedClip:
         Body-centre positions, world metres.
     joints_m : (E, J, 3) float64
         Joint positions, world metres (``--joints-out``'s ``positions``): the fitted
-        ones when the keypoints stage ran.
+        ones when the keypoints stage or the paths' smoothing ran.
     wall_s, cpu_s : float
         Wall and CPU time (this process, :func:`time.process_time`) of the tracking
-        itself (the keypoints stage included), seconds.
+        itself (the keypoints stage and the smoothing included), seconds.
     fitted : FittedPoses or None
-        The keypoints stage's postures (:mod:`~eigmotion.tracking.keypoint_fit`);
-        None when it did not run.
+        The postures of the keypoints stage and the paths' smoothing
+        (:func:`fitted_poses`); None when neither ran.
     """
 
     result: TrackResult
@@ -114,30 +114,36 @@ class TrackedClip:
     fitted: FittedPoses | None = None
 
 
-def keypoint_stage(
-    tracker: SilhouetteTracker, result: TrackResult, landmarks: Sequence[np.ndarray]
+def fitted_poses(
+    tracker: SilhouetteTracker,
+    result: TrackResult,
+    landmarks: Sequence[np.ndarray] | None,
 ) -> FittedPoses:
     """The tracker's estimates fitted to the joints triangulated from every camera's
-    landmarks (:func:`~eigmotion.tracking.triangulation.triangulate_clip`, then
-    :class:`~eigmotion.tracking.keypoint_fit.KeypointFitter`).
+    landmarks (the keypoints stage: :func:`~eigmotion.tracking.triangulation.triangulate_clip`,
+    then :class:`~eigmotion.tracking.keypoint_fit.KeypointFitter`), then to their own
+    paths smoothed over time (``joint_smooth_s``).
 
     Parameters
     ----------
     tracker : SilhouetteTracker
     result : TrackResult
         Its estimates of the clip.
-    landmarks : sequence of (F, 33, 4) float
-        Per camera, the pose network's landmarks of every input frame.
+    landmarks : sequence of (F, 33, 4) float, or None
+        Per camera, the pose network's landmarks of every input frame; None: the paths
+        are only smoothed.
     """
-    names = list(result.joint_names)
-    own = result.joint_positions_m[:, [names.index(n) for n in KEYPOINT_JOINTS]]
-    views = [np.asarray(m)[result.frames] for m in landmarks]
-    joints = triangulate_clip(tracker.cameras, views, own)
+    targets = None
+    if landmarks is not None:
+        names = list(result.joint_names)
+        own = result.joint_positions_m[:, [names.index(n) for n in KEYPOINT_JOINTS]]
+        views = [np.asarray(m)[result.frames] for m in landmarks]
+        targets = triangulate_clip(tracker.cameras, views, own).positions_m
     fitter = KeypointFitter(tracker.dictionary)
     return fitter.fit(
-        result.entries, result.joint_positions_m, joints.positions_m,
+        result.entries, result.joint_positions_m, targets,
         tracker.config.keypoint_weight,
-        tracker.config.keypoint_smooth_s / result.frame_time_s,
+        tracker.config.joint_smooth_s / result.frame_time_s,
     )  # fmt: skip
 
 
@@ -163,7 +169,7 @@ def track_clip(
         Per camera, the pose network's landmarks of every frame (x, y in frame pixels,
         continuous; visibility; presence), as the learned and fused front ends give
         them.  With every camera's, two cameras or more and the tracker's
-        ``keypoints`` on, the keypoints stage runs (:func:`keypoint_stage`).
+        ``keypoints`` on, the keypoints stage runs (:func:`fitted_poses`).
 
     Raises
     ------
@@ -175,10 +181,12 @@ def track_clip(
     step = max(1, int(round(fps / estimate_fps)))
     wall, cpu = time.perf_counter(), time.process_time()
     result = tracker.track(masks, frame_step=step, frame_time_s=1.0 / fps)
-    fitted = None
     stage = tracker.config.keypoints and len(masks) >= 2
-    if stage and landmarks is not None and all(m is not None for m in landmarks):
-        fitted = keypoint_stage(tracker, result, landmarks)
+    if not (stage and landmarks is not None and all(m is not None for m in landmarks)):
+        landmarks = None
+    fitted = None
+    if landmarks is not None or tracker.config.joint_smooth_s > 0:
+        fitted = fitted_poses(tracker, result, landmarks)
     cpu = time.process_time() - cpu
     wall = time.perf_counter() - wall
     if not np.any(result.found):

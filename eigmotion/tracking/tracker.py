@@ -159,9 +159,11 @@ class TrackerConfig:
     keypoint_weight : float
         How far, in [0, 1], each fitted joint's target lies from the tracker's joint
         toward the triangulated one.
-    keypoint_smooth_s : float
-        Then the fitted joints' paths are smoothed over time by a Gaussian of this
-        sigma, seconds, and each estimate fitted to them once more; 0: not.
+    joint_smooth_s : float
+        Last, with or without the keypoints stage, the joints' paths over the clip are
+        smoothed by a Gaussian of this sigma, seconds, and each estimate is fitted to
+        them (:meth:`~eigmotion.tracking.keypoint_fit.KeypointFitter.fit`, bone lengths
+        kept); 0: not.
     """
 
     layer_step: int = 3
@@ -192,7 +194,7 @@ class TrackerConfig:
     path_weight: float = 0.1
     keypoints: bool = True
     keypoint_weight: float = 0.5
-    keypoint_smooth_s: float = 0.08
+    joint_smooth_s: float = 0.08
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: order of ``body_scale_range`` is checked after.
@@ -223,7 +225,7 @@ class TrackerConfig:
         "path_weight": Interval(Real, 0.0, None, noun=""),
         "keypoints": Options(bool, [True, False]),
         "keypoint_weight": Interval(Real, 0.0, 1.0, noun="a fraction"),
-        "keypoint_smooth_s": Interval(Real, 0.0, 10.0, noun="seconds"),
+        "joint_smooth_s": Interval(Real, 0.0, 10.0, noun="seconds"),
     }
 
     def __post_init__(self):
