@@ -184,7 +184,7 @@ def test_no_keypoints_and_no_smoothing(scene, tracked, capsys, tmp_path):
     ``--no-keypoints`` gives the same joints and motion.  The joints' paths are
     smoothed (the BVH's joints are ``--joints-out``'s); ``--joint-smooth-s 0`` gives
     the tracker's postures as they are, which move more from estimate to estimate."""
-    root, paths, truth, *_ = scene
+    root, paths, *_ = scene
     work, *_ = tracked
     common = ["--calib", root / "cams.json", *paths, "--dictionary", work / "dict.npz"]
     code, _, err = run_cli(
