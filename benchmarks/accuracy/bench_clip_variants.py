@@ -64,6 +64,10 @@ SHAKE_ZOOM = 1.08
 DARK_GAIN = 0.45
 DARK_NOISE = 6.0
 
+#: A room at night: the same, darker, with less noise (a camera at its limit).
+NIGHT_GAIN = 0.2
+NIGHT_NOISE = 4.0
+
 #: JPEG quality of the heavily compressed copy (OpenCV's 0-100 scale).
 JPEG_QUALITY = 25
 
@@ -152,9 +156,15 @@ def _shaken(frames: np.ndarray, fps: float, rng: np.random.Generator):
     return np.stack(out), fps
 
 
-def _dark(images: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    noisy = images.astype(np.float32) * DARK_GAIN + rng.normal(0.0, DARK_NOISE, images.shape)
+def _dark(
+    images: np.ndarray, rng: np.random.Generator, gain: float = DARK_GAIN, noise: float = DARK_NOISE
+) -> np.ndarray:
+    noisy = images.astype(np.float32) * gain + rng.normal(0.0, noise, images.shape)
     return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+
+
+def _night(images: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    return _dark(images, rng, NIGHT_GAIN, NIGHT_NOISE)
 
 
 def _jpeg(images: np.ndarray) -> np.ndarray:
@@ -196,6 +206,8 @@ VARIANTS = {
                 "zoomed 8 %", _shaken, None),
         Variant("dark", f"low light: × {DARK_GAIN} and sensor noise σ {DARK_NOISE:g}",
                 lambda f, fps, rng: (_dark(f, rng), fps), lambda i, rng: _dark(i, rng)),
+        Variant("night", f"a room at night: × {NIGHT_GAIN} and sensor noise σ {NIGHT_NOISE:g}",
+                lambda f, fps, rng: (_night(f, rng), fps), _night),
         Variant("jpeg", f"every frame through JPEG at quality {JPEG_QUALITY}",
                 lambda f, fps, rng: (_jpeg(f), fps), lambda i, rng: _jpeg(i[None])[0]),
     )

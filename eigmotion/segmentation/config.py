@@ -79,6 +79,10 @@ class SilhouetteConfig:
         masks the pieces that show the scene as the clip itself shows it where the
         person is not (a stool the person sits on;
         :func:`~eigmotion.segmentation.fused.without_seen_scene`).
+    brighten_dim : bool
+        The learned and fused front ends show the person networks a dim clip
+        brightened (:func:`~eigmotion.segmentation.learned.brightened`); the rest of
+        the cut sees the frames as they are.
     """
 
     background: str = "grabcut"
@@ -97,6 +101,7 @@ class SilhouetteConfig:
     work_max_side_px: int = 4096
     work_min_side_px: int = 0
     drop_seen_scene: bool = True
+    brighten_dim: bool = True
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: high factor's lower bound and the shadow ratio's order are checked after.
@@ -115,6 +120,7 @@ class SilhouetteConfig:
         "work_max_side_px": Interval(Integral, 64, 4096),
         "work_min_side_px": Interval(Integral, 0, 4096),
         "drop_seen_scene": Options(bool, [True, False]),
+        "brighten_dim": Options(bool, [True, False]),
     }
 
     def __post_init__(self):

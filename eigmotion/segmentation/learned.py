@@ -11,9 +11,9 @@ flag that a person is there out).
 
 Each frame is looked at twice (a frame smaller than
 :attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_min_side_px` enlarged
-first: :func:`enlargement`).  First the selfie network sees it whole, resized to its
-input (no cropping); its probabilities, resized back to the working size of the
-classical path
+first: :func:`enlargement`; a dim clip brightened first: :func:`brightened`).  First
+the selfie network sees it whole, resized to its input (no cropping); its
+probabilities, resized back to the working size of the classical path
 (:attr:`~eigmotion.segmentation.config.SilhouetteConfig.work_max_side_px`) and cut at
 :data:`PERSON_PROBABILITY`, give a box around the person.  Where it finds no one and
 there is no person of the frame before to follow (below), it looks again at
@@ -138,6 +138,19 @@ PERSON_SHARE = 0.3
 
 #: The clip shows as many people as at least this share of its frames do.
 PEOPLE_FRAME_SHARE = 1.0 / 3.0
+
+#: A clip is dim when the 99th percentile of its pixels' brightness (the mean of R, G
+#: and B, 0-255) is under this: the networks then see it brightened (:func:`brightened`).
+DIM_LEVEL = 64.0
+
+#: ... by the gain that brings that percentile to this, ...
+BRIGHT_LEVEL = 200.0
+
+#: ... at most this gain; the gain multiplies the sensor's noise too, so the brightened
+#: frames are smoothed by a bilateral filter (diameter px, colour sigma in grey levels,
+#: space sigma px), which keeps the person's edges.
+MAX_GAIN = 4.0
+DIM_DENOISE = (5, 40.0, 3.0)
 
 
 def resolve_segmenter(segmenter: str, with_background: bool) -> str:
@@ -323,6 +336,36 @@ def learned_masks(
     return masks, people
 
 
+def brightened(frames: np.ndarray) -> np.ndarray:
+    """A dim clip brightened as a camera's exposure would: every frame multiplied by
+    one gain that brings the 99th percentile of the clip's brightness to
+    :data:`BRIGHT_LEVEL` (at most :data:`MAX_GAIN`), saturating at 255, then smoothed
+    by a bilateral filter (:data:`DIM_DENOISE`); a clip whose percentile is
+    :data:`DIM_LEVEL` or more is returned as it is.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8
+        RGB.
+
+    Returns
+    -------
+    (F, H, W, 3) uint8
+        ``frames`` itself where the clip is not dim.
+    """
+    if not len(frames):
+        return frames
+    sample = frames[:: max(1, len(frames) // 12), ::2, ::2]  # 12 frames, every 4th pixel
+    level = float(np.percentile(sample.mean(axis=-1, dtype=np.float32), 99))
+    if level >= DIM_LEVEL:
+        return frames
+    gain = min(MAX_GAIN, BRIGHT_LEVEL / max(level, 1.0))
+    return np.stack([
+        cv2.bilateralFilter(cv2.convertScaleAbs(frame, alpha=gain), *DIM_DENOISE)
+        for frame in frames
+    ])  # fmt: skip
+
+
 def learned_masks_and_landmarks(
     frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig,
     second_look: str | None = None,
@@ -374,6 +417,8 @@ def learned_masks_and_landmarks(
             "the pose network runs through LiteRT only: pip install ai-edge-litert "
             "(installed with eigmotion where LiteRT has a wheel)"
         )
+    if config.brighten_dim:
+        frames = brightened(frames)
     h, w = size
     frame_size = frames.shape[1:3]
     first = person_probabilities(np.stack([model_input(f) for f in frames]))
