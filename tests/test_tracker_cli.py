@@ -209,8 +209,9 @@ def test_no_keypoints_and_no_smoothing(scene, tracked, capsys, tmp_path):
         return np.linalg.norm(np.diff(joints[1:], 2, axis=0), axis=-1).mean()
 
     assert jitter(smoothed) < 0.8 * jitter(raw), (jitter(smoothed), jitter(raw))
-    # the BVH holds the smoothed postures: its joints lie as near the smoothed ones as
-    # the tracker's own BVH lies near its joints (a few millimetres)
+    # the BVH holds the smoothed postures: its joints are the smoothed ones but for the
+    # first estimates, tracked before the body scale settled (the BVH is drawn at the
+    # settled scale: a few millimetres off there)
     assert np.abs(replayed - smoothed).max() < 0.01 < np.abs(raw - smoothed).max()
     code, _, err = run_cli([*common, "--joint-smooth-s", "-1"], capsys)
     assert code == 2 and len(err) == 1 and "joint_smooth_s" in err[0], err
