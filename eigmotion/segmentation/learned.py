@@ -355,7 +355,7 @@ def brightened(frames: np.ndarray) -> np.ndarray:
     """
     if not len(frames):
         return frames
-    sample = frames[:: max(1, len(frames) // 12), ::4, ::4]  # 12 frames, 1 pixel in 16
+    sample = frames[:: max(1, len(frames) // 12), ::4, ::4]  # 12-23 frames, 1 pixel in 16
     level = float(np.percentile(sample.mean(axis=-1, dtype=np.float32), 99))
     if level >= DIM_LEVEL:
         return frames
