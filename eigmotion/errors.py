@@ -58,6 +58,11 @@ class VideoError(EigmotionError, ValueError):
     """A clip that cannot be read or holds no usable person."""
 
 
+class SceneMismatchError(VideoError):
+    """Frames that differ from the empty scene they are compared with over most of the
+    picture: an image of another scene, a moving camera, or a cut to another shot."""
+
+
 class DatabaseError(EigmotionError, RuntimeError):
     """A motion database that is missing, of another schema, or inconsistent."""
 

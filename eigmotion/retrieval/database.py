@@ -56,6 +56,7 @@ from eigmotion.retrieval.results import (
     QueryResult,
     lost_person_warning,
     people_warning,
+    shots_warning,
 )
 from eigmotion.retrieval.search import TreeIndex
 from eigmotion.retrieval.sequences import (
@@ -573,8 +574,9 @@ class MotionDatabase:
         result : QueryResult
             Segment frames are frames of the clip; ``warnings`` says when more than
             one person is in view (:attr:`~eigmotion.segmentation.video.ClipMasks.
-            people`) and when no person was found in many of the frames taken
-            (:func:`~eigmotion.retrieval.results.lost_person_warning`).
+            people`), when no person was found in many of the frames taken
+            (:func:`~eigmotion.retrieval.results.lost_person_warning`) and when the
+            clip cuts between shots (:func:`~eigmotion.retrieval.results.shots_warning`).
             ``timing_ms["silhouettes"]`` is the time the answer's silhouettes took;
             with ``every_frame``,
             ``timing_ms["every_frame_silhouettes"]`` that of the others.
@@ -620,6 +622,8 @@ class MotionDatabase:
         timing["total"] = (time.perf_counter() - t0) * 1e3
         warnings = () if clip.people <= 1 else (people_warning(clip.people),)
         warnings += () if lost is None else (lost,)
+        cuts = shots_warning(clip.shot_starts, clip.frame_indices)
+        warnings += () if cuts is None else (cuts,)
         result = dataclasses.replace(result, segments=segments, timing_ms=timing, warnings=warnings)
         return result, clip
 

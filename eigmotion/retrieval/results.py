@@ -211,6 +211,36 @@ def people_warning(people: int) -> str:
     )
 
 
+def shots_warning(shot_starts: np.ndarray | None, frame_indices: np.ndarray) -> str | None:
+    """The answer's warning for an edited clip, one that cuts between shots.
+
+    Parameters
+    ----------
+    shot_starts : (S,) int or None
+        The first frame taken of each shot, 0 first
+        (:attr:`~eigmotion.segmentation.video.ClipMasks.shot_starts`).
+    frame_indices : (F',) int
+        The clip frame of each frame taken.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"the clip cuts to another view 2 times (at clip frames 78, 122): one
+        camera is assumed, and the answer runs across the cuts; query each shot on its
+        own"``; None for one shot (or None).
+    """
+    if shot_starts is None or len(shot_starts) <= 1:
+        return None
+    cuts = [int(frame_indices[i]) for i in shot_starts[1:]]
+    shown = ", ".join(str(c) for c in cuts[:3])
+    more = f" and {len(cuts) - 3} more" if len(cuts) > 3 else ""
+    times = "once" if len(cuts) == 1 else f"{len(cuts)} times"
+    return (
+        f"the clip cuts to another view {times} (at clip frames {shown}{more}): one "
+        "camera is assumed, and the answer runs across the cuts; query each shot on its own"
+    )
+
+
 #: A clip whose silhouettes are empty in at least this share of its frames (and in
 #: :data:`LOST_PERSON_MIN_FRAMES` or more) gets :func:`lost_person_warning`.
 LOST_PERSON_SHARE = 0.1

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import InvalidParameterError, SceneMismatchError, VideoError
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.kernels import lab_differences, vector_lengths
 from eigmotion.segmentation.workers import worker_threads
@@ -220,7 +220,7 @@ def clip_levels(evidence: list[Evidence], config: SilhouetteConfig) -> Levels:
 
     Raises
     ------
-    VideoError
+    SceneMismatchError
         The frames differ from the background over most of the picture (a median
         above :data:`MAX_SCENE_DIFFERENCE`): no threshold could tell the person from it.
     """
@@ -236,7 +236,7 @@ def clip_levels(evidence: list[Evidence], config: SilhouetteConfig) -> Levels:
     raw_noise = float(raw_job.result())
     smooth_noise = float(smooth_job.result()) if smoothed else raw_noise
     if not smooth_noise <= MAX_SCENE_DIFFERENCE:
-        raise VideoError(
+        raise SceneMismatchError(
             f"the frames differ from the empty scene over most of the picture (median "
             f"colour difference {smooth_noise:.0f} ΔE; frames of the same empty view "
             f"differ from it by about 1–3): a background image of another scene or view, "

@@ -50,7 +50,9 @@ Without an image of the empty scene the learned front end takes the same pieces 
 against the scene the clip shows where the learned masks leave it
 (:func:`~eigmotion.segmentation.background.seen_scene`), on the pixels it shows in
 enough of the frames: where the person never leaves a pixel nothing is known of the
-scene there, and nothing is taken out (:func:`without_seen_scene`).
+scene there, and nothing is taken out (:func:`without_seen_scene`).  Each shot of an
+edited clip shows its own scene (:mod:`~eigmotion.segmentation.shots`); a shot whose
+frames show no steady scene (the camera pans or zooms) keeps its learned masks.
 """
 
 from __future__ import annotations
@@ -60,10 +62,11 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError
+from eigmotion.errors import InvalidParameterError, SceneMismatchError
 from eigmotion.segmentation.background import seen_scene
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.learned import person_in_frame
+from eigmotion.segmentation.shots import shot_spans
 from eigmotion.segmentation.subtraction import frame_chunks, subtract_scene
 
 #: What the subtraction finds is kept within this many pixels (working size) of the
@@ -243,7 +246,10 @@ def without_scene(
 
 
 def without_seen_scene(
-    learned: np.ndarray, frames: np.ndarray, config: SilhouetteConfig
+    learned: np.ndarray,
+    frames: np.ndarray,
+    config: SilhouetteConfig,
+    shot_starts: np.ndarray | None = None,
 ) -> np.ndarray:
     """``learned`` (F, H, W) bool less the pieces that show the scene, for a clip
     without an image of the empty scene: the scene is the one the clip itself shows
@@ -258,6 +264,10 @@ def without_seen_scene(
     person standing still keeps every pixel; that is the guard here, in place of
     :data:`SCENE_FOUND_SHARE`.
 
+    Each shot is taken on its own, its scene from its own frames; a shot whose frames
+    differ from the scene they show over most of the picture (the camera moves: the
+    subtraction's :class:`~eigmotion.errors.SceneMismatchError`) keeps its masks.
+
     Parameters
     ----------
     learned : (F, H, W) bool
@@ -266,12 +276,31 @@ def without_seen_scene(
         The same frames, RGB, at the masks' size.
     config : SilhouetteConfig
         As for the subtraction without an image (its ``upper_body_frac`` unused).
+    shot_starts : (S,) int, optional
+        The first frame of each shot (:func:`~eigmotion.segmentation.shots.
+        shot_starts`), 0 first; default the clip is one shot.
 
     Returns
     -------
     (F, H, W) bool
     """
     learned = np.asarray(learned, bool)
+    out = learned.copy()
+    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
+    for first, stop in shot_spans(starts, len(learned)):
+        try:
+            out[first:stop] = _without_scene_of_shot(
+                learned[first:stop], frames[first:stop], config
+            )
+        except SceneMismatchError:
+            pass  # no steady scene to take out: the learned masks stand
+    return out
+
+
+def _without_scene_of_shot(
+    learned: np.ndarray, frames: np.ndarray, config: SilhouetteConfig
+) -> np.ndarray:
+    """:func:`without_seen_scene` of one shot."""
     scene = seen_scene(frames, learned, config)
     chunks = frame_chunks(frames)
     # against an estimated scene the shadow test stands everywhere (extract_silhouettes)

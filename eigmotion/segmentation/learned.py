@@ -43,7 +43,7 @@ first pass that finds nothing above :data:`PERSON_PROBABILITY` is searched again
 network (the first pass stands); the pose network always sees a square centred on the
 person, black beyond the frame.  Then, as in the classical path, the largest blob and
 the big pieces beside it are the person (:func:`person_in_frame`), and a frame whose
-person covers more than :data:`OUTLIER_AREA` times the clip's median area is left empty:
+person covers more than :data:`OUTLIER_AREA` times its shot's median area is left empty:
 the network has taken part of the scene (a rendered floor) for the person there
 (the median over the frames whose second look stands, where there are any: a first
 look sure of a floor in many frames does not set it).  The
@@ -74,6 +74,7 @@ from eigmotion.segmentation.networks import (
     selfie_network,
 )
 from eigmotion.segmentation.networks import runtime as runtime
+from eigmotion.segmentation.shots import shot_spans
 
 #: The front ends a query may cut the person out with: ``auto`` is ``learned`` when no
 #: image of the empty scene is given and ``fused`` (the learned masks with what
@@ -113,8 +114,8 @@ SECOND_LOOK = "pose"
 #: bent double measured 0.87-0.98, what it took for a person in an empty scene 0.56-0.58.
 SURE_PROBABILITY = 0.8
 
-#: A frame whose person covers more than this many times the clip's median person area
-#: is left empty (the network took part of the scene for the person).
+#: A frame whose person covers more than this many times the median person area of its
+#: shot is left empty (the network took part of the scene for the person).
 OUTLIER_AREA = 3.0
 
 #: A frame's square also holds the person the pose network found in the frame before
@@ -368,7 +369,7 @@ def brightened(frames: np.ndarray) -> np.ndarray:
 
 def learned_masks_and_landmarks(
     frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig,
-    second_look: str | None = None,
+    second_look: str | None = None, shot_starts: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The person in each frame, the people in view, and the person's body landmarks
     in the image and in 3D (two passes of the networks: the module's description).
@@ -384,12 +385,16 @@ def learned_masks_and_landmarks(
     second_look : {"pose", "selfie"}, optional
         The network that looks again at the square around the person: ``"pose"`` (the
         default when LiteRT is installed) or ``"selfie"`` (the default without).
+    shot_starts : (S,) int, optional
+        The first frame of each shot of an edited clip (:func:`~eigmotion.segmentation.
+        shots.shot_starts`): the person is not followed across a cut, and the outlier
+        rule compares each frame with its own shot's person.  Default one shot.
 
     Returns
     -------
     masks : (F, H', W') bool
         All False in a frame where no blob covers ``min_person_frac`` of the image, or
-        where the person covers more than :data:`OUTLIER_AREA` times the clip's median.
+        where the person covers more than :data:`OUTLIER_AREA` times its shot's median.
     people : (F,) int64
         Blobs per frame large enough to be a person (:data:`PERSON_SHARE`): the more
         of the two passes' counts (the square may leave out a person beside).
@@ -434,7 +439,10 @@ def learned_masks_and_landmarks(
     people = np.zeros(len(frames), np.int64)
     followed = None  # the box of the pose network's person in the frame before
     looked_again = np.zeros(len(frames), bool)  # frames whose second look stands
+    cuts = set() if shot_starts is None else {int(i) for i in shot_starts}
     for i, box in enumerate(boxes):
+        if i in cuts:  # another view: the person of the frame before is not this one
+            followed = None
         before, followed, found = followed, None, False
         if not seen[i]:  # the whole frame shows no one
             if before is not None:  # follow the person of the frame before
@@ -472,6 +480,15 @@ def learned_masks_and_landmarks(
         people[i] = max(people[i], whole_frame_people[i])
         if found and masks[i].any():
             followed = _mask_box(masks[i], frame_size)
+    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
+    for first, stop in shot_spans(starts, len(frames)):
+        _drop_outliers(masks[first:stop], people[first:stop], looked_again[first:stop])
+    return masks, people, landmarks, world
+
+
+def _drop_outliers(masks: np.ndarray, people: np.ndarray, looked_again: np.ndarray) -> None:
+    """Empty, in place, the masks (F, H, W) bool of a shot whose person covers more than
+    :data:`OUTLIER_AREA` times the shot's median person, and zero their ``people``."""
     area = masks.sum(axis=(1, 2))
     if area.any():
         # the typical person is the second look's where it has one (a first look that
@@ -481,7 +498,6 @@ def learned_masks_and_landmarks(
         )
         outliers = area > OUTLIER_AREA * np.median(typical)
         masks[outliers], people[outliers] = False, 0
-    return masks, people, landmarks, world
 
 
 def _tiles_look(frame: np.ndarray, size: tuple[int, int]) -> np.ndarray | None:

@@ -43,6 +43,7 @@ from eigmotion.segmentation.learned import (
     stored_frame,
     working_size,
 )
+from eigmotion.segmentation.shots import shot_spans, shot_starts
 from eigmotion.segmentation.subtraction import (
     CHUNK_FRAMES,
     frame_chunks,
@@ -193,6 +194,11 @@ class ClipMasks:
     frame_size : (int, int) or None
         (H, W) of the clip's frames, the pixels ``landmarks`` are given in; None where
         ``landmarks`` are.
+    shot_starts : (S,) int64 or None
+        The first mask of each shot of an edited clip (:func:`~eigmotion.segmentation.
+        shots.shot_starts`), 0 first; ``[0]`` for a clip of one shot.  None where the
+        front end did not look (stored masks; the subtraction of an image of the
+        empty scene, which fails on a clip of several scenes).
     """
 
     masks: np.ndarray
@@ -206,6 +212,7 @@ class ClipMasks:
     landmarks: np.ndarray | None = None
     world_landmarks: np.ndarray | None = None
     frame_size: tuple[int, int] | None = None
+    shot_starts: np.ndarray | None = None
 
 
 def load_clip_masks(
@@ -290,16 +297,38 @@ def load_clip_masks(
     except BaseException:
         stream.close()
         raise
-    if background is None:  # estimated from the whole clip
+    starts = None
+    if background is None:  # estimated from each shot's frames
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
-        masks = extract_silhouettes(frames, None, config)
+        starts = shot_starts(frames)
+        masks = _shot_by_shot(frames, starts, config)
     else:  # segmented as it is decoded
         small = shrink(background[None], config)[0]
         masks = _person_found(segment_chunks(stream.chunks(CHUNK_FRAMES), small, config), config)
     people = people_in_view(count_people(masks, config))
     return ClipMasks(
-        masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps, people
-    )
+        masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps, people,
+        shot_starts=starts,
+    )  # fmt: skip
+
+
+def _shot_by_shot(frames: np.ndarray, starts: np.ndarray, config: SilhouetteConfig) -> np.ndarray:
+    """:func:`extract_silhouettes` without a background of each shot of ``frames``
+    (F, H, W, 3) uint8 whose first frames are ``starts``: (F, H, W) bool.  A shot where
+    no person is found, or whose frames show no steady scene, has empty masks; the
+    first such error is raised when that is so of every shot."""
+    if len(starts) == 1:
+        return extract_silhouettes(frames, None, config)
+    masks = np.zeros(frames.shape[:3], bool)
+    errors = []
+    for first, stop in shot_spans(starts, len(frames)):
+        try:
+            masks[first:stop] = extract_silhouettes(frames[first:stop], None, config)
+        except VideoError as error:
+            errors.append(error)
+    if len(errors) == len(starts):
+        raise errors[0]
+    return masks
 
 
 def _learned_clip_masks(
@@ -316,9 +345,11 @@ def _learned_clip_masks(
     ``background_path`` (the fused front end) each decoded frame is also shrunk to the
     working size and cut out against the image of the empty scene, and the two are
     fused (:func:`~eigmotion.segmentation.fused.fuse_masks`): the clip is decoded once.
-    Without it, and with ``config.drop_seen_scene``, the shrunk frames are kept to take
-    out of the learned masks what shows the scene the clip itself shows
-    (:func:`~eigmotion.segmentation.fused.without_seen_scene`).  Frames smaller than
+    The shrunk frames are kept: the cuts between shots are found on them
+    (:func:`~eigmotion.segmentation.shots.shot_starts`), and without an image, with
+    ``config.drop_seen_scene``, what shows the scene the clip itself shows is taken out
+    of the learned masks (:func:`~eigmotion.segmentation.fused.without_seen_scene`).
+    Frames smaller than
     ``config.work_min_side_px`` are enlarged first
     (:func:`~eigmotion.segmentation.learned.enlargement`), the background image with
     them, and the masks are at the enlarged size; the landmarks are in the clip's
@@ -339,14 +370,14 @@ def _learned_clip_masks(
         if background is not None:
             _check_size(frame.shape[:2], background)
         frame = enlarged(frame, factors[0])
-        if background is not None or config.drop_seen_scene:
-            working.append(shrink(frame[None], config)[0])
+        working.append(shrink(frame[None], config)[0])
         return stored_frame(frame)
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
+    starts = shot_starts(np.stack(working))
     masks, people, landmarks, world = learned_masks_and_landmarks(
-        inputs, working_size(*sizes[0], config), config
+        inputs, working_size(*sizes[0], config), config, shot_starts=starts
     )
     landmark_scale = masks.shape[1] / inputs.shape[1]
     masks = restored_legs(masks, landmarks, landmark_scale)
@@ -358,7 +389,7 @@ def _learned_clip_masks(
         )
     segmenter = "learned"
     if background is None and config.drop_seen_scene:
-        masks = without_seen_scene(masks, np.stack(working), config)
+        masks = without_seen_scene(masks, np.stack(working), config, starts)
     if background is not None:
         small = shrink(enlarged(background, factors[0])[None], config)[0]
         chunks = (
@@ -372,7 +403,7 @@ def _learned_clip_masks(
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
         people_in_view(people), segmenter, hidden_below, _in_frame_pixels(landmarks, sizes[0],
-        inputs.shape[1:3]), world, (int(sizes[0][0]), int(sizes[0][1])),
+        inputs.shape[1:3]), world, (int(sizes[0][0]), int(sizes[0][1])), starts,
     )  # fmt: skip
 
 
