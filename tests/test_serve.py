@@ -261,13 +261,15 @@ def browser():
     driver.quit()
 
 
-def test_page_in_a_real_browser(server, db_path, browser, tmp_path):
+def _answered_on_the_page(browser, url: str, clip: Path, background: Path | None) -> None:
+    """Upload ``clip`` (and ``background``) on the page and wait until the 3D viewer has
+    loaded the answer; the page must have shown progress and no error."""
     from selenium.webdriver.common.by import By
 
-    url, _ = server
     browser.get(url)
-    browser.find_element(By.ID, "clip").send_keys(str(SAMPLES / "kick.mp4"))
-    browser.find_element(By.ID, "background").send_keys(str(SAMPLES / "kick_background.png"))
+    browser.find_element(By.ID, "clip").send_keys(str(clip))
+    if background is not None:
+        browser.find_element(By.ID, "background").send_keys(str(background))
     browser.find_element(By.ID, "submit").click()
     deadline = time.monotonic() + 600
     progress_seen = False
@@ -283,10 +285,18 @@ def test_page_in_a_real_browser(server, db_path, browser, tmp_path):
             break
         time.sleep(0.5)
     assert viewer == "loaded" and progress_seen
+
+
+def test_page_in_a_real_browser(server, db_path, browser, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    url, _ = server
+    _answered_on_the_page(browser, url, SAMPLES / "kick.mp4", SAMPLES / "kick_background.png")
     expected = _cli_answer(db_path, "kick.mp4", "kick_background.png")
     label = browser.find_element(By.ID, "label").text
     assert label == (expected["label"] if expected["accepted"] else
                      f"unknown (nearest: {expected['label']})")  # fmt: skip
+    assert expected["warnings"] == [] and not browser.find_element(By.ID, "warnings").is_displayed()
     actions = [
         li.text.split(" ")[0] for li in browser.find_elements(By.CSS_SELECTOR, "#actions li")
     ]
@@ -318,3 +328,22 @@ def test_page_in_a_real_browser(server, db_path, browser, tmp_path):
     assert browser.find_element(By.ID, "frame-text").text == frame
     severe = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     assert not severe, severe
+
+
+def test_page_shows_the_answers_warnings(server, browser, tmp_path):
+    """An edited clip (the walk and the kick samples joined): the page shows the
+    answer's warning that the clip cuts to another view, as the command line does."""
+    from selenium.webdriver.common.by import By
+
+    from eigmotion.imaging.media import read_frames, write_video
+
+    walk, fps = read_frames(SAMPLES / "walk.mp4")
+    kick, _ = read_frames(SAMPLES / "kick.mp4")
+    clip = write_video(np.concatenate([walk, kick]), tmp_path / "edited.mp4", fps)
+    assert clip.stat().st_size < MAX_UPLOAD_MB * 1e6
+    url, _ = server
+    _answered_on_the_page(browser, url, clip, None)
+    shown = browser.find_element(By.ID, "warnings")
+    assert shown.is_displayed()
+    items = [li.text for li in shown.find_elements(By.TAG_NAME, "li")]
+    assert len(items) == 1 and items[0].startswith("Warning: the clip cuts to another view once")

@@ -60,6 +60,12 @@ function showAnswer(id, answer) {
   $('submit').disabled = false;
   show('result', true);
   $('label').textContent = answer.accepted ? answer.label : `unknown (nearest: ${answer.label})`;
+  $('warnings').replaceChildren(...answer.warnings.map((text) => {
+    const item = document.createElement('li');
+    item.textContent = `Warning: ${text}`;
+    return item;
+  }));
+  show('warnings', answer.warnings.length > 0);
   $('known').textContent = answer.p_known_words;
   $('view').textContent = viewText(answer.view);
   $('actions').replaceChildren(...answer.labels.map((match) => {
