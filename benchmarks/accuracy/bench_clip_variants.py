@@ -59,6 +59,11 @@ SHAKE_STEP_PX = 1.5
 SHAKE_MAX = 0.04
 SHAKE_ZOOM = 1.08
 
+#: The panning camera: the view sweeps this share of the frame's width to one side and
+#: back over the clip, while it zooms in from 1 to :data:`PAN_ZOOM`.
+PAN_SWEEP = 0.2
+PAN_ZOOM = 1.15
+
 #: Low light: the pixel values times this gain, plus sensor noise of this standard
 #: deviation (grey levels).
 DARK_GAIN = 0.45
@@ -156,6 +161,20 @@ def _shaken(frames: np.ndarray, fps: float, rng: np.random.Generator):
     return np.stack(out), fps
 
 
+def _panned(frames: np.ndarray, fps: float, rng: np.random.Generator):
+    h, w = frames.shape[1:3]
+    out = []
+    for i, frame in enumerate(frames):
+        t = i / max(len(frames) - 1, 1)
+        zoom = 1.0 + (PAN_ZOOM - 1.0) * t
+        dx = PAN_SWEEP * w * (np.sin(np.pi * t) - 0.5)  # the view's centre, off the middle
+        matrix = np.float32(
+            [[zoom, 0, -dx * zoom - (zoom - 1) * w / 2], [0, zoom, -(zoom - 1) * h / 2]]
+        )
+        out.append(cv2.warpAffine(frame, matrix, (w, h), borderMode=cv2.BORDER_REFLECT))
+    return np.stack(out), fps
+
+
 def _dark(
     images: np.ndarray, rng: np.random.Generator, gain: float = DARK_GAIN, noise: float = DARK_NOISE
 ) -> np.ndarray:
@@ -204,6 +223,8 @@ VARIANTS = {
                 _same),
         Variant("shake", "a handheld camera: the view wanders up to 4 % of the frame, "
                 "zoomed 8 %", _shaken, None),
+        Variant("pan", f"a camera that pans {PAN_SWEEP:.0%} of the frame's width and back "
+                f"and zooms in to {PAN_ZOOM:g}×", _panned, None),
         Variant("dark", f"low light: × {DARK_GAIN} and sensor noise σ {DARK_NOISE:g}",
                 lambda f, fps, rng: (_dark(f, rng), fps), lambda i, rng: _dark(i, rng)),
         Variant("night", f"a room at night: × {NIGHT_GAIN} and sensor noise σ {NIGHT_NOISE:g}",
