@@ -13,7 +13,9 @@ import pytest
 from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, SceneMismatchError
 from eigmotion.imaging.media import read_frames, write_video
+from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
+from eigmotion.retrieval.motion_cues import floor_cues
 from eigmotion.retrieval.results import shots_warning
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.fused import without_seen_scene
@@ -128,6 +130,30 @@ def test_a_panning_camera_is_cut_out_by_the_networks(tmp_path):
     np.testing.assert_array_equal(cut.shot_starts, [0])
     with pytest.raises(SceneMismatchError, match="differ from the empty scene"):
         load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="subtraction")
+
+
+def test_a_panning_camera_does_not_make_the_person_travel(db_path, tmp_path):
+    """The walk samples as a camera that pans to and fro, zoomed in by 1.25, sees them:
+    the person's speed over the floor, read in the first frame's pixels (the camera's
+    motion measured on the scene), is the one the still camera gives; read as the
+    frames show it, it is not.  The walk away from the camera does not bend, unless
+    the pan is taken for the person's travel.  (The sideways walk's bend is not
+    compared: the narrower view cuts the figure in other frames.)"""
+    for name in ("walk.mp4", "walk_3s.mp4"):
+        frames, fps = read_frames(SAMPLES / name)
+        clip = write_video(_panned(frames, 0.8), tmp_path / name, fps)
+        still = load_clip_masks(SAMPLES / name, None, QUERY_CONFIG, 15.0, segmenter="learned")
+        panned = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
+        assert still.camera is None and panned.camera is not None
+        speed, turned = floor_cues(still.masks, still.fps)
+        followed = floor_cues(panned.masks, panned.fps, panned.camera)
+        as_seen = floor_cues(panned.masks, panned.fps)
+        assert followed[0] == pytest.approx(speed, abs=0.03)
+        assert abs(as_seen[0] - speed) > 0.04
+    assert turned < 3.0 and followed[1] < 3.0 and as_seen[1] > 20.0
+    with MotionDatabase.open(db_path) as db:
+        with pytest.raises(InvalidParameterError, match="camera must be finite, shape"):
+            db.query_masks(panned.masks, panned.fps, camera=panned.camera[1:])
 
 
 def test_the_query_of_an_edited_clip_names_its_cuts(db_path, tmp_path, capsys):

@@ -298,6 +298,7 @@ class MotionDatabase:
         floor_track: bool = True,
         raised_foot_heights: float | None = None,
         raised_hands_heights: float | None = None,
+        camera: np.ndarray | None = None,
     ) -> QueryResult:
         """Answer a clip given as silhouettes.
 
@@ -339,6 +340,10 @@ class MotionDatabase:
             answer ``punch`` gives way to a label whose motions raise both hands among
             the first three (:func:`~eigmotion.retrieval.motion_cues.
             answer_by_raised_hands`).
+        camera : (F, 2, 3) float, optional
+            How the camera moved, per mask the similarity taking its pixels to the first
+            mask's (:attr:`~eigmotion.segmentation.video.ClipMasks.camera`): the floor
+            track is read in the first frame's pixels.  None: a still camera.
 
         Returns
         -------
@@ -346,6 +351,13 @@ class MotionDatabase:
         """
         if top_k < 1:
             raise InvalidParameterError(f"top_k must be >= 1, got {top_k}")
+        if camera is not None:
+            camera = np.asarray(camera, dtype=np.float64)
+            if camera.shape != (len(masks), 2, 3) or not np.isfinite(camera).all():
+                raise InvalidParameterError(
+                    f"camera must be finite, shape ({len(masks)}, 2, 3) (one similarity "
+                    f"per mask), got {camera.shape}"
+                )
         threshold = self.threshold
         if false_rejection is not None:
             threshold = self.threshold_at(false_rejection)
@@ -377,7 +389,7 @@ class MotionDatabase:
         kept, windowed = windowed_job.result()
         compared = {m.motion_id for m in candidates}
         ranking = ranked + [m for m in nearest if m.motion_id not in compared]
-        speed, turned = floor_cues(masks, fps)
+        speed, turned = floor_cues(masks, fps, camera)
         if floor_track:
             ranking = answer_by_turning(answer_by_travel(ranking, speed), turned)
         ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)
@@ -603,6 +615,7 @@ class MotionDatabase:
             floor_track,
             foot_raise(clip.landmarks) if raised_foot else None,
             hands_raised(clip.landmarks) if raised_hands else None,
+            clip.camera,
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.

@@ -18,15 +18,19 @@ of height H at depth Z shows h = f H / Z, so ::
 each slope fitted over the whole clip by least squares.  The focal length of an
 uncalibrated camera is taken as a field of view of :data:`ASSUMED_FIELD_OF_VIEW_DEG`
 across the frame's longer side; a wider lens makes the speed toward or away from the
-camera read higher, a narrower one lower (sideways travel does not depend on it).
+camera read higher, a narrower one lower (sideways travel does not depend on it).  A
+camera that pans or zooms moves and scales the whole picture: where the front end
+measured that motion on the scene around the person
+(:func:`~eigmotion.segmentation.camera_motion.camera_motion`), x and h are read in the
+first frame's pixels.
 
 People walk at up to about 2 m/s and change to a run near 2 m/s, about 1.1–1.2 body
 heights per second (:data:`WALK_MAX_HEIGHTS_PER_S`, :data:`RUN_MIN_HEIGHTS_PER_S`
 leave a margin on either side).  A query ranked ``run`` first whose person travels at a
 walking speed answers the best-ranked ``walk`` instead, when that label is among the
 first three (and the reverse), see :func:`answer_by_travel`.  A clip where the person
-hardly travels (a treadmill, a camera following the person) says nothing and is left
-as ranked.
+hardly travels (a treadmill, or a camera following the person whose motion the scene
+does not show) says nothing and is left as ranked.
 
 **A change of heading.** The same track gives the direction of travel: the person's
 place on the floor in body heights is (x / h, f / h) sideways and away from the camera.
@@ -135,15 +139,23 @@ PUNCH = "punch"
 HANDS_RAISED_LABELS = ("lift", "wave", "jump", "cover_head")
 
 
-def floor_track(masks: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray] | None:
+def floor_track(
+    masks: np.ndarray, fps: float, camera: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Where the person stands on the floor in each frame that shows the whole figure.
 
     Parameters
     ----------
     masks : (F, H, W) bool
-        The person's silhouette per frame, from a static camera.
+        The person's silhouette per frame.
     fps : float
         Frames per second of ``masks``.
+    camera : (F, 2, 3) float, optional
+        How the camera moved (:func:`~eigmotion.segmentation.camera_motion.
+        camera_motion`): per frame, the similarity taking its pixels to the first
+        frame's.  The figure's top and foot are carried into the first frame's pixels
+        before its centre and height are read, so a camera that pans or zooms does not
+        read as the person's travel.  None: a camera that stands still.
 
     Returns
     -------
@@ -172,6 +184,12 @@ def floor_track(masks: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray] 
     count = cols.sum(axis=1)
     centre = (cols * np.arange(width)).sum(axis=1) / count - 0.5 * (width - 1)
     figure_px = (bottom - top + 1)[whole].astype(np.float64)
+    if camera is not None:  # the figure's top and foot in the first frame's pixels
+        x = centre + 0.5 * width  # continuous pixel coordinates
+        ends = np.stack([np.stack([x, top[whole]], 1), np.stack([x, bottom[whole] + 1.0], 1)])
+        moved = np.einsum("fij,efj->efi", camera[whole, :, :2], ends) + camera[whole, :, 2]
+        figure_px = np.linalg.norm(moved[1] - moved[0], axis=1)
+        centre = 0.5 * (moved[0, :, 0] + moved[1, :, 0]) - 0.5 * width
     focal_px = 0.5 * max(height, width) / math.tan(math.radians(ASSUMED_FIELD_OF_VIEW_DEG / 2))
     seconds = np.flatnonzero(whole) / float(fps)
     return seconds, np.stack([centre / figure_px, focal_px / figure_px], axis=1)
@@ -235,10 +253,12 @@ def heading_change(masks: np.ndarray, fps: float) -> float | None:
     return _turn(floor_track(masks, fps))
 
 
-def floor_cues(masks: np.ndarray, fps: float) -> tuple[float | None, float | None]:
+def floor_cues(
+    masks: np.ndarray, fps: float, camera: np.ndarray | None = None
+) -> tuple[float | None, float | None]:
     """:func:`travel_speed` and :func:`heading_change` of one clip, its track measured
-    once (:func:`floor_track`)."""
-    track = floor_track(masks, fps)
+    once (:func:`floor_track`, with the camera's motion ``camera`` where it moved)."""
+    track = floor_track(masks, fps, camera)
     return _speed(track), _turn(track)
 
 

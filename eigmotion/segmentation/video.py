@@ -29,6 +29,7 @@ from eigmotion.imaging.media import (
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.limits import check_clip_size
 from eigmotion.segmentation.background import estimate_background
+from eigmotion.segmentation.camera_motion import camera_motion
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.cut_bodies import hidden_rows_below, restored_legs
 from eigmotion.segmentation.evidence import check_frames, shrink, start_colour_tables
@@ -199,6 +200,12 @@ class ClipMasks:
         shots.shot_starts`), 0 first; ``[0]`` for a clip of one shot.  None where the
         front end did not look (stored masks; the subtraction of an image of the
         empty scene, which fails on a clip of several scenes).
+    camera : (F', 2, 3) float64 or None
+        How the camera moved (:func:`~eigmotion.segmentation.camera_motion.
+        camera_motion`): per mask, the similarity taking its pixels to the first
+        mask's of its shot.  None where it stood still, and where the front end did
+        not look (stored masks; a clip with an image of the empty scene, which needs a
+        still camera).
     """
 
     masks: np.ndarray
@@ -213,6 +220,7 @@ class ClipMasks:
     world_landmarks: np.ndarray | None = None
     frame_size: tuple[int, int] | None = None
     shot_starts: np.ndarray | None = None
+    camera: np.ndarray | None = None
 
 
 def load_clip_masks(
@@ -297,18 +305,19 @@ def load_clip_masks(
     except BaseException:
         stream.close()
         raise
-    starts = None
+    starts = camera = None
     if background is None:  # estimated from each shot's frames
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         starts = shot_starts(frames)
         masks = _shot_by_shot(frames, starts, config)
+        camera = camera_motion(frames, masks, starts)
     else:  # segmented as it is decoded
         small = shrink(background[None], config)[0]
         masks = _person_found(segment_chunks(stream.chunks(CHUNK_FRAMES), small, config), config)
     people = people_in_view(count_people(masks, config))
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps, people,
-        shot_starts=starts,
+        shot_starts=starts, camera=camera,
     )  # fmt: skip
 
 
@@ -388,8 +397,11 @@ def _learned_clip_masks(
             f"covering {config.min_person_frac:.2%} of the image"
         )
     segmenter = "learned"
+    camera = None
     if background is None and config.drop_seen_scene:
         masks = without_seen_scene(masks, np.stack(working), config, starts)
+    if background is None:
+        camera = camera_motion(np.stack(working), masks, starts)
     if background is not None:
         small = shrink(enlarged(background, factors[0])[None], config)[0]
         chunks = (
@@ -403,7 +415,7 @@ def _learned_clip_masks(
     return ClipMasks(
         masks, stream.frame_indices, stream.n_frames, stream.fps, stream.clip_fps,
         people_in_view(people), segmenter, hidden_below, _in_frame_pixels(landmarks, sizes[0],
-        inputs.shape[1:3]), world, (int(sizes[0][0]), int(sizes[0][1])), starts,
+        inputs.shape[1:3]), world, (int(sizes[0][0]), int(sizes[0][1])), starts, camera,
     )  # fmt: skip
 
 

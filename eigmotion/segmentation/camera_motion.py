@@ -1,0 +1,168 @@
+"""How the camera moved: a phone that pans to follow a person, or zooms.
+
+The floor cues of a query (:mod:`eigmotion.retrieval.motion_cues`) read the person's
+travel from where the figure stands in the frame and how tall it is, which holds for a
+camera that stands still.  A camera that pans moves the whole picture; one that zooms
+scales it.  Both show in the scene around the person, so per frame the scene's motion
+is measured and the figure's place can be given in the first frame's pixels:
+
+1. corners of the scene (:func:`cv2.goodFeaturesToTrack`, at most :data:`MAX_CORNERS`)
+   away from the person (the mask grown by :data:`PERSON_MARGIN_PX`), in each frame;
+2. followed into the next frame by pyramidal Lucas–Kanade optical flow
+   (:func:`cv2.calcOpticalFlowPyrLK`);
+3. the similarity (turn, scale, shift) that carries them back, by RANSAC
+   (:func:`cv2.estimateAffinePartial2D`, :data:`RANSAC_PX`): the person's shadow, other
+   people and the frames' noise are outliers to the scene's one motion; with fewer
+   than :data:`MIN_INLIERS` corners agreeing, the frame is taken as not moved;
+4. chained from the first frame of each shot (:mod:`~eigmotion.segmentation.shots`)
+   to every later one.
+
+A pan turns the camera about its centre, which moves the picture by a homography that a
+similarity approximates well for the few degrees a clip pans between frames; a zoom is
+a scale.  A camera that moves through the room (walking beside the person) also shows
+parallax, which no single motion of the picture holds: the similarity then fits the
+floor and walls near the person as well as it can.
+
+A camera that never moved the picture by :data:`STILL_PX` or more (at the frames' size)
+counts as still: :func:`camera_motion` returns None and the cues read the frames as
+they are.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from eigmotion.errors import InvalidParameterError
+from eigmotion.segmentation.evidence import check_frames
+from eigmotion.segmentation.shots import shot_spans
+
+#: Most scene corners followed from one frame to the next.
+MAX_CORNERS = 200
+
+#: Corners are taken this far from the person's mask at least, pixels.
+PERSON_MARGIN_PX = 4
+
+#: A corner carried back within this many pixels of where it was agrees with the motion.
+RANSAC_PX = 1.0
+
+#: Fewest corners that must agree for a frame's motion to be measured.
+MIN_INLIERS = 12
+
+#: A camera whose picture never moved this far (a corner of the frame, pixels at the
+#: frames' size) from where the first frame of its shot had it stands still.
+STILL_PX = 1.5
+
+
+def camera_motion(
+    frames: np.ndarray, masks: np.ndarray, shot_starts: np.ndarray | None = None
+) -> np.ndarray | None:
+    """Per frame, the similarity that carries its pixels to the first frame of its shot.
+
+    Parameters
+    ----------
+    frames : (F, H, W, 3) uint8
+        RGB frames, in order.
+    masks : (F, H, W) bool
+        The person in each frame (left out of the scene's motion).
+    shot_starts : (S,) int, optional
+        The first frame of each shot (:func:`~eigmotion.segmentation.shots.shot_starts`);
+        default one shot.
+
+    Returns
+    -------
+    (F, 2, 3) float64 or None
+        ``[x', y'] = M[:, :2] @ [x, y] + M[:, 2]`` takes a pixel of frame ``i`` (x right,
+        y down, continuous pixel coordinates) to the first frame of its shot; the
+        identity for that first frame.  None where the camera stands still
+        (:data:`STILL_PX`).
+    """
+    frames = check_frames(frames)
+    masks = np.asarray(masks, bool)
+    if masks.shape != frames.shape[:3]:
+        raise InvalidParameterError(
+            f"masks must have the frames' shape {frames.shape[:3]}, got {masks.shape}"
+        )
+    n, h, w = masks.shape
+    grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in frames]
+    motion = np.tile(np.eye(2, 3), (n, 1, 1))
+    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
+    for first, stop in shot_spans(starts, n):
+        anchor = first  # the frame the corners are taken from
+        points = _corners(grey[anchor], masks[anchor])
+        for i in range(first + 1, stop):
+            step = _to_anchor(grey, masks, i, anchor, points, motion)
+            if step is None and anchor != i - 1:  # its corners lost: anchored to the frame before
+                anchor = i - 1
+                points = _corners(grey[anchor], masks[anchor])
+                step = _to_anchor(grey, masks, i, anchor, points, motion)
+            # not measured: taken as not moved since the frame before
+            motion[i] = motion[i - 1] if step is None else _then(motion[anchor], step)
+    corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+    moved = np.einsum("fij,cj->fci", motion, corners) - corners[None, :, :2]
+    if np.abs(moved).max() < STILL_PX:
+        return None
+    return motion
+
+
+def _corners(grey: np.ndarray, person: np.ndarray) -> np.ndarray | None:
+    """(K, 1, 2) float32 corners of the scene in a grey frame, at least
+    :data:`PERSON_MARGIN_PX` from the ``person`` (H, W) bool; None where fewer than
+    :data:`MIN_INLIERS`."""
+    found = cv2.goodFeaturesToTrack(
+        grey, MAX_CORNERS, qualityLevel=0.01, minDistance=5, mask=_scene(person), blockSize=5
+    )
+    return None if found is None or len(found) < MIN_INLIERS else found
+
+
+def _scene(person: np.ndarray) -> np.ndarray:
+    """(H, W) uint8: 255 farther than :data:`PERSON_MARGIN_PX` from the person, else 0."""
+    grown = cv2.dilate(person.view(np.uint8), _GROW)
+    return np.where(grown > 0, 0, 255).astype(np.uint8)
+
+
+_GROW = cv2.getStructuringElement(
+    cv2.MORPH_ELLIPSE, (2 * PERSON_MARGIN_PX + 1, 2 * PERSON_MARGIN_PX + 1)
+)
+
+
+def _to_anchor(
+    grey: list[np.ndarray],
+    masks: np.ndarray,
+    i: int,
+    anchor: int,
+    points: np.ndarray | None,
+    motion: np.ndarray,
+) -> np.ndarray | None:
+    """(2, 3): the similarity taking frame ``i``'s pixels to frame ``anchor``'s, measured
+    on the anchor's corners ``points`` followed into frame ``i`` (grey frames ``grey``,
+    the person ``masks``); the search starts where the frame before's motion (``motion``
+    (F, 2, 3), filled up to ``i - 1``) puts them.  None where fewer than
+    :data:`MIN_INLIERS` corners agree."""
+    if points is None:
+        return None
+    # where the frame before saw the anchor's corners: its motion undone
+    before_to_anchor = _then(cv2.invertAffineTransform(motion[anchor]), motion[i - 1])
+    guess = cv2.transform(points, cv2.invertAffineTransform(before_to_anchor))
+    followed, status, _ = cv2.calcOpticalFlowPyrLK(
+        grey[anchor], grey[i], points, guess.astype(np.float32), winSize=(15, 15), maxLevel=3,
+        flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+    )  # fmt: skip
+    kept = status.ravel() == 1
+    h, w = masks.shape[1:]
+    at = np.clip(np.floor(followed[:, 0]).astype(int), 0, [w - 1, h - 1])
+    kept &= _scene(masks[i])[at[:, 1], at[:, 0]] > 0  # not on the person there
+    if kept.sum() < MIN_INLIERS:
+        return None
+    step, inliers = cv2.estimateAffinePartial2D(
+        followed[kept], points[kept], method=cv2.RANSAC, ransacReprojThreshold=RANSAC_PX
+    )
+    if step is None or inliers is None or int(inliers.sum()) < MIN_INLIERS:
+        return None
+    return step
+
+
+def _then(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """(2, 3): the similarity ``inner`` (2, 3), then ``outer`` (2, 3)."""
+    last_row = np.array([[0.0, 0.0, 1.0]])
+    return (np.vstack([outer, last_row]) @ np.vstack([inner, last_row]))[:2]
