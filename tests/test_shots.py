@@ -16,7 +16,8 @@ from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.motion_cues import floor_cues
-from eigmotion.retrieval.results import shots_warning
+from eigmotion.retrieval.query_windows import snapped_to_cuts
+from eigmotion.retrieval.results import Segment, shots_warning
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.fused import without_seen_scene
 from eigmotion.segmentation.shots import content_changes, shot_spans, shot_starts
@@ -173,10 +174,14 @@ def test_the_query_of_an_edited_clip_names_its_cuts(db_path, tmp_path, capsys):
     for segmenter in ("learned", "subtraction"):
         argv = ["query", str(clip), "--db", str(db_path), "--segmenter", segmenter]
         assert main([*argv, "--json"]) == 0
-        warnings = json.loads(capsys.readouterr().out)["warnings"]
-        cuts = [w for w in warnings if w.startswith("the clip cuts to another view once")]
-        assert len(cuts) == 1, warnings
-        assert f"at clip frames {len(walk)}" in cuts[0] or f"{len(walk) + 1}" in cuts[0]
+        answer = json.loads(capsys.readouterr().out)
+        cuts = [w for w in answer["warnings"] if w.startswith("the clip cuts to another view")]
+        assert len(cuts) == 1 and "once (at clip frames " in cuts[0], answer["warnings"]
+        cut = int(cuts[0].split("at clip frames ")[1].split(")")[0])
+        assert cut in (len(walk), len(walk) + 1)
+        # the walk, then the kick, parted at the cut
+        parts = [(s["label"], s["start_frame"], s["end_frame"]) for s in answer["segments"]]
+        assert parts == [("walk", 0, cut), ("kick", cut, len(walk) + len(kick))], parts
     assert main(argv) == 0
     assert "  warning: the clip cuts to another view once" in capsys.readouterr().out
     assert main(["query", str(SAMPLES / "walk.mp4"), "--db", str(db_path), "--json"]) == 0
@@ -189,3 +194,17 @@ def test_shots_warning_counts_the_cuts():
     warning = shots_warning(np.array([0, 3, 5, 7, 8]), 2 * np.arange(10))
     assert warning.startswith("the clip cuts to another view 4 times (at clip frames 6, 10, 14")
     assert "and 1 more)" in warning
+
+
+def test_a_change_of_label_near_a_cut_moves_onto_it():
+    walk, kick = Segment(0, 30, "walk", 0.1), Segment(30, 60, "kick", 0.2)
+    wave = Segment(60, 90, "wave", 0.3)
+    moved = snapped_to_cuts([walk, kick, wave], [38, 55], reach=10)
+    assert [(s.start_frame, s.end_frame) for s in moved] == [(0, 38), (38, 55), (55, 90)]
+    assert [s.label for s in moved] == ["walk", "kick", "wave"]
+    # out of reach, or no cut: unchanged
+    assert snapped_to_cuts([walk, kick, wave], [45], reach=10) == [walk, kick, wave]
+    assert snapped_to_cuts([walk, kick], [], reach=10) == [walk, kick]
+    # the same label on both sides: no boundary to move
+    same = [walk, Segment(30, 60, "walk", 0.2)]
+    assert snapped_to_cuts(same, [35], reach=10) == same

@@ -97,7 +97,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_false",
         help="do not let the person's track over the floor choose among the likeliest "
         "three actions: its speed between walk and run, a bend in it between walk and "
-        "turn (it assumes a static camera)",
+        "turn (without an image of the empty scene a camera's pan or zoom is measured "
+        "on the scene and taken out of it)",
     )
     parser.add_argument(
         "--no-raised-foot",

@@ -48,6 +48,7 @@ from eigmotion.retrieval.neighbours import NO_ENTRY
 from eigmotion.retrieval.query_windows import (
     clip_segments,
     search_windows,
+    snapped_to_cuts,
     specific_window_entry,
 )
 from eigmotion.retrieval.results import (
@@ -619,11 +620,15 @@ class MotionDatabase:
         )
         lost = lost_person_warning(~clip.masks.any(axis=(1, 2)), clip.frame_indices)
         # Segments come in mask indices; a mask's successor starts the next segment.
+        segments = result.segments
+        if clip.shot_starts is not None:  # a change of label within half a window of a cut
+            reach = int(round(0.5 * self.config.window_s * clip.fps))
+            segments = snapped_to_cuts(segments, clip.shot_starts[1:], reach)
         starts = np.append(clip.frame_indices, clip.n_frames)
         segments = [
             dataclasses.replace(seg, start_frame=int(starts[seg.start_frame]),
                                 end_frame=int(starts[seg.end_frame]))
-            for seg in result.segments
+            for seg in segments
         ]  # fmt: skip
         timing = {"silhouettes": (t1 - t0) * 1e3, **result.timing_ms}
         if every_frame:

@@ -236,3 +236,39 @@ def clip_segments(
                 start = cut
             segments.append(Segment(start, stop, label, dist))
     return segments
+
+
+def snapped_to_cuts(segments: list[Segment], cuts: Sequence[int], reach: int) -> list[Segment]:
+    """``segments`` with each boundary between two labels moved onto a cut between shots
+    within ``reach`` frames of it (the nearest): a window that straddles a cut shows
+    both shots, so the change of label is placed only to a window's length, and the cut
+    places it exactly.
+
+    Parameters
+    ----------
+    segments : list of Segment
+        In order, each ending where the next starts (:func:`clip_segments`).
+    cuts : sequence of int
+        The first frame of each shot after the first, as the segments count frames.
+    reach : int
+        Frames a boundary may move, >= 0.
+
+    Returns
+    -------
+    list of Segment
+    """
+    cuts = np.asarray(cuts, dtype=np.int64)
+    if not len(cuts) or len(segments) < 2:
+        return list(segments)
+    out = list(segments)
+    for k in range(1, len(out)):
+        before, after = out[k - 1], out[k]
+        boundary = after.start_frame
+        near = cuts[np.abs(cuts - boundary) <= reach]
+        if before.label == after.label or not len(near):
+            continue
+        cut = int(near[np.argmin(np.abs(near - boundary))])
+        if before.start_frame < cut < after.end_frame:
+            out[k - 1] = Segment(before.start_frame, cut, before.label, before.distance)
+            out[k] = Segment(cut, after.end_frame, after.label, after.distance)
+    return out
