@@ -72,10 +72,11 @@ def test_a_still_camera_and_a_moving_person_read_as_still():
     walking = np.linspace(40, 120, n)  # the person crosses the frame: not the camera
     frames, masks, _ = _filmed(np.zeros(n), np.ones(n), walking)
     assert camera_motion(frames, masks) is None
-    # the same frames with the camera turned by 2 px at the end: measured
+    # the same frames with the camera turned by twice the still limit at the end:
+    # measured, within a pixel
     frames, masks, truth = _filmed(np.linspace(0, 2 * STILL_PX, n), np.ones(n), walking)
     measured = camera_motion(frames, masks)
-    assert measured is not None and _corner_error_px(measured, truth) < 0.5
+    assert measured is not None and _corner_error_px(measured, truth) < 1.0
 
 
 def test_each_shot_is_measured_from_its_own_first_frame():

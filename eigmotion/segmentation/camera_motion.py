@@ -6,16 +6,26 @@ camera that stands still.  A camera that pans moves the whole picture; one that 
 scales it.  Both show in the scene around the person, so per frame the scene's motion
 is measured and the figure's place can be given in the first frame's pixels:
 
-1. corners of the scene (:func:`cv2.goodFeaturesToTrack`, at most :data:`MAX_CORNERS`)
-   away from the person (the mask grown by :data:`PERSON_MARGIN_PX`), in each frame;
-2. followed into the next frame by pyramidal Lucas–Kanade optical flow
-   (:func:`cv2.calcOpticalFlowPyrLK`);
-3. the similarity (turn, scale, shift) that carries them back, by RANSAC
+1. each grey frame levelled: its scene's mean and spread brought to the same values
+   (:data:`LEVEL_STD`), so that a flicker of the light, which changes every pixel, is
+   not read as motion along the scene's shading;
+2. corners of the scene (:func:`cv2.goodFeaturesToTrack`, at most :data:`MAX_CORNERS`)
+   away from the person (the mask grown by :data:`PERSON_MARGIN_PX`) in an anchor
+   frame: the shot's first, or, once too few of its corners are followed, the frame
+   before;
+3. followed from the anchor into each frame by pyramidal Lucas–Kanade optical flow
+   (:func:`cv2.calcOpticalFlowPyrLK`, starting where the frame before's motion puts
+   them) and back again: a corner that does not return within :data:`RETURN_PX`, or
+   that lands on the person, is dropped;
+4. the similarity (turn, scale, shift) that carries them back to the anchor, by RANSAC
    (:func:`cv2.estimateAffinePartial2D`, :data:`RANSAC_PX`): the person's shadow, other
-   people and the frames' noise are outliers to the scene's one motion; with fewer
-   than :data:`MIN_INLIERS` corners agreeing, the frame is taken as not moved;
-4. chained from the first frame of each shot (:mod:`~eigmotion.segmentation.shots`)
-   to every later one.
+   people and the frames' noise are outliers to the scene's one motion.  With fewer
+   than :data:`MIN_INLIERS` corners agreeing, or under :data:`MIN_INLIER_SHARE` of
+   them, or spread over less than :data:`MIN_SPREAD` of the frame's width or height,
+   the frame's motion is not measured and it is taken as not moved since the frame
+   before;
+5. composed with the anchor's own motion to the first frame of the shot
+   (:mod:`~eigmotion.segmentation.shots`).
 
 A pan turns the camera about its centre, which moves the picture by a homography that a
 similarity approximates well for the few degrees a clip pans between frames; a zoom is
@@ -38,7 +48,7 @@ from eigmotion.segmentation.evidence import check_frames
 from eigmotion.segmentation.shots import shot_spans
 
 #: Most scene corners followed from one frame to the next.
-MAX_CORNERS = 200
+MAX_CORNERS = 100
 
 #: Corners are taken this far from the person's mask at least, pixels.
 PERSON_MARGIN_PX = 4
@@ -46,12 +56,25 @@ PERSON_MARGIN_PX = 4
 #: A corner carried back within this many pixels of where it was agrees with the motion.
 RANSAC_PX = 1.0
 
-#: Fewest corners that must agree for a frame's motion to be measured.
+#: Fewest corners that must agree for a frame's motion to be measured ...
 MIN_INLIERS = 12
+
+#: ... and the least share of the corners followed that must.
+MIN_INLIER_SHARE = 0.5
+
+#: The grey frames' standard deviation over the scene, levels, before they are compared.
+LEVEL_STD = 40.0
+
+#: A corner followed into a frame and back must return within this many pixels.
+RETURN_PX = 0.5
+
+#: The corners that agree must spread over at least this share of the frame's width
+#: and of its height: a few corners close together hold a turn or a scale poorly.
+MIN_SPREAD = 0.4
 
 #: A camera whose picture never moved this far (a corner of the frame, pixels at the
 #: frames' size) from where the first frame of its shot had it stands still.
-STILL_PX = 1.5
+STILL_PX = 2.0
 
 
 def camera_motion(
@@ -84,7 +107,10 @@ def camera_motion(
             f"masks must have the frames' shape {frames.shape[:3]}, got {masks.shape}"
         )
     n, h, w = masks.shape
-    grey = [cv2.cvtColor(f, cv2.COLOR_RGB2GRAY) for f in frames]
+    grey = [
+        _levelled(cv2.cvtColor(f, cv2.COLOR_RGB2GRAY), m)
+        for f, m in zip(frames, masks, strict=True)
+    ]
     motion = np.tile(np.eye(2, 3), (n, 1, 1))
     starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
     for first, stop in shot_spans(starts, n):
@@ -103,6 +129,17 @@ def camera_motion(
     if np.abs(moved).max() < STILL_PX:
         return None
     return motion
+
+
+def _levelled(grey: np.ndarray, person: np.ndarray) -> np.ndarray:
+    """(H, W) uint8: a grey frame with its scene's mean brought to 128 and its standard
+    deviation to :data:`LEVEL_STD` (the person, ``person`` (H, W) bool, left out of
+    both): a flicker of the light changes every pixel, which the optical flow would
+    read as motion along the scene's shading."""
+    scene = grey[~person] if (~person).any() else grey.ravel()
+    mean, std = float(scene.mean()), max(float(scene.std()), 1.0)
+    out = (grey.astype(np.float32) - mean) * (LEVEL_STD / std) + 128.0
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
 def _corners(grey: np.ndarray, person: np.ndarray) -> np.ndarray | None:
@@ -148,7 +185,13 @@ def _to_anchor(
         grey[anchor], grey[i], points, guess.astype(np.float32), winSize=(15, 15), maxLevel=3,
         flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
     )  # fmt: skip
-    kept = status.ravel() == 1
+    back, returned, _ = cv2.calcOpticalFlowPyrLK(
+        grey[i], grey[anchor], followed, points.copy(), winSize=(15, 15), maxLevel=3,
+        flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+    )  # fmt: skip
+    # followed there and back to where it started: a corner the flow could hold
+    kept = (status.ravel() == 1) & (returned.ravel() == 1)
+    kept &= np.linalg.norm((back - points)[:, 0], axis=1) < RETURN_PX
     h, w = masks.shape[1:]
     at = np.clip(np.floor(followed[:, 0]).astype(int), 0, [w - 1, h - 1])
     kept &= _scene(masks[i])[at[:, 1], at[:, 0]] > 0  # not on the person there
@@ -157,7 +200,13 @@ def _to_anchor(
     step, inliers = cv2.estimateAffinePartial2D(
         followed[kept], points[kept], method=cv2.RANSAC, ransacReprojThreshold=RANSAC_PX
     )
-    if step is None or inliers is None or int(inliers.sum()) < MIN_INLIERS:
+    if step is None or inliers is None:
+        return None
+    agree = int(inliers.sum())
+    if agree < max(MIN_INLIERS, MIN_INLIER_SHARE * int(kept.sum())):
+        return None
+    spread = np.ptp(points[kept][inliers.ravel() == 1, 0], axis=0)  # (x, y) pixels
+    if (spread < MIN_SPREAD * np.array([w, h])).any():
         return None
     return step
 
