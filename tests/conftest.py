@@ -50,3 +50,17 @@ def ring6_database(tmp_path_factory) -> Callable[[Sequence[str], BuildConfig], P
         return built[key]
 
     return database
+
+
+#: The library motions and build of the small real database that most test modules ask
+#: ``ring6_database`` for (one build per session serves them all).
+FOUR_MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
+FOUR_MOTION_CONFIG = BuildConfig(
+    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
+)
+
+
+@pytest.fixture(scope="session")
+def four_motion_database(ring6_database) -> Path:
+    """The path of the real database of :data:`FOUR_MOTIONS` (tests must not change it)."""
+    return ring6_database(FOUR_MOTIONS, FOUR_MOTION_CONFIG)

@@ -18,17 +18,10 @@ from blender_helpers import assert_blender_reads_as_eigmotion, blender_python, r
 from eigmotion.cli.main import main
 from eigmotion.mocap.bvh import read_bvh
 from eigmotion.mocap.kinematics import forward_kinematics
-from eigmotion.retrieval.library_views import BuildConfig
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
 AUTHORED = REPO / "database" / "motions" / "authored"
-
-# The same small database as tests/test_database.py (built once per session).
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 
 @pytest.fixture(scope="module")
@@ -39,8 +32,8 @@ def python():
     return found
 
 
-def test_query_bvh_out_stands_on_the_floor_in_blender(python, ring6_database, tmp_path):
-    db = ring6_database(MOTIONS, CONFIG)
+def test_query_bvh_out_stands_on_the_floor_in_blender(python, four_motion_database, tmp_path):
+    db = four_motion_database
     bvh = tmp_path / "kick.bvh"
     argv = ["query", str(SAMPLES / "kick.mp4"), "--db", str(db)]
     argv += ["--background", str(SAMPLES / "kick_background.png"), "--bvh-out", str(bvh)]

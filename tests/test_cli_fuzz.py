@@ -15,19 +15,13 @@ import cli_fuzz
 import pytest
 from cli_fuzz import COMMANDS, MAX_STDERR_LINES, campaign, make_case, stderr_lines
 
-from eigmotion.retrieval.library_views import BuildConfig
-
 ROOT = Path(__file__).resolve().parents[1]
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 
 @pytest.fixture(scope="module")
-def small_db(ring6_database) -> Path:
+def small_db(four_motion_database) -> Path:
     """A real database of four motions (the one tests/test_database.py builds)."""
-    return ring6_database(MOTIONS, CONFIG)
+    return four_motion_database
 
 
 def test_in_process_cases(tmp_path, small_db):

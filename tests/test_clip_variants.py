@@ -16,15 +16,9 @@ import pytest
 from eigmotion.evaluation.devset import load_dev_clips
 from eigmotion.imaging.media import read_frames, sample_indices
 from eigmotion.imaging.still_images import read_image_rgb
-from eigmotion.retrieval.library_views import BuildConfig
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
-# The four-motion database other modules build (shared within a session).
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 
 def _bench():
@@ -108,9 +102,11 @@ def test_the_shaking_camera_moves_and_the_dark_one_is_dark(dev_set, tmp_path):
     assert dark.mean() < 0.6 * original.mean()
 
 
-def test_the_benchmark_answers_every_copy_and_prints_the_ratio(dev_set, ring6_database, capsys):
+def test_the_benchmark_answers_every_copy_and_prints_the_ratio(
+    dev_set, four_motion_database, capsys
+):
     bench = _bench()
-    db = ring6_database(MOTIONS, CONFIG)
+    db = four_motion_database
     argv = ["--db", str(db), "--dev", str(dev_set), "--modes", "nobg", "bg"]
     code = bench.main([*argv, "--variants", "x2", "shake"])
     out = capsys.readouterr().out

@@ -35,15 +35,8 @@ from eigmotion.evaluation.devset_report import (
 from eigmotion.imaging.media import write_video
 from eigmotion.imaging.silhouettes import render_masks
 from eigmotion.mocap.library import load_library
-from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.synth.clips import clip_camera
 from eigmotion.synth.scene import compose_scene
-
-# The database of tests/test_database.py: built once per session for both.
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 
 def _answer(clip_id, truth, labels, accepted=True, p_known=0.5, query_s=0.1, **kw):
@@ -176,8 +169,8 @@ def dev_set(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def db_path(ring6_database):
-    return ring6_database(MOTIONS, CONFIG)
+def db_path(four_motion_database):
+    return four_motion_database
 
 
 def test_loader_reads_labels_and_rates(dev_set):

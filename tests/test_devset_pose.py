@@ -41,18 +41,12 @@ from eigmotion.mocap.library import load_library
 from eigmotion.mocap.rotations import similarity_align
 from eigmotion.pose.keypoints import keypoints_available
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG
-from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.segmentation import learned
 from eigmotion.segmentation.video import load_clip_masks
 from eigmotion.synth.clips import clip_camera
 from eigmotion.synth.scene import compose_scene
 from eigmotion.tracking.calibration import save_calibration
 from eigmotion.tracking.postures import yaw_rotation
-
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 #: A standing body facing +Z (+X its left), in the development set's joint names.
 BODY = {
@@ -313,8 +307,8 @@ def test_a_floor_the_first_look_takes_for_a_person_is_left_out(dev_set, monkeypa
     assert (cut.masks.sum(axis=(1, 2)) > 0).sum() >= 10
 
 
-def test_eval_pose_scores_what_query_writes(dev_set, ring6_database, tmp_path, capsys):
-    db = ring6_database(MOTIONS, CONFIG)
+def test_eval_pose_scores_what_query_writes(dev_set, four_motion_database, tmp_path, capsys):
+    db = four_motion_database
     out = tmp_path / "pose.json"
     args = ["eval", "pose", "--dev", str(dev_set), "--db", str(db), "--json-out", str(out)]
     assert main(args) == 0

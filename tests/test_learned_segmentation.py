@@ -22,7 +22,6 @@ from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.imaging.media import read_frame_sample, read_frames, write_video
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
-from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
 from eigmotion.segmentation.background import seen_scene
@@ -42,17 +41,12 @@ from eigmotion.segmentation.video import load_clip_masks
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
-# The database of tests/test_database.py (built once per session for both).
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 QUERY_CONFIG = SilhouetteConfig(work_max_side_px=160)
 
 
 @pytest.fixture(scope="module")
-def db_path(ring6_database):
-    return ring6_database(MOTIONS, CONFIG)
+def db_path(four_motion_database):
+    return four_motion_database
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:

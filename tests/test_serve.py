@@ -24,16 +24,10 @@ import numpy as np
 import pytest
 
 from eigmotion.mocap.bvh import read_bvh
-from eigmotion.retrieval.library_views import BuildConfig
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
 
-# the database of tests/test_database.py (the session fixture builds it once for both)
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 
 #: (clip, empty-scene image or None) of the four concurrent queries.
 QUERIES = (
@@ -47,8 +41,8 @@ MAX_UPLOAD_MB = 1.0
 
 
 @pytest.fixture(scope="module")
-def db_path(ring6_database):
-    return ring6_database(MOTIONS, CONFIG)
+def db_path(four_motion_database):
+    return four_motion_database
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,6 @@ from eigmotion.cli.main import main
 from eigmotion.errors import InvalidParameterError, SceneMismatchError
 from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.retrieval.database import MotionDatabase
-from eigmotion.retrieval.library_views import BuildConfig
 from eigmotion.retrieval.motion_cues import floor_cues
 from eigmotion.retrieval.query_windows import snapped_to_cuts
 from eigmotion.retrieval.results import Segment, shots_warning
@@ -26,17 +25,7 @@ from eigmotion.segmentation.video import load_clip_masks
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
-# The database of tests/test_database.py (built once per session for all three).
-MOTIONS = ("walk_02_01", "kick_135_04", "wave_14_24", "pick_up_02_06_a")
-CONFIG = BuildConfig(
-    n_components=16, key_axes=3, key_sections=6, garments=((),), body_shapes=((None, 1.0),)
-)
 QUERY_CONFIG = SilhouetteConfig(work_max_side_px=160)
-
-
-@pytest.fixture(scope="module")
-def db_path(ring6_database):
-    return ring6_database(MOTIONS, CONFIG)
 
 
 def _sample(name: str, step: int = 2) -> tuple[np.ndarray, float]:
@@ -133,7 +122,7 @@ def test_a_panning_camera_is_cut_out_by_the_networks(tmp_path):
         load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="subtraction")
 
 
-def test_a_panning_camera_does_not_make_the_person_travel(db_path, tmp_path):
+def test_a_panning_camera_does_not_make_the_person_travel(four_motion_database, tmp_path):
     """The walk samples as a camera that pans to and fro, zoomed in by 1.25, sees them:
     the person's speed over the floor, read in the first frame's pixels (the camera's
     motion measured on the scene), is the one the still camera gives; read as the
@@ -152,12 +141,12 @@ def test_a_panning_camera_does_not_make_the_person_travel(db_path, tmp_path):
         assert followed[0] == pytest.approx(speed, abs=0.03)
         assert abs(as_seen[0] - speed) > 0.04
     assert turned < 3.0 and followed[1] < 3.0 and as_seen[1] > 20.0
-    with MotionDatabase.open(db_path) as db:
+    with MotionDatabase.open(four_motion_database) as db:
         with pytest.raises(InvalidParameterError, match="camera must be finite, shape"):
             db.query_masks(panned.masks, panned.fps, camera=panned.camera[1:])
 
 
-def test_the_query_of_an_edited_clip_names_its_cuts(db_path, tmp_path, capsys):
+def test_the_query_of_an_edited_clip_names_its_cuts(four_motion_database, tmp_path, capsys):
     """The walk and kick samples joined: answered, with a warning naming the clip frame
     of the cut, by either front end; each shot's person is found in nine frames of ten
     or more (the outlier rule compares a frame with its own shot's person: the kick's
@@ -172,7 +161,7 @@ def test_the_query_of_an_edited_clip_names_its_cuts(db_path, tmp_path, capsys):
     found = cut.masks.any(axis=(1, 2))
     assert found[: cut.shot_starts[1]].mean() >= 0.9 and found[cut.shot_starts[1] :].mean() >= 0.9
     for segmenter in ("learned", "subtraction"):
-        argv = ["query", str(clip), "--db", str(db_path), "--segmenter", segmenter]
+        argv = ["query", str(clip), "--db", str(four_motion_database), "--segmenter", segmenter]
         assert main([*argv, "--json"]) == 0
         answer = json.loads(capsys.readouterr().out)
         cuts = [w for w in answer["warnings"] if w.startswith("the clip cuts to another view")]
@@ -184,7 +173,9 @@ def test_the_query_of_an_edited_clip_names_its_cuts(db_path, tmp_path, capsys):
         assert parts == [("walk", 0, cut), ("kick", cut, len(walk) + len(kick))], parts
     assert main(argv) == 0
     assert "  warning: the clip cuts to another view once" in capsys.readouterr().out
-    assert main(["query", str(SAMPLES / "walk.mp4"), "--db", str(db_path), "--json"]) == 0
+    assert (
+        main(["query", str(SAMPLES / "walk.mp4"), "--db", str(four_motion_database), "--json"]) == 0
+    )
     assert json.loads(capsys.readouterr().out)["warnings"] == []
 
 
