@@ -50,6 +50,10 @@ from eigmotion.segmentation.shots import shot_spans
 #: Most scene corners followed from one frame to the next.
 MAX_CORNERS = 100
 
+#: The optical flow's window (pixels) and pyramid levels above the frame.
+FLOW_WINDOW = (15, 15)
+FLOW_LEVELS = 3
+
 #: Corners are taken this far from the person's mask at least, pixels.
 PERSON_MARGIN_PX = 4
 
@@ -182,11 +186,11 @@ def _to_anchor(
     before_to_anchor = _then(cv2.invertAffineTransform(motion[anchor]), motion[i - 1])
     guess = cv2.transform(points, cv2.invertAffineTransform(before_to_anchor))
     followed, status, _ = cv2.calcOpticalFlowPyrLK(
-        grey[anchor], grey[i], points, guess.astype(np.float32), winSize=(15, 15), maxLevel=3,
-        flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+        grey[anchor], grey[i], points, guess.astype(np.float32), winSize=FLOW_WINDOW,
+        maxLevel=FLOW_LEVELS, flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
     )  # fmt: skip
     back, returned, _ = cv2.calcOpticalFlowPyrLK(
-        grey[i], grey[anchor], followed, points.copy(), winSize=(15, 15), maxLevel=3,
+        grey[i], grey[anchor], followed, points.copy(), winSize=FLOW_WINDOW, maxLevel=FLOW_LEVELS,
         flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
     )  # fmt: skip
     # followed there and back to where it started: a corner the flow could hold
