@@ -357,11 +357,11 @@ def _learned_clip_masks(
     The shrunk frames are kept: the cuts between shots are found on them
     (:func:`~eigmotion.segmentation.shots.shot_starts`), and without an image, with
     ``config.drop_seen_scene``, what shows the scene the clip itself shows is taken out
-    of the learned masks (:func:`~eigmotion.segmentation.fused.without_seen_scene`).
-    Frames smaller than
-    ``config.work_min_side_px`` are enlarged first
-    (:func:`~eigmotion.segmentation.learned.enlargement`), the background image with
-    them, and the masks are at the enlarged size; the landmarks are in the clip's
+    of the learned masks (:func:`~eigmotion.segmentation.fused.without_seen_scene`) and
+    the camera's motion is measured (:func:`~eigmotion.segmentation.camera_motion.
+    camera_motion`).  Frames smaller than ``config.work_min_side_px`` are enlarged
+    first (:func:`~eigmotion.segmentation.learned.enlargement`), the background image
+    with them, and the masks are at the enlarged size; the landmarks are in the clip's
     frames' pixels."""
     sizes = []
     factors = []
