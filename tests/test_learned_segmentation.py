@@ -838,3 +838,27 @@ def test_network_threads_must_be_positive():
         assert networks._threads() == 1
     finally:
         networks._network_threads = before
+
+
+def test_a_long_clip_shows_the_networks_progress(monkeypatch):
+    """With ``progress``, once the work has taken the bar's delay (here none), a bar
+    counts the frames the person networks have looked at; without it, none shows."""
+    import io
+
+    from tqdm import tqdm
+
+    shown = io.StringIO()
+
+    def bar(total, desc, initial=0):
+        return tqdm(total=total, initial=initial, desc=desc, file=shown)
+
+    monkeypatch.setattr(learned, "FRAME_BAR_DELAY_S", 0.0)
+    monkeypatch.setattr(learned, "progress_bar", bar)
+    clip = load_clip_masks(SAMPLES / "kick.mp4", None, QUERY_CONFIG, 15.0, segmenter="learned")
+    assert shown.getvalue() == ""
+    again = load_clip_masks(
+        SAMPLES / "kick.mp4", None, QUERY_CONFIG, 15.0, progress=True, segmenter="learned"
+    )
+    n = len(again.masks)
+    assert "finding the person" in shown.getvalue() and f"{n}/{n}" in shown.getvalue()
+    np.testing.assert_array_equal(clip.masks, again.masks)

@@ -60,11 +60,13 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 
 import cv2
 import numpy as np
 
 from eigmotion.errors import InvalidParameterError
+from eigmotion.imaging.media import FRAME_BAR_DELAY_S, progress_bar
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.networks import (
     MODEL_SIDE_PX,
@@ -370,6 +372,7 @@ def brightened(frames: np.ndarray) -> np.ndarray:
 def learned_masks_and_landmarks(
     frames: np.ndarray, size: tuple[int, int], config: SilhouetteConfig,
     second_look: str | None = None, shot_starts: np.ndarray | None = None,
+    progress: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The person in each frame, the people in view, and the person's body landmarks
     in the image and in 3D (two passes of the networks: the module's description).
@@ -389,6 +392,9 @@ def learned_masks_and_landmarks(
         The first frame of each shot of an edited clip (:func:`~eigmotion.segmentation.
         shots.shot_starts`): the person is not followed across a cut, and the outlier
         rule compares each frame with its own shot's person.  Default one shot.
+    progress : bool
+        A bar on stderr over the frames once the work has taken
+        :data:`~eigmotion.imaging.media.FRAME_BAR_DELAY_S` (a long clip).
 
     Returns
     -------
@@ -422,6 +428,7 @@ def learned_masks_and_landmarks(
             "the pose network runs through LiteRT only: pip install ai-edge-litert "
             "(installed with eigmotion where LiteRT has a wheel)"
         )
+    started = time.monotonic()
     if config.brighten_dim:
         frames = brightened(frames)
     h, w = size
@@ -440,7 +447,12 @@ def learned_masks_and_landmarks(
     followed = None  # the box of the pose network's person in the frame before
     looked_again = np.zeros(len(frames), bool)  # frames whose second look stands
     cuts = set() if shot_starts is None else {int(i) for i in shot_starts}
+    bar = None
     for i, box in enumerate(boxes):
+        if progress and bar is None and time.monotonic() - started >= FRAME_BAR_DELAY_S:
+            bar = progress_bar(len(frames), "finding the person", initial=i)
+        if bar is not None:
+            bar.update(1)
         if i in cuts:  # another view: the person of the frame before is not this one
             followed = None
         before, followed, found = followed, None, False
@@ -480,6 +492,8 @@ def learned_masks_and_landmarks(
         people[i] = max(people[i], whole_frame_people[i])
         if found and masks[i].any():
             followed = _mask_box(masks[i], frame_size)
+    if bar is not None:
+        bar.close()
     starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
     for first, stop in shot_spans(starts, len(frames)):
         _drop_outliers(masks[first:stop], people[first:stop], looked_again[first:stop])

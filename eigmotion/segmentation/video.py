@@ -249,8 +249,9 @@ def load_clip_masks(
         its own rate anyway, and frames it skips need no silhouette.  Every frame when
         ``None``.
     progress : bool
-        A bar on stderr of a long video's frames as they are read
-        (:class:`eigmotion.imaging.media.FrameSampleStream`).
+        Bars on stderr over a long video's frames as they are read
+        (:class:`eigmotion.imaging.media.FrameSampleStream`) and as the person networks
+        look at them (:func:`~eigmotion.segmentation.learned.learned_masks_and_landmarks`).
 
     Returns
     -------
@@ -386,7 +387,7 @@ def _learned_clip_masks(
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
     starts = shot_starts(np.stack(working))
     masks, people, landmarks, world = learned_masks_and_landmarks(
-        inputs, working_size(*sizes[0], config), config, shot_starts=starts
+        inputs, working_size(*sizes[0], config), config, shot_starts=starts, progress=progress
     )
     landmark_scale = masks.shape[1] / inputs.shape[1]
     masks = restored_legs(masks, landmarks, landmark_scale)
