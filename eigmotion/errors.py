@@ -60,7 +60,18 @@ class VideoError(EigmotionError, ValueError):
 
 class SceneMismatchError(VideoError):
     """Frames that differ from the empty scene they are compared with over most of the
-    picture: an image of another scene, a moving camera, or a cut to another shot."""
+    picture: an image of another scene, a moving camera, or a cut to another shot.
+
+    Parameters
+    ----------
+    message : str
+    difference : float
+        The frames' median colour difference from the scene, ΔE.
+    """
+
+    def __init__(self, message: str, difference: float):
+        super().__init__(message)
+        self.difference = difference
 
 
 class DatabaseError(EigmotionError, RuntimeError):

@@ -18,6 +18,7 @@ from eigmotion.retrieval.motion_cues import floor_cues
 from eigmotion.retrieval.query_windows import snapped_to_cuts
 from eigmotion.retrieval.results import Segment, shots_warning
 from eigmotion.segmentation.config import SilhouetteConfig
+from eigmotion.segmentation.evidence import MAX_SCENE_DIFFERENCE
 from eigmotion.segmentation.fused import without_seen_scene
 from eigmotion.segmentation.shots import content_changes, shot_spans, shot_starts
 from eigmotion.segmentation.subtraction import frame_chunks, subtract_scene
@@ -111,15 +112,17 @@ def test_each_shot_is_compared_with_its_own_scene():
 def test_a_panning_camera_is_cut_out_by_the_networks(tmp_path):
     """The kick sample as a camera that pans and zooms sees it: without an image of the
     empty scene the clip shows no steady scene, and the networks' masks stand (the
-    scene rule used to refuse the clip); with the classical subtraction it is refused
-    in one line."""
+    scene rule used to refuse the clip); with the classical subtraction, which must
+    estimate one, it is refused in one line that names the learned segmenter."""
     frames, fps = read_frames(SAMPLES / "kick.mp4")
     clip = write_video(_panned(frames), tmp_path / "panned.mp4", fps)
     cut = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
     assert cut.masks.any(axis=(1, 2)).mean() >= 0.9
     np.testing.assert_array_equal(cut.shot_starts, [0])
-    with pytest.raises(SceneMismatchError, match="differ from the empty scene"):
+    with pytest.raises(SceneMismatchError, match="no one steady scene.*learned segmenter") as e:
         load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="subtraction")
+    difference = e.value.difference
+    assert difference > MAX_SCENE_DIFFERENCE and f"{difference:.0f} ΔE" in str(e.value)
 
 
 def test_a_panning_camera_does_not_make_the_person_travel(four_motion_database, tmp_path):

@@ -240,7 +240,8 @@ def clip_levels(evidence: list[Evidence], config: SilhouetteConfig) -> Levels:
             f"the frames differ from the empty scene over most of the picture (median "
             f"colour difference {smooth_noise:.0f} ΔE; frames of the same empty view "
             f"differ from it by about 1–3): a background image of another scene or view, "
-            f"a moving camera, or a person who fills most of the frame"
+            f"a moving camera, or a person who fills most of the frame",
+            smooth_noise,
         )
     if smoothed:
         # A lossy codec removes the fine grain (lowering the raw median) but leaves

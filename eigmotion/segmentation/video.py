@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import InvalidParameterError, SceneMismatchError, VideoError
 from eigmotion.imaging.arrays import read_npz, scalar
 from eigmotion.imaging.media import (
     FRAME_RATE_FPS,
@@ -97,12 +97,21 @@ def extract_silhouettes(
         config = replace(config, upper_body_frac=0.0)
         frames = shrink(frames, config)
         with opencv_in_calling_threads():  # the estimate's steps run on the workers too
-            masks = segment_chunks(
-                frame_chunks(frames), estimate_background(frames, config), config
-            )
-            if config.background == "median":
-                refined = estimate_background(frames, config, exclude=masks)
-                masks = segment_chunks(frame_chunks(frames), refined, config)
+            try:
+                masks = segment_chunks(
+                    frame_chunks(frames), estimate_background(frames, config), config
+                )
+                if config.background == "median":
+                    refined = estimate_background(frames, config, exclude=masks)
+                    masks = segment_chunks(frame_chunks(frames), refined, config)
+            except SceneMismatchError as error:
+                raise SceneMismatchError(
+                    "the frames show no one steady scene to estimate the empty scene from "
+                    f"(median colour difference {error.difference:.0f} ΔE): a moving camera, "
+                    "or a person who fills most of the frame; the learned segmenter (the "
+                    "default without an image of the empty scene) needs none",
+                    error.difference,
+                ) from None
     else:
         background = _check_background(background)
         masks = segment_chunks(_same_size(frame_chunks(frames), background), background, config)
