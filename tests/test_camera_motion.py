@@ -14,7 +14,7 @@ import pytest
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.motion_cues import floor_cues
-from eigmotion.segmentation.camera_motion import STILL_PX, camera_motion
+from eigmotion.segmentation.camera_motion import STILL_PX, camera_motion, stabilised
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLES = REPO / "database" / "samples"
@@ -106,3 +106,21 @@ def test_a_camera_following_a_standing_person_does_not_make_them_travel():
     still, turned = floor_cues(masks, FPS, measured)
     assert moving > 0.2 and still < 0.03 and turned is None
     assert floor_cues(masks, FPS, truth)[0] < 0.03
+
+
+def test_the_silhouettes_stabilised_stand_still_where_the_person_does():
+    """A person standing still, the camera panning 40 px and zooming in by 20 %: as
+    filmed the silhouette moves and grows; carried by the measured motion onto a canvas
+    that holds every frame's picture, it stays where the first frame had it."""
+    n = 30
+    t = np.arange(n) / (n - 1)
+    frames, masks, _ = _filmed(40 * t, 1 + 0.2 * t, np.full(n, 80))
+    still = stabilised(masks, camera_motion(frames, masks)) > 127
+    assert still.shape[0] == n and still.shape[1] >= 120 and still.shape[2] >= 160 + 20
+
+    def iou(a, b):
+        return (a & b).sum() / (a | b).sum()
+
+    assert iou(masks[0], masks[-1]) < 0.3
+    assert min(iou(still[0], s) for s in still) > 0.85
+    assert abs(int(still[-1].sum()) - int(still[0].sum())) < 0.1 * still[0].sum()

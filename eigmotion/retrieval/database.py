@@ -73,6 +73,7 @@ from eigmotion.retrieval.sequences import (
 )
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.retrieval.store import Store, damage_named
+from eigmotion.segmentation.camera_motion import stabilised
 from eigmotion.segmentation.config import SilhouetteConfig
 from eigmotion.segmentation.video import ClipMasks, load_clip_masks
 from eigmotion.segmentation.workers import opencv_in_calling_threads, worker_threads
@@ -366,7 +367,10 @@ class MotionDatabase:
         t0 = time.perf_counter()
         cfg = self.config
         windows = window_bounds(len(masks), fps, cfg.window_s, cfg.window_step_s)
-        images = ClipMotionImages(masks, cfg.motion_image, fps, hidden_below_px)
+        # A camera that moved: the silhouettes as the still camera of the first frame
+        # would see them (the motion image accumulates every move of their edges).
+        seen = masks if camera is None else stabilised(masks, camera)
+        images = ClipMotionImages(seen, cfg.motion_image, fps, hidden_below_px)
         whole_vector = images.window(*windows[0])  # no person or no motion: raised here
         # The windows' search and the clip's silhouette sequence do not wait for the
         # whole clip's search: they run beside it.

@@ -219,3 +219,49 @@ def _then(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
     """(2, 3): the similarity ``inner`` (2, 3), then ``outer`` (2, 3)."""
     last_row = np.array([[0.0, 0.0, 1.0]])
     return (np.vstack([outer, last_row]) @ np.vstack([inner, last_row]))[:2]
+
+
+#: Most a stabilised canvas grows beyond the frame on each side, in frame widths and
+#: heights: a camera that swept further leaves the person's far frames cut at the edge.
+MAX_CANVAS_GROWTH = 1.0
+
+
+def stabilised(masks: np.ndarray, camera: np.ndarray) -> np.ndarray:
+    """The silhouettes as a still camera at the first frame's place would see them.
+
+    Each mask is carried by its similarity (bilinear, so a shift of part of a pixel
+    moves the edge by part of a pixel) onto a canvas that holds every frame's picture,
+    grown by at most :data:`MAX_CANVAS_GROWTH` of the frame on each side.
+
+    Parameters
+    ----------
+    masks : (F, H, W) bool
+    camera : (F, 2, 3) float
+        Per frame, the similarity taking its pixels to the first frame's
+        (:func:`camera_motion`).
+
+    Returns
+    -------
+    (F, H', W') uint8
+        Silhouettes in [0, 255] (255: the person), H' >= H and W' >= W.
+    """
+    masks = np.asarray(masks, bool)
+    camera = np.asarray(camera, np.float64)
+    n, h, w = masks.shape
+    corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+    placed = np.einsum("fij,cj->fci", camera, corners).reshape(-1, 2)
+    low = np.maximum(np.floor(placed.min(axis=0)), [-MAX_CANVAS_GROWTH * w, -MAX_CANVAS_GROWTH * h])
+    high = np.minimum(
+        np.ceil(placed.max(axis=0)), [(1 + MAX_CANVAS_GROWTH) * w, (1 + MAX_CANVAS_GROWTH) * h]
+    )
+    low, high = np.minimum(low, 0.0), np.maximum(high, [w, h])
+    size = (int(high[0] - low[0]), int(high[1] - low[1]))
+    out = np.empty((n, size[1], size[0]), np.uint8)
+    for mask, motion, canvas in zip(masks, camera, out, strict=True):
+        shifted = motion.copy()
+        shifted[:, 2] -= low
+        cv2.warpAffine(
+            mask.view(np.uint8) * np.uint8(255), shifted, size, dst=canvas,
+            flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+        )  # fmt: skip
+    return out
