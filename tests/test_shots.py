@@ -4,6 +4,7 @@ and a clip whose camera pans answered instead of refused."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -138,6 +139,9 @@ def test_a_panning_camera_does_not_make_the_person_travel(four_motion_database, 
         still = load_clip_masks(SAMPLES / name, None, QUERY_CONFIG, 15.0, segmenter="learned")
         panned = load_clip_masks(clip, None, QUERY_CONFIG, 15.0, segmenter="learned")
         assert still.camera is None and panned.camera is not None
+        unmeasured = replace(QUERY_CONFIG, measure_camera=False)
+        same = load_clip_masks(clip, None, unmeasured, 15.0, segmenter="learned")
+        assert same.camera is None and np.array_equal(same.masks, panned.masks)
         speed, turned = floor_cues(still.masks, still.fps)
         followed = floor_cues(panned.masks, panned.fps, panned.camera)
         as_seen = floor_cues(panned.masks, panned.fps)
@@ -147,6 +151,10 @@ def test_a_panning_camera_does_not_make_the_person_travel(four_motion_database, 
     with MotionDatabase.open(four_motion_database) as db:
         with pytest.raises(InvalidParameterError, match="camera must be finite, shape"):
             db.query_masks(panned.masks, panned.fps, camera=panned.camera[1:])
+        # the answer reads the motion of the frames it samples; every frame's cut skips it
+        result, every = db.query_clip(clip, every_frame=True)
+        assert every.camera is None and len(every.masks) == every.n_frames
+        assert result.travel_speed == pytest.approx(followed[0])
 
 
 def test_the_query_of_an_edited_clip_names_its_cuts(four_motion_database, tmp_path, capsys):

@@ -638,7 +638,9 @@ class MotionDatabase:
         if every_frame:
             t2 = time.perf_counter()
             people = clip.people
-            clip = load_clip_masks(path, background, config, progress=progress, segmenter=segmenter)
+            # the camera's motion is read by the answer alone, from the frames it samples
+            every = dataclasses.replace(config, measure_camera=False)
+            clip = load_clip_masks(path, background, every, progress=progress, segmenter=segmenter)
             clip = dataclasses.replace(clip, people=people)
             timing["every_frame_silhouettes"] = (time.perf_counter() - t2) * 1e3
         timing["total"] = (time.perf_counter() - t0) * 1e3

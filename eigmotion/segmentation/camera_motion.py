@@ -115,17 +115,18 @@ def camera_motion(
         _levelled(cv2.cvtColor(f, cv2.COLOR_RGB2GRAY), m)
         for f, m in zip(frames, masks, strict=True)
     ]
+    scenes = [_scene(m) for m in masks]  # where corners may be taken and land
     motion = np.tile(np.eye(2, 3), (n, 1, 1))
     starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
     for first, stop in shot_spans(starts, n):
         anchor = first  # the frame the corners are taken from
-        points = _corners(grey[anchor], masks[anchor])
+        points = _corners(grey[anchor], scenes[anchor])
         for i in range(first + 1, stop):
-            step = _to_anchor(grey, masks, i, anchor, points, motion)
+            step = _to_anchor(grey, scenes, i, anchor, points, motion)
             if step is None and anchor != i - 1:  # its corners lost: anchored to the frame before
                 anchor = i - 1
-                points = _corners(grey[anchor], masks[anchor])
-                step = _to_anchor(grey, masks, i, anchor, points, motion)
+                points = _corners(grey[anchor], scenes[anchor])
+                step = _to_anchor(grey, scenes, i, anchor, points, motion)
             # not measured: taken as not moved since the frame before
             motion[i] = motion[i - 1] if step is None else _then(motion[anchor], step)
     corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
@@ -146,12 +147,11 @@ def _levelled(grey: np.ndarray, person: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(out), 0, 255).astype(np.uint8)
 
 
-def _corners(grey: np.ndarray, person: np.ndarray) -> np.ndarray | None:
-    """(K, 1, 2) float32 corners of the scene in a grey frame, at least
-    :data:`PERSON_MARGIN_PX` from the ``person`` (H, W) bool; None where fewer than
-    :data:`MIN_INLIERS`."""
+def _corners(grey: np.ndarray, scene: np.ndarray) -> np.ndarray | None:
+    """(K, 1, 2) float32 corners of a grey frame where ``scene`` (:func:`_scene`) is
+    not 0; None where fewer than :data:`MIN_INLIERS`."""
     found = cv2.goodFeaturesToTrack(
-        grey, MAX_CORNERS, qualityLevel=0.01, minDistance=5, mask=_scene(person), blockSize=5
+        grey, MAX_CORNERS, qualityLevel=0.01, minDistance=5, mask=scene, blockSize=5
     )
     return None if found is None or len(found) < MIN_INLIERS else found
 
@@ -169,7 +169,7 @@ _GROW = cv2.getStructuringElement(
 
 def _to_anchor(
     grey: list[np.ndarray],
-    masks: np.ndarray,
+    scenes: list[np.ndarray],
     i: int,
     anchor: int,
     points: np.ndarray | None,
@@ -177,9 +177,9 @@ def _to_anchor(
 ) -> np.ndarray | None:
     """(2, 3): the similarity taking frame ``i``'s pixels to frame ``anchor``'s, measured
     on the anchor's corners ``points`` followed into frame ``i`` (grey frames ``grey``,
-    the person ``masks``); the search starts where the frame before's motion (``motion``
-    (F, 2, 3), filled up to ``i - 1``) puts them.  None where fewer than
-    :data:`MIN_INLIERS` corners agree."""
+    each frame's scene ``scenes``: :func:`_scene`); the search starts where the frame
+    before's motion (``motion`` (F, 2, 3), filled up to ``i - 1``) puts them.  None
+    where fewer than :data:`MIN_INLIERS` corners agree."""
     if points is None:
         return None
     # where the frame before saw the anchor's corners: its motion undone
@@ -196,9 +196,9 @@ def _to_anchor(
     # followed there and back to where it started: a corner the flow could hold
     kept = (status.ravel() == 1) & (returned.ravel() == 1)
     kept &= np.linalg.norm((back - points)[:, 0], axis=1) < RETURN_PX
-    h, w = masks.shape[1:]
+    h, w = scenes[i].shape
     at = np.clip(np.floor(followed[:, 0]).astype(int), 0, [w - 1, h - 1])
-    kept &= _scene(masks[i])[at[:, 1], at[:, 0]] > 0  # not on the person there
+    kept &= scenes[i][at[:, 1], at[:, 0]] > 0  # not on the person there
     if kept.sum() < MIN_INLIERS:
         return None
     step, inliers = cv2.estimateAffinePartial2D(

@@ -83,6 +83,11 @@ class SilhouetteConfig:
         The learned and fused front ends show the person networks a dim clip
         brightened (:func:`~eigmotion.segmentation.learned.brightened`); the rest of
         the cut sees the frames as they are.
+    measure_camera : bool
+        Without an image of the empty scene, measure how the camera moved
+        (:func:`~eigmotion.segmentation.camera_motion.camera_motion`) for the floor track
+        and the motion image; off where nothing reads it (the silhouettes of every
+        frame cut for a 3D answer).
     """
 
     background: str = "grabcut"
@@ -102,6 +107,7 @@ class SilhouetteConfig:
     work_min_side_px: int = 0
     drop_seen_scene: bool = True
     brighten_dim: bool = True
+    measure_camera: bool = True
 
     #: The valid values of each parameter (see :mod:`eigmotion.validation`); the
     #: high factor's lower bound and the shadow ratio's order are checked after.
@@ -121,6 +127,7 @@ class SilhouetteConfig:
         "work_min_side_px": Interval(Integral, 0, 4096),
         "drop_seen_scene": Options(bool, [True, False]),
         "brighten_dim": Options(bool, [True, False]),
+        "measure_camera": Options(bool, [True, False]),
     }
 
     def __post_init__(self):

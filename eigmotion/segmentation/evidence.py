@@ -128,7 +128,7 @@ def prepare_scene(background: np.ndarray, config: SilhouetteConfig) -> Scene:
     ) + 1  # fmt: skip
     rgb = background.astype(np.float32)
     return Scene(
-        rgb, _lab(background[None])[0], soft, np.sqrt(norm2), 1.0 / norm2, sep, h + sep,
+        rgb, lab_frames(background[None])[0], soft, np.sqrt(norm2), 1.0 / norm2, sep, h + sep,
         close_d, reach, _gain_pixels(rgb), background.shape[:2],
     )  # fmt: skip
 
@@ -314,7 +314,7 @@ def _thresholds(noise: float, config: SilhouetteConfig) -> tuple[float, float]:
     return low, max(2.0 * config.min_delta_e, config.high_factor * noise, low)
 
 
-def _lab(frames: np.ndarray) -> np.ndarray:
+def lab_frames(frames: np.ndarray) -> np.ndarray:
     """(F, H, W, 3) uint8 RGB → uint8 L*a*b* (OpenCV's 8-bit scaling: L×255/100, a+128, b+128).
 
     One conversion over the whole clip (the frames stacked into one image); the 8-bit
@@ -332,7 +332,7 @@ def start_colour_tables() -> Future:
     machine, the GIL released); started before the database is opened or the video
     decoded, they are built while that work goes on, on another core.
     """
-    return worker_threads().submit(_lab, np.zeros((1, 1, 1, 3), np.uint8))
+    return worker_threads().submit(lab_frames, np.zeros((1, 1, 1, 3), np.uint8))
 
 
 def _gaussian_size(sigma_px: float) -> tuple[int, int]:

@@ -20,10 +20,9 @@ and overwrite its ``cv2``.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from eigmotion.segmentation.evidence import check_frames
+from eigmotion.segmentation.evidence import check_frames, lab_frames
 
 #: Least content change of a cut, mean L*a*b* levels (PySceneDetect's ``min_content_val``).
 CUT_MIN_CHANGE = 8.0
@@ -46,9 +45,7 @@ def content_changes(frames: np.ndarray) -> np.ndarray:
         RGB frames.
     """
     frames = check_frames(frames)
-    n, h, w = frames.shape[:3]
-    stacked = np.ascontiguousarray(frames).reshape(n * h, w, 3)
-    lab = cv2.cvtColor(stacked, cv2.COLOR_RGB2Lab).reshape(n, h * w * 3).astype(np.int16)
+    lab = lab_frames(frames).reshape(len(frames), -1).astype(np.int16)
     return np.abs(np.diff(lab, axis=0)).mean(axis=1)
 
 

@@ -320,7 +320,7 @@ def load_clip_masks(
         frames = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
         starts = shot_starts(frames)
         masks = _shot_by_shot(frames, starts, config)
-        camera = camera_motion(frames, masks, starts)
+        camera = camera_motion(frames, masks, starts) if config.measure_camera else None
     else:  # segmented as it is decoded
         small = shrink(background[None], config)[0]
         masks = _person_found(segment_chunks(stream.chunks(CHUNK_FRAMES), small, config), config)
@@ -394,7 +394,9 @@ def _learned_clip_masks(
 
     stream = FrameSampleStream(path, sample_fps, progress=progress, transform=keep_frame)
     inputs = np.concatenate(list(stream.chunks(CHUNK_FRAMES)))
-    starts = shot_starts(np.stack(working))
+    small_frames = np.stack(working)  # (F, H', W', 3): the frames at the working size
+    working.clear()
+    starts = shot_starts(small_frames)
     masks, people, landmarks, world = learned_masks_and_landmarks(
         inputs, working_size(*sizes[0], config), config, shot_starts=starts, progress=progress
     )
@@ -409,17 +411,14 @@ def _learned_clip_masks(
     segmenter = "learned"
     camera = None
     if background is None and config.drop_seen_scene:
-        masks = without_seen_scene(masks, np.stack(working), config, starts)
-    if background is None:
-        camera = camera_motion(np.stack(working), masks, starts)
+        masks = without_seen_scene(masks, small_frames, config, starts)
+    if background is None and config.measure_camera:
+        camera = camera_motion(small_frames, masks, starts)
     if background is not None:
         small = shrink(enlarged(background, factors[0])[None], config)[0]
-        chunks = (
-            np.stack(working[i : i + CHUNK_FRAMES]) for i in range(0, len(working), CHUNK_FRAMES)
-        )
         # The subtraction may find no one (clothes the colour of the scene, a dim room):
         # the learned masks then stand as they are.
-        subtracted = subtract_scene(chunks, small, config)
+        subtracted = subtract_scene(frame_chunks(small_frames), small, config)
         masks = fuse_masks(masks, subtracted.masks, config, subtracted.plain_scene)
         segmenter = "fused"
     return ClipMasks(
