@@ -65,6 +65,7 @@ def test_cuts_between_the_samples_are_found_and_nothing_else():
     # too few frames to compare a change with its neighbours': one shot
     np.testing.assert_array_equal(shot_starts(joined[len(walk) - 1 : len(walk) + 1]), [0])
     assert shot_spans(np.array([0, 4, 9]), 12) == [(0, 4), (4, 9), (9, 12)]
+    assert shot_spans(None, 12) == [(0, 12)]
     with pytest.raises(InvalidParameterError, match="uint8"):
         shot_starts(joined.astype(np.float32))
 

@@ -117,8 +117,7 @@ def camera_motion(
     ]
     scenes = [_scene(m) for m in masks]  # where corners may be taken and land
     motion = np.tile(np.eye(2, 3), (n, 1, 1))
-    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
-    for first, stop in shot_spans(starts, n):
+    for first, stop in shot_spans(shot_starts, n):
         anchor = first  # the frame the corners are taken from
         points = _corners(grey[anchor], scenes[anchor])
         for i in range(first + 1, stop):
@@ -129,7 +128,7 @@ def camera_motion(
                 step = _to_anchor(grey, scenes, i, anchor, points, motion)
             # not measured: taken as not moved since the frame before
             motion[i] = motion[i - 1] if step is None else _then(motion[anchor], step)
-    corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+    corners = _frame_corners(h, w)
     moved = np.einsum("fij,cj->fci", motion, corners) - corners[None, :, :2]
     if np.abs(moved).max() < STILL_PX:
         return None
@@ -215,6 +214,11 @@ def _to_anchor(
     return step
 
 
+def _frame_corners(h: int, w: int) -> np.ndarray:
+    """(4, 3): the corners of an (H, W) frame, homogeneous, continuous pixel coordinates."""
+    return np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+
+
 def _then(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
     """(2, 3): the similarity ``inner`` (2, 3), then ``outer`` (2, 3)."""
     last_row = np.array([[0.0, 0.0, 1.0]])
@@ -248,7 +252,7 @@ def stabilised(masks: np.ndarray, camera: np.ndarray) -> np.ndarray:
     masks = np.asarray(masks, bool)
     camera = np.asarray(camera, np.float64)
     n, h, w = masks.shape
-    corners = np.array([[0.0, 0.0, 1.0], [w, 0.0, 1.0], [0.0, h, 1.0], [w, h, 1.0]])
+    corners = _frame_corners(h, w)
     placed = np.einsum("fij,cj->fci", camera, corners).reshape(-1, 2)
     low = np.maximum(np.floor(placed.min(axis=0)), [-MAX_CANVAS_GROWTH * w, -MAX_CANVAS_GROWTH * h])
     high = np.minimum(

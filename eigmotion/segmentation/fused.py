@@ -286,8 +286,7 @@ def without_seen_scene(
     """
     learned = np.asarray(learned, bool)
     out = learned.copy()
-    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
-    for first, stop in shot_spans(starts, len(learned)):
+    for first, stop in shot_spans(shot_starts, len(learned)):
         try:
             out[first:stop] = _without_scene_of_shot(
                 learned[first:stop], frames[first:stop], config

@@ -494,8 +494,7 @@ def learned_masks_and_landmarks(
             followed = _mask_box(masks[i], frame_size)
     if bar is not None:
         bar.close()
-    starts = np.zeros(1, np.int64) if shot_starts is None else np.asarray(shot_starts)
-    for first, stop in shot_spans(starts, len(frames)):
+    for first, stop in shot_spans(shot_starts, len(frames)):
         _drop_outliers(masks[first:stop], people[first:stop], looked_again[first:stop])
     return masks, people, landmarks, world
 

@@ -76,7 +76,10 @@ def shot_starts(frames: np.ndarray) -> np.ndarray:
     return np.asarray(starts, dtype=np.int64)
 
 
-def shot_spans(starts: np.ndarray, n_frames: int) -> list[tuple[int, int]]:
-    """[(first, stop)] frame ranges of the shots whose first frames are ``starts``."""
+def shot_spans(starts: np.ndarray | None, n_frames: int) -> list[tuple[int, int]]:
+    """[(first, stop)] frame ranges of the shots whose first frames are ``starts``
+    (None: the ``n_frames`` are one shot)."""
+    if starts is None:
+        return [(0, n_frames)]
     stops = [*(int(s) for s in starts[1:]), n_frames]
     return [(int(a), b) for a, b in zip(starts, stops, strict=True)]
