@@ -47,6 +47,7 @@ from eigmotion.retrieval.query_windows import (
     search_windows,
     specific_window_entry,
     window_label_path,
+    within_person,
 )
 from eigmotion.retrieval.results import Match, Segment
 from eigmotion.retrieval.sequences import POSE_COMPONENTS, pose_speeds
@@ -337,6 +338,33 @@ def test_unseen_body_between_views_is_recognised(db_path, library, other_body, n
     assert result.labels[0] == result.best
     assert result.segments[0].start_frame == 0
     assert result.segments[-1].end_frame == len(masks)
+
+
+def test_segments_claim_only_the_frames_that_show_the_person(db_path, library, other_body):
+    """A clip that shows the empty scene for a second before the person comes into view
+    and half a second after they leave: its parts start and end with the person."""
+    item = next(m for m in library if m.name == MOTIONS[0])
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    before, after = np.zeros((30, *masks.shape[1:]), bool), np.zeros((15, *masks.shape[1:]), bool)
+    with MotionDatabase.open(db_path) as db:
+        result = db.query_masks(np.concatenate([before, masks, after]), 30.0, top_k=3)
+    assert result.best.label == item.label
+    assert result.segments[0].start_frame == 30
+    assert result.segments[-1].end_frame == 30 + len(masks)
+
+
+def test_within_person_cuts_the_outer_segments_and_drops_empty_ones():
+    walk, kick = Segment(0, 40, "walk", 0.2), Segment(40, 90, "kick", 0.3)
+    present = np.zeros(90, bool)
+    present[10:60] = True
+    assert within_person([walk, kick], present) == [
+        Segment(10, 40, "walk", 0.2),
+        Segment(40, 60, "kick", 0.3),
+    ]
+    present[:] = False
+    present[50:70] = True
+    assert within_person([walk, kick], present) == [Segment(50, 70, "kick", 0.3)]
+    assert within_person([walk, kick], np.zeros(90, bool)) == [walk, kick]
 
 
 def test_motions_beyond_the_ranked_candidates_follow_by_image_distance(

@@ -50,6 +50,7 @@ from eigmotion.retrieval.query_windows import (
     search_windows,
     snapped_to_cuts,
     specific_window_entry,
+    within_person,
 )
 from eigmotion.retrieval.results import (
     IndexReport,
@@ -400,7 +401,10 @@ class MotionDatabase:
         ranking = answer_by_raised_foot(ranking, raised_foot_heights, speed)
         ranking = answer_by_raised_hands(ranking, raised_hands_heights)
         best = self._most_specific(ranking[0], windowed)
-        segments = clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold)
+        segments = within_person(
+            clip_segments(kept, windowed, len(masks), best, self._label_of, self.threshold),
+            masks.any(axis=(1, 2)),
+        )
         ranking = [best] + [m for m in ranking if m.motion_id != best.motion_id]
         by_label: dict[str, Match] = {}
         for match in ranking:

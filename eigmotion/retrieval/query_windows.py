@@ -272,3 +272,33 @@ def snapped_to_cuts(segments: list[Segment], cuts: Sequence[int], reach: int) ->
             out[k - 1] = Segment(before.start_frame, cut, before.label, before.distance)
             out[k] = Segment(cut, after.end_frame, after.label, after.distance)
     return out
+
+
+def within_person(segments: list[Segment], present: np.ndarray) -> list[Segment]:
+    """``segments`` cut to the frames from the first to the last that show the person:
+    a window that reaches into frames before the person comes into view (or after they
+    leave) labels them too, and the clip's parts should not claim them.  A segment left
+    without frames is dropped.
+
+    Parameters
+    ----------
+    segments : list of Segment
+        In order (:func:`clip_segments`), frames as ``present`` counts them.
+    present : (F,) bool
+        The frames whose silhouette holds the person.
+
+    Returns
+    -------
+    list of Segment
+        ``segments`` itself where no frame shows the person.
+    """
+    shown = np.flatnonzero(present)
+    if not len(shown):
+        return list(segments)
+    first, stop = int(shown[0]), int(shown[-1]) + 1
+    out = []
+    for seg in segments:
+        start, end = max(seg.start_frame, first), min(seg.end_frame, stop)
+        if start < end:
+            out.append(Segment(start, end, seg.label, seg.distance))
+    return out
