@@ -14,6 +14,7 @@ import pytest
 from eigmotion.errors import InvalidParameterError
 from eigmotion.imaging.still_images import read_image_rgb
 from eigmotion.retrieval.motion_cues import floor_cues
+from eigmotion.segmentation import camera_motion as camera_motion_module
 from eigmotion.segmentation.camera_motion import STILL_PX, camera_motion, stabilised
 
 REPO = Path(__file__).resolve().parents[1]
@@ -77,6 +78,44 @@ def test_a_still_camera_and_a_moving_person_read_as_still():
     frames, masks, truth = _filmed(np.linspace(0, 2 * STILL_PX, n), np.ones(n), walking)
     measured = camera_motion(frames, masks)
     assert measured is not None and _corner_error_px(measured, truth) < 1.0
+
+
+def test_the_quick_look_at_every_fifth_frame_agrees_with_following_every_frame(monkeypatch):
+    """A still camera is told by the frames it compares (every fifth and the last, with
+    the first) as following every frame tells it; a pan, a frame whose scene cannot be
+    measured (the lens covered) or a pan that starts after the last fifth frame sends it
+    on to follow every frame."""
+    n = 31
+    walking = np.linspace(40, 120, n)
+    still, still_masks, _ = _filmed(np.zeros(n), np.ones(n), walking)
+    covered = still.copy()
+    covered[10] = 0
+    late_pan = np.r_[np.zeros(n - 3), [2.0, 4.0, 6.0]]
+    panned, pan_masks, truth = _filmed(late_pan, np.ones(n), walking)
+
+    def quick_look(frames, masks):
+        looked = []
+        original = camera_motion_module._still_at_checks
+
+        def spy(*args):
+            looked.append(original(*args))
+            return looked[-1]
+
+        monkeypatch.setattr(camera_motion_module, "_still_at_checks", spy)
+        out = camera_motion(frames, masks)
+        monkeypatch.setattr(camera_motion_module, "_still_at_checks", lambda *args: False)
+        assert _same(out, camera_motion(frames, masks))  # as following every frame
+        monkeypatch.setattr(camera_motion_module, "_still_at_checks", original)
+        return looked[0], out
+
+    assert quick_look(still, still_masks) == (True, None)
+    assert quick_look(covered, still_masks) == (False, None)
+    said_still, measured = quick_look(panned, pan_masks)
+    assert not said_still and _corner_error_px(measured, truth) < 1.0
+
+
+def _same(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
 
 
 def test_each_shot_is_measured_from_its_own_first_frame():
