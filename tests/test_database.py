@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mask_helpers import edge_flicker
 
 from eigmotion.body.retarget import animate_avatar
 from eigmotion.cli.main import main
-from eigmotion.errors import DatabaseError, InvalidParameterError
+from eigmotion.errors import DatabaseError, InvalidParameterError, VideoError
 from eigmotion.evaluation.query_variants import EntryTable
 from eigmotion.evaluation.rejection_ceiling import ask_both_ways, rejection_ceiling_report
 from eigmotion.imaging.cameras import virtual_rig
@@ -351,6 +352,22 @@ def test_segments_claim_only_the_frames_that_show_the_person(db_path, library, o
     assert result.best.label == item.label
     assert result.segments[0].start_frame == 30
     assert result.segments[-1].end_frame == 30 + len(masks)
+
+
+def test_a_person_standing_still_is_no_motion_and_holding_a_pose_is_no_part(
+    db_path, library, other_body
+):
+    """Two seconds of the motion's last pose, its edges flickering as a learned
+    segmenter's do: alone it is "no motion"; after the motion it is no part of it."""
+    item = next(m for m in library if m.name == MOTIONS[0])
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    held = edge_flicker(np.repeat(masks[-1:], 60, axis=0), 0.01)
+    with MotionDatabase.open(db_path) as db:
+        with pytest.raises(VideoError, match="stands still"):
+            db.query_masks(held, 30.0)
+        result = db.query_masks(np.concatenate([masks, held]), 30.0, top_k=3)
+    assert result.best.label == item.label
+    assert all(s.label == item.label for s in result.segments)
 
 
 def test_within_person_cuts_the_outer_segments_and_drops_empty_ones():

@@ -7,12 +7,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mask_helpers import edge_flicker
 
 from eigmotion.body.retarget import animate_avatar
 from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.retrieval.motion_image import (
     FILTERS,
     FRAMES,
+    STILL_CHANGE_SHARE,
     WEIGHTINGS,
     ClipMotionImages,
     MotionImageConfig,
@@ -270,6 +272,32 @@ def test_static_masks_have_no_motion():
     still = np.repeat(walk()[:1], 20, axis=0)
     with pytest.raises(VideoError, match="no motion"):
         motion_image(still)
+
+
+def _waving_person(n_frames: int, wave_deg: float) -> np.ndarray:
+    """(F, 120, 160) bool at 15 fps: a body 85 px tall, its forearm raised beside the
+    head swinging ``wave_deg`` either way once a second."""
+    out = np.zeros((n_frames, 120, 160), np.uint8)
+    for i, frame in enumerate(out):
+        cv2.ellipse(frame, (80, 70), (14, 35), 0, 0, 360, 1, -1)
+        cv2.circle(frame, (80, 28), 8, 1, -1)
+        angle = 2.6 + np.radians(wave_deg) * np.sin(2.0 * np.pi * i / 15.0)
+        hand = (round(92 + 28 * np.sin(angle)), round(50 + 28 * np.cos(angle)))
+        cv2.line(frame, (92, 50), hand, 1, 4)
+    return out.astype(bool)
+
+
+def test_a_person_standing_still_is_no_motion_however_their_edges_flicker():
+    """Edge flicker passes the aligned image's own test (the person frame re-centres on
+    every flicker); ``min_change`` on the silhouettes as given tells it from a wave."""
+    still = edge_flicker(_waving_person(45, 0.0), 0.01)
+    waving = edge_flicker(_waving_person(45, 30.0), 0.01)
+    assert motion_image(still, clip_fps=15.0).shape == (MotionImageConfig().n_dims,)
+    with pytest.raises(VideoError, match="stands still"):
+        ClipMotionImages(still, clip_fps=15.0, min_change=STILL_CHANGE_SHARE).window(0, 45)
+    held = ClipMotionImages(waving, clip_fps=15.0, min_change=STILL_CHANGE_SHARE)
+    np.testing.assert_array_equal(held.window(0, 45), motion_image(waving, clip_fps=15.0))
+    assert ClipMotionImages(still, clip_fps=15.0).change(0, 45) < 0.01 < 0.04 < held.change(0, 45)
 
 
 @pytest.mark.parametrize("frame", FRAMES)

@@ -43,7 +43,7 @@ from eigmotion.retrieval.motion_cues import (
     foot_raise,
     hands_raised,
 )
-from eigmotion.retrieval.motion_image import ClipMotionImages
+from eigmotion.retrieval.motion_image import STILL_CHANGE_SHARE, ClipMotionImages
 from eigmotion.retrieval.neighbours import NO_ENTRY
 from eigmotion.retrieval.query_windows import (
     clip_segments,
@@ -371,7 +371,9 @@ class MotionDatabase:
         # A camera that moved: the silhouettes as the still camera of the first frame
         # would see them (the motion image accumulates every move of their edges).
         seen = masks if camera is None else stabilised(masks, camera)
-        images = ClipMotionImages(seen, cfg.motion_image, fps, hidden_below_px)
+        images = ClipMotionImages(
+            seen, cfg.motion_image, fps, hidden_below_px, min_change=STILL_CHANGE_SHARE
+        )
         whole_vector = images.window(*windows[0])  # no person or no motion: raised here
         # The windows' search and the clip's silhouette sequence do not wait for the
         # whole clip's search: they run beside it.

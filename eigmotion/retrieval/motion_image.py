@@ -79,6 +79,13 @@ WEIGHTINGS = ("uniform", "recency")
 FILTERS = ("none", "log", "sobel")
 PHASE_CUTS = ("motion", "time")
 
+#: The ``min_change`` a query's silhouettes are held to (:class:`ClipMotionImages`):
+#: share of the body's area per sampled frame.  Measured on masks the learned
+#: segmenter cut out of video (see docs/motion-image.md): a person standing still,
+#: only the masks' edges flickering, 0.14–0.72%; the slowest wave of the development
+#: set 2.5%, every other action above 3.4%.
+STILL_CHANGE_SHARE = 0.013
+
 #: Fraction of the silhouette mass trimmed at each end when measuring extents (the
 #: image-frame crop, each frame's body height), so a stray speck far from the body
 #: sets neither.  Measured: 5e-3 keeps retrieval on clean masks and lifts it on
@@ -276,6 +283,12 @@ class ClipMotionImages:
         picture, :func:`eigmotion.segmentation.cut_bodies.hidden_rows_below`): every
         silhouette is continued down by as many copies of its bottom row first, so
         that the body's height and centre are measured on the whole body.
+    min_change : float
+        A window whose silhouettes, as given (before the person frame aligns them),
+        change between its sampled frames by less than this share of the body's
+        area per frame on average raises "no motion": a person standing still, whose
+        masks only flicker along their edges (:data:`STILL_CHANGE_SHARE`).  In
+        [0, 1); 0 tests nothing beyond ``config.min_motion_frac``.
     """
 
     def __init__(
@@ -284,11 +297,13 @@ class ClipMotionImages:
         config: MotionImageConfig = MotionImageConfig(),  # noqa: B008 - frozen, immutable
         clip_fps: float | None = None,
         hidden_below_px: int = 0,
+        min_change: float = 0.0,
     ):
         stack = continued_below(_check_masks(masks), int(hidden_below_px))
         if clip_fps is not None:
             validate("clip_fps", clip_fps, FRAME_RATE_FPS)
-        self.config, self.clip_fps = config, clip_fps
+        validate("min_change", min_change, Interval(Real, 0.0, 1.0, closed="left"))
+        self.config, self.clip_fps, self.min_change = config, clip_fps, float(min_change)
         if stack.dtype == np.bool_:
             # Masses of 0/1 pixels are whole numbers: counted, they are the float32 sums
             # to the bit; only the region a window resamples becomes float (_aligned).
@@ -320,9 +335,49 @@ class ClipMotionImages:
         Raises
         ------
         VideoError
-            As :func:`motion_image`: no person, too few frames, or no motion.
+            As :func:`motion_image`: no person, too few frames, or no motion (also
+            when the silhouettes change by less than ``min_change``).
         """
-        return _image_from_aligned(self._aligned(self._sampled(start, stop)), self.config)
+        frames = self._sampled(start, stop)
+        aligned = self._aligned(frames)
+        if self.min_change > 0.0:
+            change = self._change(self._kept(frames))
+            if change < self.min_change:
+                raise VideoError(
+                    f"masks: no motion: the person stands still (the silhouettes change by "
+                    f"{change:.2%} of the body's area per frame, under {self.min_change:.2%}: "
+                    "only their edges flicker)"
+                )
+        return _image_from_aligned(aligned, self.config)
+
+    def change(self, start: int, stop: int) -> float:
+        """How much the silhouettes of frames ``[start, stop)`` change, as given.
+
+        Returns
+        -------
+        float
+            The pixels that differ between consecutive sampled frames (those the
+            window keeps), on average, over the body's mean area: 0 for a body that
+            does not move, about 0.05 for a wave (see :data:`STILL_CHANGE_SHARE`).
+
+        Raises
+        ------
+        VideoError
+            As :meth:`window`: no person, or too few frames with one.
+        """
+        return self._change(self._enough(self._sampled(start, stop)))
+
+    def _change(self, frames: np.ndarray) -> float:
+        """:meth:`change` of ``frames`` (at least two, each with a person)."""
+        rows = self._rows[frames]
+        y0, y1 = _support(rows.sum(axis=0))
+        x0, x1 = _support(self._cols[frames].sum(axis=0))
+        roi = self._values[frames, y0:y1, x0:x1]
+        if roi.dtype == np.bool_:
+            changed = float(np.count_nonzero(roi[1:] != roi[:-1]))
+        else:
+            changed = float(np.abs(np.diff(roi, axis=0)).sum())
+        return changed / (len(frames) - 1) / (float(rows.sum()) / len(frames))
 
     def aligned(self, size: int) -> np.ndarray:
         """The whole clip's silhouettes as the motion image sees them, at another size.
@@ -381,24 +436,27 @@ class ClipMotionImages:
             return frames[self._occupied[frames]]
         return frames
 
-    def _aligned(self, frames: np.ndarray, size: int | None = None) -> np.ndarray:
-        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`),
-        at ``size`` pixels (default ``config.size``)."""
-        config = self.config
-        occupied = self._occupied[frames]
-        if not occupied.any():
+    def _enough(self, frames: np.ndarray) -> np.ndarray:
+        """:meth:`_kept` of ``frames``, or "no person" / "too few frames" raised."""
+        if not self._occupied[frames].any():
             raise VideoError(
                 f"masks: no person: all {len(frames)} silhouettes are empty; "
                 "expected pixels > 0 where the person is"
             )
-        n_sampled = len(frames)
-        frames = self._kept(frames)
-        if len(frames) < config.step + 1:
+        kept = self._kept(frames)
+        if len(kept) < self.config.step + 1:
             raise VideoError(
-                f"masks: the person is in {len(frames)} of the {n_sampled} frame(s) sampled "
-                f"at {config.sample_fps:g} fps; a motion image (step={config.step}) needs "
-                f"at least {config.step + 1}"
+                f"masks: the person is in {len(kept)} of the {len(frames)} frame(s) sampled "
+                f"at {self.config.sample_fps:g} fps; a motion image (step={self.config.step}) "
+                f"needs at least {self.config.step + 1}"
             )
+        return kept
+
+    def _aligned(self, frames: np.ndarray, size: int | None = None) -> np.ndarray:
+        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`),
+        at ``size`` pixels (default ``config.size``)."""
+        config = self.config
+        frames = self._enough(frames)
         rows, cols = self._rows[frames], self._cols[frames]
         size = config.size if size is None else int(size)
         if config.frame == "image":
