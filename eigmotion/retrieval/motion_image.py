@@ -81,9 +81,9 @@ PHASE_CUTS = ("motion", "time")
 
 #: The ``min_change`` a query's silhouettes are held to (:class:`ClipMotionImages`):
 #: share of the body's area per sampled frame.  Measured on masks the learned
-#: segmenter cut out of video (see docs/motion-image.md): a person standing still,
-#: only the masks' edges flickering, 0.14–0.72%; the slowest wave of the development
-#: set 2.5%, every other action above 3.4%.
+#: segmenter cut out of the development set's clips (docs/motion-image.md, "A person
+#: standing still"): their first frames held still, median 0.48% (121 of 140 under
+#: it); the clips as filmed, 2.46% for the slowest action (a slow wave), median 20%.
 STILL_CHANGE_SHARE = 0.013
 
 #: Fraction of the silhouette mass trimmed at each end when measuring extents (the
@@ -358,7 +358,8 @@ class ClipMotionImages:
         float
             The pixels that differ between consecutive sampled frames (those the
             window keeps), on average, over the body's mean area: 0 for a body that
-            does not move, about 0.05 for a wave (see :data:`STILL_CHANGE_SHARE`).
+            does not move, 0.025–1.4 for the development set's actions (see
+            :data:`STILL_CHANGE_SHARE`).
 
         Raises
         ------
