@@ -363,7 +363,7 @@ def test_a_person_standing_still_is_no_motion_and_holding_a_pose_is_no_part(
     masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
     held = edge_flicker(np.repeat(masks[-1:], 60, axis=0), 0.01)
     with MotionDatabase.open(db_path) as db:
-        with pytest.raises(VideoError, match="stands still"):
+        with pytest.raises(VideoError, match="the person stands still"):
             db.query_masks(held, 30.0)
         result = db.query_masks(np.concatenate([masks, held]), 30.0, top_k=3)
     assert result.best.label == item.label

@@ -344,9 +344,9 @@ class ClipMotionImages:
             change = self._change(self._kept(frames))
             if change < self.min_change:
                 raise VideoError(
-                    f"masks: no motion: the person stands still (the silhouettes change by "
-                    f"{change:.2%} of the body's area per frame, under {self.min_change:.2%}: "
-                    "only their edges flicker)"
+                    f"masks: no motion: the silhouettes change by {change:.2%} of the body's "
+                    f"area per frame, under {self.min_change:.2%}: the person stands still, "
+                    "or moves only where the camera cannot see it"
                 )
         return _image_from_aligned(aligned, self.config)
 
