@@ -370,6 +370,24 @@ def test_a_person_standing_still_is_no_motion_and_holding_a_pose_is_no_part(
     assert all(s.label == item.label for s in result.segments)
 
 
+def test_the_decision_benchmark_counts_a_refused_clip_as_no_answer(db_path, library, other_body):
+    """bench_rerank's queries (query_variants.answer_all): a clip the query refuses as
+    "no motion" is answered NO_ANSWER and not accepted; the others as the query answers."""
+    from eigmotion.evaluation.query_variants import HeldOutClip, answer_all
+    from eigmotion.evaluation.scoring import NO_ANSWER
+
+    item = next(m for m in library if m.name == MOTIONS[0])
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    held = edge_flicker(np.repeat(masks[-1:], 60, axis=0), 0.01)
+    clips = [
+        HeldOutClip("still", item.label, (), held, 30.0),
+        HeldOutClip("moving", item.label, (), masks, 30.0),
+    ]
+    refused, answered = answer_all(db_path, clips)
+    assert refused.ranked_labels == (NO_ANSWER,) and not refused.accepted
+    assert answered.ranked_labels[0] == item.label
+
+
 def test_within_person_cuts_the_outer_segments_and_drops_empty_ones():
     walk, kick = Segment(0, 40, "walk", 0.2), Segment(40, 90, "kick", 0.3)
     present = np.zeros(90, bool)

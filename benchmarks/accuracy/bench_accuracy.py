@@ -93,6 +93,7 @@ from eigmotion.evaluation.query_clips import (  # noqa: E402
     variation_folds,
 )
 from eigmotion.evaluation.scoring import (  # noqa: E402
+    NO_ANSWER,
     QueryOutcome,
     format_operating_points,
     format_score,
@@ -111,8 +112,6 @@ from eigmotion.retrieval.storage import DEFAULT_DB_PATH  # noqa: E402
 QUICK_RIG = rigs_dir() / "ring6.toml"
 
 DEFAULT_HOLDOUT_LABELS = ("kick", "wave", "fall_down")
-#: Label given to a query the engine could not answer (e.g. no person found).
-NO_ANSWER = "(no answer)"
 SUITES = ("seen", "loso", "holdout", "unknown")
 
 

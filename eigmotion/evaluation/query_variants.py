@@ -24,9 +24,10 @@ import eigmotion.retrieval.database as database_module
 import eigmotion.retrieval.motion_cues as motion_cues_module
 import eigmotion.retrieval.query_windows as query_windows_module
 import eigmotion.retrieval.sequences as sequences_module
-from eigmotion.errors import InvalidParameterError
+from eigmotion.errors import InvalidParameterError, VideoError
 from eigmotion.evaluation.query_clips import TOP_K
 from eigmotion.evaluation.scoring import (
+    NO_ANSWER,
     QueryOutcome,
     format_operating_points,
     format_rate,
@@ -54,7 +55,7 @@ QUERY_CONSTANTS = {
         "PACE_WEIGHT", "PACE_FLOOR", "PACE_SMOOTHING_PASSES", "SEQUENCE_WEIGHT",
         "VIEW_REACH_DEG", "CANDIDATE_MOTIONS", "WARP_BAND",
     ),
-    "database": ("CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS"),
+    "database": ("CANDIDATE_ENTRIES", "CANDIDATE_MOTIONS", "STILL_CHANGE_SHARE"),
     "query_windows": (
         "WINDOW_CANDIDATES", "FILLER_CANDIDATES", "SPECIFIC_MARGIN", "MIN_SPECIFIC_WINDOWS",
         "SEGMENT_SWITCH_COST",
@@ -248,7 +249,12 @@ class EntryTable:
 
 
 def query_outcome(db: MotionDatabase, clip: HeldOutClip, in_library: bool) -> QueryOutcome:
-    result = db.query_masks(clip.masks, clip.fps)
+    """The answer to one clip; a clip the query refuses (no person, no motion) is
+    answered :data:`~eigmotion.evaluation.scoring.NO_ANSWER`, not accepted."""
+    try:
+        result = db.query_masks(clip.masks, clip.fps)
+    except VideoError:
+        return QueryOutcome(clip.label, (NO_ANSWER,), False, in_library, 0.0, math.inf, 0.0)
     return QueryOutcome(
         clip.label,
         tuple(m.label for m in result.labels),
@@ -354,13 +360,16 @@ def segment_all(
         for parts, into in asked:
             held = [name for i in parts for name in clips[i].held_out]
             entries.search_only(db, ~np.isin(entries.motion, held))
-            result = db.query_masks(
-                np.concatenate([clips[i].masks for i in parts]), clips[parts[0]].fps
-            )
+            try:
+                segments = db.query_masks(
+                    np.concatenate([clips[i].masks for i in parts]), clips[parts[0]].fps
+                ).segments
+            except VideoError:  # refused (no person, no motion): no part shown
+                segments = []
             ends = np.cumsum([len(clips[i].masks) for i in parts]).tolist()
             starts = [0, *ends[:-1]]
             truth = [(a, b, clips[i].label) for a, b, i in zip(starts, ends, parts, strict=True)]
-            shown = [(s.start_frame, s.end_frame, s.label) for s in result.segments]
+            shown = [(s.start_frame, s.end_frame, s.label) for s in segments]
             into.append(segment_agreement(shown, truth, FILLER_LABELS))
     return found
 

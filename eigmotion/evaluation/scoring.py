@@ -45,6 +45,8 @@ from eigmotion.evaluation.statistics import (
 
 #: Cell shown for a zero count in printed confusion matrices.
 ZERO_CELL = "·"
+#: Label given to a query the engine could not answer (e.g. no person found).
+NO_ANSWER = "(no answer)"
 
 
 @dataclass(frozen=True)
