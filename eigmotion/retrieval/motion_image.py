@@ -338,17 +338,16 @@ class ClipMotionImages:
             As :func:`motion_image`: no person, too few frames, or no motion (also
             when the silhouettes change by less than ``min_change``).
         """
-        frames = self._sampled(start, stop)
-        aligned = self._aligned(frames)
+        kept = self._enough(self._sampled(start, stop))
         if self.min_change > 0.0:
-            change = self._change(self._kept(frames))
+            change = self._change(kept)
             if change < self.min_change:
                 raise VideoError(
                     f"masks: no motion: the silhouettes change by {change:.2%} of the body's "
                     f"area per frame, under {self.min_change:.2%}: the person stands still, "
                     "or moves only where the camera cannot see it"
                 )
-        return _image_from_aligned(aligned, self.config)
+        return _image_from_aligned(self._aligned(kept), self.config)
 
     def change(self, start: int, stop: int) -> float:
         """How much the silhouettes of frames ``[start, stop)`` change, as given.
@@ -399,7 +398,7 @@ class ClipMotionImages:
         VideoError
             No person, or too few frames with one.
         """
-        return self._aligned(self._sampled(0, len(self._values)), size)
+        return self._aligned(self._enough(self._sampled(0, len(self._values))), size)
 
     def rise(self) -> np.ndarray:
         """How high the top of the body stands in each frame of :meth:`aligned`.
@@ -454,10 +453,9 @@ class ClipMotionImages:
         return kept
 
     def _aligned(self, frames: np.ndarray, size: int | None = None) -> np.ndarray:
-        """(F'', size, size) float32: the given frames aligned (see :func:`align_frames`),
-        at ``size`` pixels (default ``config.size``)."""
+        """(F'', size, size) float32: the given frames (:meth:`_enough`'s) aligned (see
+        :func:`align_frames`), at ``size`` pixels (default ``config.size``)."""
         config = self.config
-        frames = self._enough(frames)
         rows, cols = self._rows[frames], self._cols[frames]
         size = config.size if size is None else int(size)
         if config.frame == "image":
@@ -499,7 +497,8 @@ def align_frames(masks: np.ndarray, config: MotionImageConfig) -> np.ndarray:
     VideoError
         No person in any frame, or too few frames with a person.
     """
-    return ClipMotionImages(masks, config)._aligned(np.arange(len(masks)))
+    images = ClipMotionImages(masks, config)
+    return images._aligned(images._enough(np.arange(len(masks))))
 
 
 def motion_image_picture(vector: np.ndarray, config: MotionImageConfig) -> np.ndarray:
