@@ -26,7 +26,13 @@ from eigmotion.retrieval.results import lost_person_warning
 from eigmotion.segmentation import learned
 from eigmotion.segmentation.background import seen_scene
 from eigmotion.segmentation.config import SilhouetteConfig
-from eigmotion.segmentation.fused import fuse_masks, without_seen_scene
+from eigmotion.segmentation.fused import (
+    SCENE_NEAR_PX,
+    SCENE_PIECE_SHARE,
+    _scene_pieces,
+    fuse_masks,
+    without_seen_scene,
+)
 from eigmotion.segmentation.learned import (
     MODEL_PATH,
     crop_input,
@@ -37,6 +43,7 @@ from eigmotion.segmentation.learned import (
     person_probabilities,
     resolve_segmenter,
 )
+from eigmotion.segmentation.subtraction import CHUNK_FRAMES, frame_chunks, subtract_scene
 from eigmotion.segmentation.video import load_clip_masks
 
 REPO = Path(__file__).resolve().parents[1]
@@ -505,14 +512,10 @@ def test_where_the_subtraction_finds_no_one_the_fused_masks_are_the_learned_ones
     np.testing.assert_array_equal(fused.masks, learned_only.masks)
 
 
-def test_without_the_image_what_the_clip_shows_as_scene_is_taken_out():
-    """Without an image of the empty scene, the scene is what the clip shows where the
-    person is not.  A person walks up to a stool and sits on it for most of the clip;
-    the networks take the stool for part of them in the last four frames.  The stool
-    shows in the other frames, so it is taken out of those masks; the seated person,
-    whose place the clip hardly ever shows empty, keeps every pixel, and so does someone
-    who never moves at all."""
-    config = SilhouetteConfig()
+def _stool_clip() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A person walks up to a stool and sits on it: (16, 120, 160, 3) frames, the true
+    person (16, 120, 160) and the learned masks, which take the stool for part of the
+    person in the last four frames."""
     rng = np.random.default_rng(0)
     scene = rng.integers(60, 200, size=(120, 160, 3), dtype=np.uint8)
     scene[80:110, 95:125] = (200, 200, 210)  # the stool
@@ -525,7 +528,20 @@ def test_without_the_image_what_the_clip_shows_as_scene_is_taken_out():
     frames[person] = (180, 40, 40)
     frames = np.clip(frames + rng.normal(0, 2, frames.shape), 0, 255).astype(np.uint8)
     learned_mask = person.copy()
-    learned_mask[12:, 80:110, 95:125] = True  # the stool taken for the person
+    learned_mask[12:, 80:110, 95:125] = True
+    return frames, person, learned_mask
+
+
+def test_without_the_image_what_the_clip_shows_as_scene_is_taken_out():
+    """Without an image of the empty scene, the scene is what the clip shows where the
+    person is not.  A person walks up to a stool and sits on it for most of the clip;
+    the networks take the stool for part of them in the last four frames.  The stool
+    shows in the other frames, so it is taken out of those masks; the seated person,
+    whose place the clip hardly ever shows empty, keeps every pixel, and so does someone
+    who never moves at all."""
+    config = SilhouetteConfig()
+    frames, person, learned_mask = _stool_clip()
+    n = len(frames)
     out = without_seen_scene(learned_mask, frames, config)
     assert not out[12:, 84:110, 100:125].any()
     assert (out & person).sum() == person.sum()  # every pixel of the person kept
@@ -539,6 +555,58 @@ def test_without_the_image_what_the_clip_shows_as_scene_is_taken_out():
     )
     with pytest.raises(InvalidParameterError, match="person must have shape"):
         seen_scene(frames, learned_mask[:, :60], config)
+
+
+def _scene_pieces_over_the_whole_frame(mine, theirs, plain):
+    """The rule of :func:`~eigmotion.segmentation.fused._scene_pieces`, worked over the
+    whole frame."""
+    near = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SCENE_NEAR_PX + 1,) * 2)
+    found = cv2.dilate(theirs.astype(np.uint8), near).astype(bool)
+    scene = cv2.morphologyEx((mine & plain & ~found).astype(np.uint8), cv2.MORPH_OPEN,
+                             np.ones((3, 3), np.uint8))  # fmt: skip
+    _, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
+    big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * np.count_nonzero(mine)
+    big[0] = False
+    return big[pieces]
+
+
+def test_the_seen_scene_rule_segments_only_frames_that_can_lose_a_piece():
+    """Without the image, the subtraction against the scene the clip shows segments only
+    the chunks of frames where the learned mask holds a piece of plain scene large
+    enough to be taken out; the answer is the same to the pixel as segmenting every
+    frame and looking at every frame's pieces over the whole frame."""
+    frames, _, learned_mask = _stool_clip()
+    config = replace(SilhouetteConfig(), upper_body_frac=0.0)
+    scene = seen_scene(frames, learned_mask, config)
+    every = subtract_scene(frame_chunks(frames), scene.image, config)
+    assert every.segmented.all()
+    later = subtract_scene(
+        frame_chunks(frames), scene.image, config,
+        frames_wanted=lambda plain: np.arange(len(plain)) >= 12,
+    )  # fmt: skip
+    chunk = CHUNK_FRAMES
+    np.testing.assert_array_equal(later.segmented, np.arange(16) >= chunk)
+    np.testing.assert_array_equal(later.masks[chunk:], every.masks[chunk:])
+    assert not later.masks[:chunk].any() and every.masks[:chunk].any()
+    np.testing.assert_array_equal(later.plain_scene, every.plain_scene)
+
+    expected = learned_mask.copy()
+    for mine, theirs, plain, kept in zip(
+        learned_mask, every.masks, every.plain_scene, expected, strict=True
+    ):
+        kept &= ~_scene_pieces_over_the_whole_frame(mine, theirs, plain & scene.seen)
+    assert (expected != learned_mask).any()
+    np.testing.assert_array_equal(without_seen_scene(learned_mask, frames, config), expected)
+    rng = np.random.default_rng(1)
+    for _ in range(200):  # at the frame's edges too
+        seeds = (rng.random((40, 50)) < 0.01).astype(np.uint8)
+        mine = cv2.dilate(seeds, None, iterations=4).astype(bool)
+        mine[:, :3] |= rng.random((40, 1)) < 0.7
+        theirs, plain = rng.random((40, 50)) < 0.004, rng.random((40, 50)) < 0.97
+        np.testing.assert_array_equal(
+            _scene_pieces(mine, theirs, plain),
+            _scene_pieces_over_the_whole_frame(mine, theirs, plain),
+        )
 
 
 def test_without_the_image_the_learned_masks_lose_only_scene():

@@ -301,14 +301,27 @@ def _without_scene_of_shot(
 ) -> np.ndarray:
     """:func:`without_seen_scene` of one shot."""
     scene = seen_scene(frames, learned, config)
-    chunks = frame_chunks(frames)
+
+    def may_lose_pieces(plain: np.ndarray) -> np.ndarray:
+        # A piece taken out lies in ``mine & plain & seen``: a frame where that holds no
+        # piece large enough loses none, whatever the subtraction finds (taking its
+        # surroundings away leaves only smaller pieces), and needs no masks of its own.
+        return np.array([
+            mine.any() and _scene_pieces(mine, np.zeros_like(mine), shown & scene.seen).any()
+            for mine, shown in zip(learned, plain, strict=True)
+        ], bool)  # fmt: skip
+
     # against an estimated scene the shadow test stands everywhere (extract_silhouettes)
-    subtracted = subtract_scene(chunks, scene.image, replace(config, upper_body_frac=0.0))
+    subtracted = subtract_scene(
+        frame_chunks(frames), scene.image, replace(config, upper_body_frac=0.0),
+        frames_wanted=may_lose_pieces,
+    )  # fmt: skip
     out = learned.copy()
-    for mine, theirs, plain, kept in zip(
-        learned, subtracted.masks, subtracted.plain_scene, out, strict=True
-    ):
-        if mine.any():
+    for mine, theirs, plain, segmented, kept in zip(
+        learned, subtracted.masks, subtracted.plain_scene, subtracted.segmented, out,
+        strict=True,
+    ):  # fmt: skip
+        if segmented and mine.any():
             kept &= ~_scene_pieces(mine, theirs, plain & scene.seen)
     return out
 
@@ -317,11 +330,23 @@ def _scene_pieces(mine: np.ndarray, theirs: np.ndarray, plain: np.ndarray) -> np
     """(H, W) bool: the pieces of the learned mask ``mine`` farther than
     :data:`SCENE_NEAR_PX` from the subtraction's ``theirs``, on ``plain`` scene, that
     outlast an opening by a 3 × 3 square and cover at least :data:`SCENE_PIECE_SHARE`
-    of ``mine``."""
+    of ``mine`` (all False where ``mine`` is).
+
+    Worked out inside ``mine``'s box grown by what the dilation and the opening reach,
+    the same to the pixel as over the whole frame: outside the box nothing is kept.
+    """
+    out = np.zeros(mine.shape, bool)
+    x, y, w, h = cv2.boundingRect(mine.view(np.uint8))
+    if not w:
+        return out
+    reach = SCENE_NEAR_PX + 1
+    box = np.s_[max(0, y - reach) : y + h + reach, max(0, x - reach) : x + w + reach]
+    mine, theirs, plain = mine[box], theirs[box], plain[box]
     found = cv2.dilate(theirs.view(np.uint8), _SCENE_NEAR).view(bool)
     scene = (mine & plain & ~found).view(np.uint8)
     scene = cv2.morphologyEx(scene, cv2.MORPH_OPEN, _SOLID)
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
     big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * np.count_nonzero(mine)
     big[0] = False  # not the scene's pieces: the rest
-    return big[pieces]
+    out[box] = big[pieces]
+    return out

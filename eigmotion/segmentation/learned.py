@@ -631,14 +631,21 @@ def person_in_frame(mask: np.ndarray, config: SilhouetteConfig) -> tuple[np.ndar
         least :data:`PERSON_SHARE` of its area and at least the smallest person's: the
         pieces of one person torn apart by the segmentation lie above one another.
     """
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), 8)
+    out = np.zeros(mask.shape, bool)
+    # Labelled inside the foreground's box (the same blobs, in the same order).
+    x, y, w, h = cv2.boundingRect(mask.view(np.uint8))
+    if not w:
+        return out, 0
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(
+        mask[y : y + h, x : x + w].view(np.uint8), 8
+    )
     if count <= 1:
-        return np.zeros(mask.shape, bool), 0
+        return out, 0
     area = stats[1:, cv2.CC_STAT_AREA]
     largest = int(np.argmax(area))
     min_area = config.min_person_frac * mask.size
     if area[largest] < min_area:
-        return np.zeros(mask.shape, bool), 0
+        return out, 0
     x0, y0 = stats[1:, cv2.CC_STAT_LEFT], stats[1:, cv2.CC_STAT_TOP]
     x1, y1 = x0 + stats[1:, cv2.CC_STAT_WIDTH], y0 + stats[1:, cv2.CC_STAT_HEIGHT]
     bw, bh = x1[largest] - x0[largest], y1[largest] - y0[largest]
@@ -653,7 +660,8 @@ def person_in_frame(mask: np.ndarray, config: SilhouetteConfig) -> tuple[np.ndar
     beside = (x1 <= x0[largest]) | (x0 >= x1[largest])  # no column shared with it
     big = area >= max(min_area, PERSON_SHARE * area[largest])
     people = 1 + int(np.count_nonzero(big & beside))
-    return np.r_[False, keep][labels], people
+    out[y : y + h, x : x + w] = np.r_[False, keep][labels]
+    return out, people
 
 
 def people_in_view(people: np.ndarray) -> int:

@@ -46,7 +46,7 @@ and segments only the part of the frames that can hold the person.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -123,15 +123,17 @@ def segment_chunks(
 class Subtraction:
     """What subtracting the empty scene found in a clip's frames, at the working size.
 
-    ``masks`` (F, H, W) bool: the person (:func:`segment_chunks`); ``plain_scene``
-    (F, H, W) bool or None: the pixels whose smoothed colour difference to the empty
-    scene stays under the clip's low threshold — no evidence of anything but the scene
-    there, not even a weak one (shadows are not counted: the shadow test also takes
-    dark hair and clothes before a lighter scene).
+    ``masks`` (F, H, W) bool: the person (:func:`segment_chunks`), all False in the
+    frames not segmented; ``plain_scene`` (F, H, W) bool or None: the pixels whose
+    smoothed colour difference to the empty scene stays under the clip's low threshold
+    — no evidence of anything but the scene there, not even a weak one (shadows are
+    not counted: the shadow test also takes dark hair and clothes before a lighter
+    scene); ``segmented`` (F,) bool: the frames whose masks were made.
     """
 
     masks: np.ndarray
     plain_scene: np.ndarray | None
+    segmented: np.ndarray
 
 
 def subtract_scene(
@@ -139,25 +141,43 @@ def subtract_scene(
     background: np.ndarray,
     config: SilhouetteConfig,
     plain_scene: bool = True,
+    frames_wanted: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> Subtraction:
     """:func:`segment_chunks`, and with ``plain_scene`` where the frames show the
-    empty scene as it is (:class:`Subtraction`)."""
+    empty scene as it is (:class:`Subtraction`).
+
+    ``frames_wanted``, given the plain scene (F, H, W) bool, says which frames' masks
+    are wanted, (F,) bool: the second pass skips the chunks that hold none of them
+    (their masks all False).  The masks it makes are the same as when every chunk is
+    segmented: a chunk's masks depend on its own evidence and the clip's levels only.
+    """
     workers = worker_threads()
     scene = prepare_scene(background, config)
     with opencv_in_calling_threads():
         pending = [workers.submit(chunk_evidence, chunk, scene, config) for chunk in chunks]
         evidence = [job.result() for job in pending]
         levels = clip_levels(evidence, config)
-        masks = list(
-            workers.map(lambda chunk: _chunk_masks(chunk, scene, levels, config), evidence)
-        )
-    plain = None
-    if plain_scene:
-        h = scene.shape[0]
-        plain = np.concatenate(
-            [frames_of(e.smoothed, scene, e.n)[:, :h] < levels.low for e in evidence]
-        )
-    return Subtraction(np.concatenate(masks), plain)
+        plain = None
+        if plain_scene or frames_wanted is not None:
+            h = scene.shape[0]
+            plain = np.concatenate(
+                [frames_of(e.smoothed, scene, e.n)[:, :h] < levels.low for e in evidence]
+            )
+        ends = np.cumsum([e.n for e in evidence])
+        segmented = np.ones(sum(e.n for e in evidence), bool)
+        if frames_wanted is not None:
+            wanted = np.asarray(frames_wanted(plain), bool)
+            for e, end in zip(evidence, ends, strict=True):
+                segmented[end - e.n : end] = wanted[end - e.n : end].any()
+
+        def masks_of(chunk: int) -> np.ndarray:
+            e = evidence[chunk]
+            if not segmented[ends[chunk] - e.n]:
+                return np.zeros((e.n, *scene.shape), bool)
+            return _chunk_masks(e, scene, levels, config)
+
+        masks = list(workers.map(masks_of, range(len(evidence))))
+    return Subtraction(np.concatenate(masks), plain, segmented)
 
 
 def _chunk_masks(
