@@ -528,7 +528,7 @@ def _stool_clip() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     frames[person] = (180, 40, 40)
     frames = np.clip(frames + rng.normal(0, 2, frames.shape), 0, 255).astype(np.uint8)
     learned_mask = person.copy()
-    learned_mask[12:, 80:110, 95:125] = True
+    learned_mask[12:, 80:110, 95:125] = True  # the stool taken for the person
     return frames, person, learned_mask
 
 
