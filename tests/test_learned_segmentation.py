@@ -579,13 +579,13 @@ def test_the_seen_scene_rule_segments_only_frames_that_can_lose_a_piece():
     config = replace(SilhouetteConfig(), upper_body_frac=0.0)
     scene = seen_scene(frames, learned_mask, config)
     every = subtract_scene(frame_chunks(frames), scene.image, config)
-    assert every.segmented.all()
+    assert every.wanted.all()
     later = subtract_scene(
         frame_chunks(frames), scene.image, config,
         frames_wanted=lambda plain: np.arange(len(plain)) >= 12,
     )  # fmt: skip
     chunk = CHUNK_FRAMES
-    np.testing.assert_array_equal(later.segmented, np.arange(16) >= chunk)
+    np.testing.assert_array_equal(later.wanted, np.arange(16) >= 12)
     np.testing.assert_array_equal(later.masks[chunk:], every.masks[chunk:])
     assert not later.masks[:chunk].any() and every.masks[:chunk].any()
     np.testing.assert_array_equal(later.plain_scene, every.plain_scene)

@@ -307,7 +307,7 @@ def _without_scene_of_shot(
         # piece large enough loses none, whatever the subtraction finds (taking its
         # surroundings away leaves only smaller pieces), and needs no masks of its own.
         return np.array([
-            mine.any() and _scene_pieces(mine, np.zeros_like(mine), shown & scene.seen).any()
+            _scene_pieces(mine, np.zeros_like(mine), shown & scene.seen).any()
             for mine, shown in zip(learned, plain, strict=True)
         ], bool)  # fmt: skip
 
@@ -317,12 +317,9 @@ def _without_scene_of_shot(
         frames_wanted=may_lose_pieces,
     )  # fmt: skip
     out = learned.copy()
-    for mine, theirs, plain, segmented, kept in zip(
-        learned, subtracted.masks, subtracted.plain_scene, subtracted.segmented, out,
-        strict=True,
-    ):  # fmt: skip
-        if segmented and mine.any():
-            kept &= ~_scene_pieces(mine, theirs, plain & scene.seen)
+    for i in np.flatnonzero(subtracted.wanted):
+        plain = subtracted.plain_scene[i] & scene.seen
+        out[i] &= ~_scene_pieces(learned[i], subtracted.masks[i], plain)
     return out
 
 

@@ -123,17 +123,18 @@ def segment_chunks(
 class Subtraction:
     """What subtracting the empty scene found in a clip's frames, at the working size.
 
-    ``masks`` (F, H, W) bool: the person (:func:`segment_chunks`), all False in the
-    frames not segmented; ``plain_scene`` (F, H, W) bool or None: the pixels whose
-    smoothed colour difference to the empty scene stays under the clip's low threshold
-    — no evidence of anything but the scene there, not even a weak one (shadows are
-    not counted: the shadow test also takes dark hair and clothes before a lighter
-    scene); ``segmented`` (F,) bool: the frames whose masks were made.
+    ``masks`` (F, H, W) bool: the person (:func:`segment_chunks`) in every chunk that
+    holds a wanted frame, all False in the other chunks; ``plain_scene`` (F, H, W) bool
+    or None: the pixels whose smoothed colour difference to the empty scene stays under
+    the clip's low threshold — no evidence of anything but the scene there, not even a
+    weak one (shadows are not counted: the shadow test also takes dark hair and clothes
+    before a lighter scene); ``wanted`` (F,) bool: the frames whose masks were asked for
+    (every frame unless :func:`subtract_scene` was given ``frames_wanted``).
     """
 
     masks: np.ndarray
     plain_scene: np.ndarray | None
-    segmented: np.ndarray
+    wanted: np.ndarray
 
 
 def subtract_scene(
@@ -163,21 +164,18 @@ def subtract_scene(
             plain = np.concatenate(
                 [frames_of(e.smoothed, scene, e.n)[:, :h] < levels.low for e in evidence]
             )
+        n_frames = sum(e.n for e in evidence)
+        wanted = np.ones(n_frames, bool) if frames_wanted is None else frames_wanted(plain)
         ends = np.cumsum([e.n for e in evidence])
-        segmented = np.ones(sum(e.n for e in evidence), bool)
-        if frames_wanted is not None:
-            wanted = np.asarray(frames_wanted(plain), bool)
-            for e, end in zip(evidence, ends, strict=True):
-                segmented[end - e.n : end] = wanted[end - e.n : end].any()
 
         def masks_of(chunk: int) -> np.ndarray:
-            e = evidence[chunk]
-            if not segmented[ends[chunk] - e.n]:
+            e, end = evidence[chunk], ends[chunk]
+            if not wanted[end - e.n : end].any():
                 return np.zeros((e.n, *scene.shape), bool)
             return _chunk_masks(e, scene, levels, config)
 
         masks = list(workers.map(masks_of, range(len(evidence))))
-    return Subtraction(np.concatenate(masks), plain, segmented)
+    return Subtraction(np.concatenate(masks), plain, np.asarray(wanted, bool))
 
 
 def _chunk_masks(
