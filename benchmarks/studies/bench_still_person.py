@@ -30,10 +30,10 @@ import argparse
 import tempfile
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from eigmotion.errors import VideoError
+from eigmotion.imaging.media import read_frames, write_video
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.retrieval.motion_image import STILL_CHANGE_SHARE, ClipMotionImages, MotionImageConfig
 from eigmotion.segmentation.camera_motion import stabilised
@@ -43,19 +43,10 @@ from eigmotion.segmentation.video import load_clip_masks
 def still_copy(video: Path, out: Path, seconds: float, noise: float, seed: int) -> None:
     """Write ``out``: the first frame of ``video`` held ``seconds`` at its frame rate,
     with Gaussian noise of ``noise`` grey levels on every frame."""
-    capture = cv2.VideoCapture(str(video))
-    fps = capture.get(cv2.CAP_PROP_FPS) or 25.0
-    ok, first = capture.read()
-    capture.release()
-    if not ok:
-        raise VideoError(f"{video}: no frame")
+    frames, fps = read_frames(video, max_frames=1)
     rng = np.random.default_rng(seed)
-    h, w = first.shape[:2]
-    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
-    for _ in range(int(round(seconds * fps))):
-        frame = first + rng.normal(0.0, noise, first.shape)
-        writer.write(np.clip(np.rint(frame), 0, 255).astype(np.uint8))
-    writer.release()
+    held = frames[0] + rng.normal(0.0, noise, (int(round(seconds * fps)), *frames.shape[1:]))
+    write_video(np.clip(np.rint(held), 0, 255).astype(np.uint8), out, fps)
 
 
 def change_of(path: Path, db: MotionDatabase) -> float:
