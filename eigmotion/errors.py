@@ -58,6 +58,15 @@ class VideoError(EigmotionError, ValueError):
     """A clip that cannot be read or holds no usable person."""
 
 
+class StillPersonError(VideoError):
+    """A person found in the clip who does not move enough to give a motion image.
+
+    Not a fault of the clip: ``eigmotion query`` answers it as no motion of the library
+    (:func:`~eigmotion.retrieval.results.still_answer_json`).  The message says how much
+    the silhouettes changed against the least a motion needs.
+    """
+
+
 class SceneMismatchError(VideoError):
     """Frames that differ from the empty scene they are compared with over most of the
     picture: an image of another scene, a moving camera, or a cut to another shot.

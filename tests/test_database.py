@@ -370,6 +370,53 @@ def test_a_person_standing_still_is_no_motion_and_holding_a_pose_is_no_part(
     assert all(s.label == item.label for s in result.segments)
 
 
+def test_query_cli_answers_a_person_standing_still_as_no_motion(
+    db_path, library, other_body, tmp_path, capsys
+):
+    """A person who stands still is an answer, not an error: no motion of the library,
+    not accepted, exit 0; the 3D outputs asked for are not written (exit 1). The
+    development set's harness records the same answer."""
+    from eigmotion.evaluation.devset import DevClip, answer_clip
+    from eigmotion.evaluation.scoring import NO_ANSWER
+
+    item = next(m for m in library if m.name == MOTIONS[0])
+    masks = _masks(item.motion, other_body, azimuth_deg=30.0, elevation_deg=8.0)
+    held = edge_flicker(np.repeat(masks[-1:], 60, axis=0), 0.01)
+    clip = tmp_path / "still.npz"
+    np.savez(clip, masks=held, fps=30.0)
+    argv = ["query", str(clip), "--db", str(db_path)]
+    assert main([*argv, "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    with MotionDatabase.open(db_path) as db:
+        threshold, entries = db.threshold, db.n_entries
+        assert set(answer) == set(db.query_masks(masks, 30.0).to_json())
+    assert answer["still"] and not answer["accepted"] and answer["label"] is None
+    assert answer["labels"] == answer["top"] == answer["segments"] == []
+    assert answer["threshold"] == round(threshold, 6) and answer["db_entries"] == entries
+    assert answer["warnings"][0].startswith("no motion: the silhouettes change by ")
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "no motion  (UNKNOWN: the person stands still)"
+    assert lines[1].startswith("  the silhouettes change by ") and "stands still" in lines[1]
+    bvh, joints = tmp_path / "still.bvh", tmp_path / "still_joints.npz"
+    assert main([*argv, "--json", "--bvh-out", str(bvh), "--pose-out", str(joints)]) == 1
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == answer
+    assert captured.err.strip() == (
+        f"eigmotion query: {bvh}, {joints} not written: the person stands still, "
+        "there is no motion to align"
+    )
+    assert not bvh.exists() and not joints.exists()
+    # eval recognition answers it as the command does: no answer, not accepted
+    folder = tmp_path / "dev_still"
+    folder.mkdir()
+    np.savez(folder / "masks.npz", masks=held)
+    dev_clip = DevClip("still", "retrieval", item.label, folder, 30.0)
+    with MotionDatabase.open(db_path) as db:
+        recorded = answer_clip(db, dev_clip, "masks", scratch=tmp_path)
+    assert recorded.label == NO_ANSWER and not recorded.accepted and recorded.error is None
+
+
 def test_the_decision_benchmark_counts_a_refused_clip_as_no_answer(db_path, library, other_body):
     """bench_rerank's queries (query_variants.answer_all): a clip the query refuses as
     "no motion" is answered NO_ANSWER and not accepted; the others as the query answers."""
@@ -999,14 +1046,17 @@ attribution = "a"
             assert len(renderings) == 6 * 2 * outfits  # views × girths × outfits
 
 
-def test_empty_clip_is_refused(db_path, tmp_path):
+def test_a_person_who_never_moves_is_answered_by_the_command(db_path, tmp_path):
+    """A new process, as a user runs it: the answer "no motion", exit 0, nothing on
+    stderr."""
     clip = tmp_path / "still.npz"
     masks = np.zeros((20, 48, 48), bool)
     masks[:, 10:40, 20:30] = True  # a person who never moves
     np.savez(clip, masks=masks, fps=30.0)
     proc = _eigmotion("query", str(clip), "--db", str(db_path))
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 2 and "motion" in err
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0 and not err
+    assert out.splitlines()[0] == "no motion  (UNKNOWN: the person stands still)"
 
 
 def test_missing_database_is_not_created(tmp_path):

@@ -13,7 +13,9 @@ Without ``--background`` the person is cut out by person networks shipped with
 eigmotion (:mod:`eigmotion.segmentation.learned`); with it, by those networks with what
 subtracting the empty scene finds beside their masks added
 (:mod:`eigmotion.segmentation.fused`).  ``--segmenter`` picks one front end.  The
-answer warns when more than one person is in view.
+answer warns when more than one person is in view.  A person who stands still is
+answered "no motion" (``"still": true``, not accepted; exit status 1 where 3D outputs
+were asked for, which are not written).
 
 ``--false-rejection`` trades known motions turned away for unknown ones rejected: the
 answer's ``p_known`` says how close the clip is to the library: at least as close as
@@ -40,7 +42,7 @@ import json
 import sys
 from pathlib import Path
 
-from eigmotion.errors import InvalidParameterError
+from eigmotion.errors import InvalidParameterError, StillPersonError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.keypoints import CUES, resolve_cue
 from eigmotion.retrieval.database import MotionDatabase
@@ -53,7 +55,7 @@ from eigmotion.retrieval.motion_cues import (
     WALK,
 )
 from eigmotion.retrieval.motion_image import motion_image_picture
-from eigmotion.retrieval.results import frame_range
+from eigmotion.retrieval.results import frame_range, still_answer_json
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.segmentation.learned import SEGMENTERS
@@ -153,18 +155,21 @@ def run(args: argparse.Namespace) -> int:
         resolve_cue(args.pose_cue, args.clip)  # told before the clip is read
     with MotionDatabase.open(args.db or DEFAULT_DB_PATH) as db:
         answer_3d = bool(args.bvh_out or args.replay_out or args.pose_out)
-        result, clip = db.query_clip(
-            args.clip,
-            args.background,
-            args.top,
-            every_frame=answer_3d,
-            progress=True,
-            false_rejection=args.false_rejection,
-            segmenter=args.segmenter,
-            floor_track=args.floor_track,
-            raised_foot=args.raised_foot,
-            raised_hands=args.raised_hands,
-        )
+        try:
+            result, clip = db.query_clip(
+                args.clip,
+                args.background,
+                args.top,
+                every_frame=answer_3d,
+                progress=True,
+                false_rejection=args.false_rejection,
+                segmenter=args.segmenter,
+                floor_track=args.floor_track,
+                raised_foot=args.raised_foot,
+                raised_hands=args.raised_hands,
+            )
+        except StillPersonError as still:
+            return _answer_still(db, args, str(still).removeprefix("masks: "))
         if answer_3d:
             _write_replay(db, result, clip, args)
     if args.json:
@@ -198,6 +203,35 @@ def run(args: argparse.Namespace) -> int:
             f"{result.timing_ms['total']:.0f} ms"
         )
     return 0
+
+
+#: Exit status of a query asked for 3D outputs whose person stands still: the answer is
+#: printed, and no motion is written (there is none to align); 2 is an error.
+EXIT_NOTHING_WRITTEN = 1
+
+
+def _answer_still(db: MotionDatabase, args: argparse.Namespace, reason: str) -> int:
+    """Print the answer to a clip whose person does not move: no motion of the library.
+
+    Returns the exit status: 0, or :data:`EXIT_NOTHING_WRITTEN` where 3D outputs were
+    asked for (none is written)."""
+    threshold = db.threshold
+    if args.false_rejection is not None:
+        threshold = db.threshold_at(args.false_rejection)
+    if args.json:
+        print(json.dumps(still_answer_json(reason, threshold, db.n_entries)))
+    else:
+        print("no motion  (UNKNOWN: the person stands still)")
+        print(f"  {reason.removeprefix('no motion: ')}")
+    asked = [str(p) for p in (args.bvh_out, args.replay_out, args.pose_out) if p]
+    if not asked:
+        return 0
+    print(
+        f"eigmotion query: {', '.join(asked)} not written: the person stands still, "
+        "there is no motion to align",
+        file=sys.stderr,
+    )
+    return EXIT_NOTHING_WRITTEN
 
 
 #: How ``top`` and the actions are ordered, in the words the text answer prints.

@@ -37,9 +37,10 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from eigmotion.errors import EigmotionError, InvalidParameterError
+from eigmotion.errors import EigmotionError, InvalidParameterError, StillPersonError
 from eigmotion.evaluation.measures import iou
 from eigmotion.evaluation.query_clips import TOP_K
+from eigmotion.evaluation.scoring import NO_ANSWER
 from eigmotion.retrieval.database import QUERY_SILHOUETTE_CONFIG, MotionDatabase
 from eigmotion.segmentation.learned import working_size
 
@@ -183,7 +184,9 @@ class ClipAnswer:
     ----------
     clip_id, mode, true_label : str
     label : str
-        The answer's ``label``; :data:`ERROR_LABEL` when the query raised.
+        The answer's ``label``; :data:`ERROR_LABEL` when the query raised,
+        :data:`~eigmotion.evaluation.scoring.NO_ANSWER` for a person standing still
+        (answered as no motion, not accepted).
     labels : tuple of str
         The answer's ranked ``labels``, distinct, likeliest first (``(label,)`` for an
         error).
@@ -355,6 +358,11 @@ def answer_clip(
     t0 = time.perf_counter()
     try:
         result, cut = db.query_clip(path, background, TOP_K, segmenter=segmenter)
+    except StillPersonError:  # answered as the command answers it: no motion, not accepted
+        return ClipAnswer(
+            clip.clip_id, mode, clip.label, NO_ANSWER, (NO_ANSWER,), False, None, None,
+            time.perf_counter() - t0,
+        )  # fmt: skip
     except EigmotionError as exc:
         message = " ".join(str(exc).split())
         return ClipAnswer(

@@ -351,6 +351,12 @@ class MotionDatabase:
         Returns
         -------
         QueryResult
+
+        Raises
+        ------
+        VideoError
+            No person in the masks, or in too few of the frames sampled;
+            :class:`~eigmotion.errors.StillPersonError` where the person does not move.
         """
         if top_k < 1:
             raise InvalidParameterError(f"top_k must be >= 1, got {top_k}")
@@ -606,6 +612,12 @@ class MotionDatabase:
         clip : ClipMasks
             The silhouettes the answer was computed from; with ``every_frame``, those
             of every frame.
+
+        Raises
+        ------
+        VideoError
+            A clip that cannot be read, or no person in it; as :meth:`query_masks`,
+            :class:`~eigmotion.errors.StillPersonError` where the person does not move.
         """
         t0 = time.perf_counter()
         if false_rejection is not None:

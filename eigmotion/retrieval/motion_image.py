@@ -69,7 +69,7 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from eigmotion.errors import InvalidParameterError, VideoError
+from eigmotion.errors import InvalidParameterError, StillPersonError, VideoError
 from eigmotion.imaging.media import FRAME_RATE_FPS, sample_indices
 from eigmotion.segmentation.cut_bodies import continued_below
 from eigmotion.validation import Interval, Options, validate, validate_params
@@ -262,7 +262,8 @@ def motion_image(
         ``masks`` of the wrong shape, type, or holding NaN/inf or negative values;
         a bad ``clip_fps``.
     VideoError
-        Every mask empty ("no person"), or nothing moved ("no motion").
+        Every mask empty ("no person"); :class:`~eigmotion.errors.StillPersonError`
+        where nothing moved ("no motion").
     """
     return ClipMotionImages(masks, config, clip_fps).window(0, len(masks))
 
@@ -335,14 +336,15 @@ class ClipMotionImages:
         Raises
         ------
         VideoError
-            As :func:`motion_image`: no person, too few frames, or no motion (also
-            when the silhouettes change by less than ``min_change``).
+            As :func:`motion_image`: no person, too few frames, or no motion
+            (:class:`~eigmotion.errors.StillPersonError`, also when the silhouettes
+            change by less than ``min_change``).
         """
         kept = self._enough(self._sampled(start, stop))
         if self.min_change > 0.0:
             change = self._change(kept)
             if change < self.min_change:
-                raise VideoError(
+                raise StillPersonError(
                     f"masks: no motion: the silhouettes change by {change:.2%} of the body's "
                     f"area per frame, under {self.min_change:.2%}: the person stands still, "
                     "or moves only where the camera cannot see it"
@@ -569,7 +571,7 @@ def _image_from_aligned(aligned: np.ndarray, config: MotionImageConfig) -> np.nd
     mean_area = float(aligned.sum()) / aligned.shape[0]
     motion = float(diffs.sum()) / n
     if motion <= config.min_motion_frac * mean_area or diffs.max() <= 0.0:
-        raise VideoError(
+        raise StillPersonError(
             f"masks: no motion: the silhouettes barely change (mean change {motion:.3g} px "
             f"per difference vs a body of {mean_area:.3g} px at size {config.size}); "
             f"expected at least min_motion_frac={config.min_motion_frac:g} of the body"

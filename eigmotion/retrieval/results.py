@@ -183,6 +183,7 @@ class QueryResult:
 
     def to_json(self) -> dict:
         out = self.best.to_json()
+        out["still"] = False
         out["accepted"] = bool(self.accepted)
         out["threshold"] = round(self.threshold, 6)
         out["p_known"] = None if self.p_known is None else round(self.p_known, 4)
@@ -201,6 +202,31 @@ class QueryResult:
         raised = self.hands_raised
         out["hands_raised"] = None if raised is None else round(raised, 3)
         return out
+
+
+def still_answer_json(reason: str, threshold: float, db_entries: int) -> dict:
+    """The answer to a clip whose person does not move, in :meth:`QueryResult.to_json`'s
+    keys: no motion of the library (``label`` None, ``"still": true``, not accepted),
+    nothing ranked or searched, ``reason`` the only warning.
+
+    Parameters
+    ----------
+    reason : str
+        What the motion image measured (the message of the
+        :class:`~eigmotion.errors.StillPersonError` the query raised).
+    threshold : float
+        The "unknown" threshold the query would have judged by, eigenspace units.
+    db_entries : int
+    """
+    return {
+        "label": None, "motion": None, "distance": None, "view": None,
+        "sequence_distance": None, "still": True,
+        "accepted": False, "threshold": round(float(threshold), 6), "p_known": None,
+        "top": [], "labels": [], "segments": [], "examined": 0, "examined_windows": 0,
+        "db_entries": int(db_entries), "timing_ms": {}, "warnings": [reason],
+        "travel_speed": None, "heading_change_deg": None, "foot_raise": None,
+        "hands_raised": None,
+    }  # fmt: skip
 
 
 def people_warning(people: int) -> str:
