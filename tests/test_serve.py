@@ -341,3 +341,47 @@ def test_page_shows_the_answers_warnings(server, browser, tmp_path):
     assert shown.is_displayed()
     items = [li.text for li in shown.find_elements(By.TAG_NAME, "li")]
     assert len(items) == 1 and items[0].startswith("Warning: the clip cuts to another view once")
+
+
+def test_page_answers_a_person_standing_still(server, db_path, browser, tmp_path):
+    """The walk sample's first frame held 3 s with sensor noise: the page says "no
+    motion", as the command line answers, with the answer and the clip but nothing
+    ranked, aligned or replayed."""
+    from selenium.webdriver.common.by import By
+
+    from eigmotion.imaging.media import read_frames, write_video
+
+    first, fps = read_frames(SAMPLES / "walk.mp4", max_frames=1)
+    noise = np.random.default_rng(0).normal(0.0, 2.0, (int(3 * fps), *first.shape[1:]))
+    held = np.clip(np.rint(first[0] + noise), 0, 255).astype(np.uint8)
+    clip = write_video(held, tmp_path / "still.mp4", fps)
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    done = subprocess.run(
+        [sys.executable, "-m", "eigmotion", "query", str(clip), "--db", str(db_path), "--json"],
+        capture_output=True, text=True, env=env, check=True,
+    )  # fmt: skip
+    expected = json.loads(done.stdout)
+    assert expected["still"] and not expected["accepted"]
+    url, _ = server
+    browser.get(url)
+    browser.find_element(By.ID, "clip").send_keys(str(clip))
+    browser.find_element(By.ID, "submit").click()
+    deadline = time.monotonic() + 300
+    while browser.execute_script("return document.body.dataset.state") != "done":
+        assert time.monotonic() < deadline, "the page shows no answer"
+        assert not browser.find_element(By.ID, "error").text
+        time.sleep(0.5)
+    assert browser.find_element(By.ID, "label").text == "no motion (the person stands still)"
+    shown = [li.text for li in browser.find_elements(By.CSS_SELECTOR, "#warnings li")]
+    assert shown == [f"Warning: {expected['warnings'][0]}"]
+    for part in ("ranking", "dl-bvh", "dl-replay", "motion-view", "replay-view"):
+        assert not browser.find_element(By.ID, part).is_displayed(), part
+    assert browser.find_element(By.ID, "dl-json").is_displayed()
+    job = browser.execute_script("return document.body.dataset.job")
+    status, body = _request(f"{url}api/jobs/{job}/answer.json")
+    answer = json.loads(body)
+    assert status == 200 and {k: answer[k] for k in expected} == expected
+    for name, served in (("clip.webm", 200), ("motion.bvh", 404), ("replay.webm", 404)):
+        assert _request(f"{url}api/jobs/{job}/{name}")[0] == served, name
+    severe = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    assert not severe, severe

@@ -55,7 +55,7 @@ from eigmotion.retrieval.motion_cues import (
     WALK,
 )
 from eigmotion.retrieval.motion_image import motion_image_picture
-from eigmotion.retrieval.results import frame_range, still_answer_json
+from eigmotion.retrieval.results import frame_range, still_answer_json, still_reason
 from eigmotion.retrieval.sequences import SEQUENCE_WEIGHT
 from eigmotion.retrieval.storage import DEFAULT_DB_PATH
 from eigmotion.segmentation.learned import SEGMENTERS
@@ -169,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
                 raised_hands=args.raised_hands,
             )
         except StillPersonError as still:
-            return _answer_still(db, args, str(still).removeprefix("masks: "))
+            return _answer_still(db, args, still_reason(still))
         if answer_3d:
             _write_replay(db, result, clip, args)
     if args.json:

@@ -204,6 +204,14 @@ class QueryResult:
         return out
 
 
+def still_reason(error: Exception) -> str:
+    """What the motion image measured of a person standing still, as the answer says it:
+    the message of the :class:`~eigmotion.errors.StillPersonError` the query raised
+    (``"no motion: the silhouettes change by 0.96% …"``), without the name of the
+    masks it was measured on."""
+    return str(error).removeprefix("masks: ")
+
+
 def still_answer_json(reason: str, threshold: float, db_entries: int) -> dict:
     """The answer to a clip whose person does not move, in :meth:`QueryResult.to_json`'s
     keys: no motion of the library (``label`` None, ``"still": true``, not accepted),
@@ -212,8 +220,7 @@ def still_answer_json(reason: str, threshold: float, db_entries: int) -> dict:
     Parameters
     ----------
     reason : str
-        What the motion image measured (the message of the
-        :class:`~eigmotion.errors.StillPersonError` the query raised).
+        What the motion image measured (:func:`still_reason`).
     threshold : float
         The "unknown" threshold the query would have judged by, eigenspace units.
     db_entries : int

@@ -15,12 +15,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from eigmotion.errors import VideoError
+from eigmotion.errors import StillPersonError, VideoError
 from eigmotion.mocap.bvh import write_bvh
 from eigmotion.pose.clip_pose import clip_pose
 from eigmotion.pose.replay import read_input_panel, replay_video, segment_captions
 from eigmotion.retrieval.database import MotionDatabase
 from eigmotion.retrieval.motion_image import motion_image_picture
+from eigmotion.retrieval.results import still_answer_json, still_reason
 
 #: The files a finished job holds, by the name the API serves them under.
 ARTEFACTS = {
@@ -126,7 +127,9 @@ def answer_clip(
     -------
     dict
         The answer: :meth:`~eigmotion.retrieval.results.QueryResult.to_json` plus
-        ``p_known_words``, ``fps`` and ``n_frames`` (of the clip).
+        ``p_known_words``, ``fps`` and ``n_frames`` (of the clip).  For a person who
+        stands still, :func:`~eigmotion.retrieval.results.still_answer_json` (``fps``
+        None, ``n_frames`` 0), and of the artefacts only the answer and the clip.
 
     Raises
     ------
@@ -136,7 +139,14 @@ def answer_clip(
     report(0.02, "making the clip playable in the browser")
     browser_video(clip, job_dir / "clip.webm")
     report(0.08, "finding the person in the clip and querying the database")
-    result, masks = db.query_clip(clip, background, top_k, every_frame=True)
+    try:
+        result, masks = db.query_clip(clip, background, top_k, every_frame=True)
+    except StillPersonError as still:  # an answer, as the command line's: no motion
+        answer = still_answer_json(still_reason(still), db.threshold, db.n_entries)
+        answer["p_known_words"] = "No motion of the library: the person stands still."
+        answer["fps"], answer["n_frames"] = None, 0
+        write_json(job_dir / "answer.json", answer)
+        return answer
     report(0.45, "aligning the matched motion to the clip frame by frame")
     pose = clip_pose(db, result, masks, clip)  # the query's default cue
     pose.save_npz(job_dir / "joints.npz")

@@ -59,7 +59,6 @@ function showAnswer(id, answer) {
   show('progress', false);
   $('submit').disabled = false;
   show('result', true);
-  $('label').textContent = answer.accepted ? answer.label : `unknown (nearest: ${answer.label})`;
   $('warnings').replaceChildren(...answer.warnings.map((text) => {
     const item = document.createElement('li');
     item.textContent = `Warning: ${text}`;
@@ -67,6 +66,19 @@ function showAnswer(id, answer) {
   }));
   show('warnings', answer.warnings.length > 0);
   $('known').textContent = answer.p_known_words;
+  $('dl-json').href = `${base}/answer.json`;
+  $('clip-video').src = `${base}/clip.webm`;
+  // a person who stands still: no motion, so nothing ranked, aligned or replayed
+  for (const part of ['ranking', 'dl-motion', 'dl-replay-item', 'motion-view', 'replay-view']) {
+    show(part, !answer.still);
+  }
+  if (answer.still) {
+    $('label').textContent = 'no motion (the person stands still)';
+    timeline(answer);
+    document.body.dataset.state = 'done';
+    return;
+  }
+  $('label').textContent = answer.accepted ? answer.label : `unknown (nearest: ${answer.label})`;
   $('view').textContent = viewText(answer.view);
   $('actions').replaceChildren(...answer.labels.map((match) => {
     const item = document.createElement('li');
@@ -78,9 +90,7 @@ function showAnswer(id, answer) {
   }));
   $('dl-bvh').href = `${base}/motion.bvh`;
   $('dl-joints').href = `${base}/joints.npz`;
-  $('dl-json').href = `${base}/answer.json`;
   $('dl-replay').href = `${base}/replay.mp4`;
-  $('clip-video').src = `${base}/clip.webm`;
   $('replay-video').src = `${base}/replay.webm`;
   $('replay-video').play().catch(() => {});
   timeline(answer);
