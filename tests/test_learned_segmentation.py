@@ -607,6 +607,11 @@ def test_the_seen_scene_rule_segments_only_frames_that_can_lose_a_piece():
             _scene_pieces(mine, theirs, plain),
             _scene_pieces_over_the_whole_frame(mine, theirs, plain),
         )
+        # nothing subtracted: the same as an empty subtraction
+        np.testing.assert_array_equal(
+            _scene_pieces(mine, None, plain),
+            _scene_pieces_over_the_whole_frame(mine, np.zeros_like(mine), plain),
+        )
 
 
 def test_without_the_image_the_learned_masks_lose_only_scene():

@@ -307,7 +307,7 @@ def _without_scene_of_shot(
         # piece large enough loses none, whatever the subtraction finds (taking its
         # surroundings away leaves only smaller pieces), and needs no masks of its own.
         return np.array([
-            _scene_pieces(mine, np.zeros_like(mine), shown & scene.seen).any()
+            _scene_pieces(mine, None, shown & scene.seen).any()
             for mine, shown in zip(learned, plain, strict=True)
         ], bool)  # fmt: skip
 
@@ -323,9 +323,10 @@ def _without_scene_of_shot(
     return out
 
 
-def _scene_pieces(mine: np.ndarray, theirs: np.ndarray, plain: np.ndarray) -> np.ndarray:
+def _scene_pieces(mine: np.ndarray, theirs: np.ndarray | None, plain: np.ndarray) -> np.ndarray:
     """(H, W) bool: the pieces of the learned mask ``mine`` farther than
-    :data:`SCENE_NEAR_PX` from the subtraction's ``theirs``, on ``plain`` scene, that
+    :data:`SCENE_NEAR_PX` from the subtraction's ``theirs`` (None: it found nothing), on
+    ``plain`` scene, that
     outlast an opening by a 3 × 3 square and cover at least :data:`SCENE_PIECE_SHARE`
     of ``mine`` (all False where ``mine`` is).
 
@@ -338,9 +339,11 @@ def _scene_pieces(mine: np.ndarray, theirs: np.ndarray, plain: np.ndarray) -> np
         return out
     reach = SCENE_NEAR_PX + 1
     box = np.s_[max(0, y - reach) : y + h + reach, max(0, x - reach) : x + w + reach]
-    mine, theirs, plain = mine[box], theirs[box], plain[box]
-    found = cv2.dilate(theirs.view(np.uint8), _SCENE_NEAR).view(bool)
-    scene = (mine & plain & ~found).view(np.uint8)
+    mine, plain = mine[box], plain[box]
+    scene = mine & plain
+    if theirs is not None:
+        scene &= ~cv2.dilate(theirs[box].view(np.uint8), _SCENE_NEAR).view(bool)
+    scene = scene.view(np.uint8)
     scene = cv2.morphologyEx(scene, cv2.MORPH_OPEN, _SOLID)
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(scene, connectivity=8)
     big = stats[:, cv2.CC_STAT_AREA] >= SCENE_PIECE_SHARE * np.count_nonzero(mine)
